@@ -1,0 +1,135 @@
+"""The exceptions of `lagrangian`.
+
+Every error a user can hit derives from :class:`LagrangianError`. Errors about the
+user's input also derive from :class:`ValueError`, so ``except ValueError`` keeps working.
+A message says what is wrong, where (file, key, symbol), what was expected and how to fix it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+__all__ = [
+    "LagrangianError",
+    "ModelError",
+    "ModelFileError",
+    "Problem",
+    "ExpressionError",
+    "SingularMassMatrixError",
+    "SimulationError",
+]
+
+
+class LagrangianError(Exception):
+    """Base class of every error raised by `lagrangian`."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem found while checking a model or a model file.
+
+    Attributes
+    ----------
+    message : str
+        What is wrong and how to fix it.
+    key : str or None
+        Where: the model-file key (``"energy.T"``, ``"particles[0].mass"``) or the
+        name of the element or symbol concerned.
+    line : int or None
+        Line of the model file, when known.
+    """
+
+    message: str
+    key: str | None = None
+    line: int | None = None
+
+    def format(self, file: str | None = None) -> str:
+        where = []
+        if file:
+            where.append(f"{file}" + (f":{self.line}" if self.line else ""))
+        if self.key:
+            where.append(f"[{self.key}]")
+        prefix = " ".join(where)
+        return f"{prefix}: {self.message}" if prefix else self.message
+
+
+class ModelError(LagrangianError, ValueError):
+    """A model is invalid. Holds every problem found, not only the first.
+
+    Attributes
+    ----------
+    problems : tuple of Problem
+    """
+
+    def __init__(self, problems: Sequence[Problem] | str, *, file: str | None = None):
+        if isinstance(problems, str):
+            problems = (Problem(problems),)
+        self.problems = tuple(problems)
+        self.file = file
+        super().__init__(self._render())
+
+    def _render(self) -> str:
+        lines = [p.format(self.file) for p in self.problems]
+        if len(lines) == 1:
+            return lines[0]
+        head = f"{len(lines)} problems" + (f" in {self.file}" if self.file else "") + ":"
+        return "\n".join([head] + [f"  - {line}" for line in lines])
+
+
+class ModelFileError(ModelError):
+    """A model file is invalid: every problem carries the file, the key and the line."""
+
+
+class ExpressionError(LagrangianError, ValueError):
+    """An expression string could not be parsed.
+
+    Attributes
+    ----------
+    text : str
+        The expression.
+    position : int or None
+        0-based character offset of the problem in `text`, when it has one.
+    reason : str
+        What is wrong and how to fix it (without the expression itself).
+    """
+
+    def __init__(self, text: str, reason: str, position: int | None = None):
+        self.text = text
+        self.reason = reason
+        self.position = position
+        msg = reason
+        if position is not None:
+            msg = f"{reason} at position {position + 1}:\n    {text}\n    {' ' * position}^"
+        super().__init__(msg)
+
+
+class SingularMassMatrixError(LagrangianError, ArithmeticError):
+    """The mass matrix is singular where the equations must be solved for q_ddot.
+
+    Attributes
+    ----------
+    time : float or None
+        The simulation time at which it happened, when raised by a simulation.
+    state : dict or None
+        The state {name: value} there.
+    diagnosis : str
+        Where det M vanishes, the velocity combination with no inertia, the likely
+        cause and a fix.
+    """
+
+    def __init__(self, message: str, *, time: float | None = None,
+                 state: dict[str, float] | None = None, diagnosis: str = ""):
+        self.time = time
+        self.state = state
+        self.diagnosis = diagnosis
+        super().__init__(message)
+
+
+class SimulationError(LagrangianError, RuntimeError):
+    """The integrator failed. `status` is the integrator's status code, `time` where it stopped."""
+
+    def __init__(self, message: str, *, status: int | None = None, time: float | None = None):
+        self.status = status
+        self.time = time
+        super().__init__(message)
