@@ -16,6 +16,7 @@ __all__ = [
     "ModelFileError",
     "Problem",
     "ExpressionError",
+    "UnknownNameError",
     "SingularMassMatrixError",
     "SimulationError",
 ]
@@ -102,6 +103,26 @@ class ExpressionError(LagrangianError, ValueError):
         if position is not None:
             msg = f"{reason} at position {position + 1}:\n    {text}\n    {' ' * position}^"
         super().__init__(msg)
+
+
+class UnknownNameError(ExpressionError):
+    """An expression uses names that are not defined.
+
+    Attributes
+    ----------
+    unknown : tuple of (name, position, suggestion)
+        Each unknown name, its 0-based offset in the text and the closest known
+        name (or None).
+    """
+
+    def __init__(self, text: str, unknown):
+        self.unknown = tuple(unknown)
+        parts = []
+        for name, _pos, suggestion in self.unknown:
+            hint = f" (did you mean '{suggestion}'?)" if suggestion else ""
+            parts.append(f"'{name}'{hint}")
+        reason = ("unknown name " if len(parts) == 1 else "unknown names ") + ", ".join(parts)
+        super().__init__(text, reason, self.unknown[0][1] if self.unknown else None)
 
 
 class SingularMassMatrixError(LagrangianError, ArithmeticError):
