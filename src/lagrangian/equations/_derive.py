@@ -1,0 +1,78 @@
+"""derive(model) -> Equations: Lagrange's operator, done in SymEngine.
+
+With L = T* - V, the i-th equation is the residual
+
+    E_i = d/dt(dL/dq_dot_i) - dL/dq_i + dD/dq_dot_i - Q_i = 0,
+
+and with d/dt by the chain rule (q, q_dot, q_ddot are plain symbols),
+
+    M_ij = d2L/dq_dot_i dq_dot_j,
+    f_i  = dL/dq_i - sum_j d2L/dq_dot_i dq_j q_dot_j - d2L/dq_dot_i dt - dD/dq_dot_i + Q_i,
+    E_i  = sum_j M_ij q_ddot_j - f_i.
+
+q_ddot is never solved for symbolically: the numeric layer solves M q_ddot = f.
+"""
+
+from __future__ import annotations
+
+import symengine as se
+
+from ..model import Model
+from ..model._elements import Particle, RigidBody
+from ..model._kinematics import Kinematics
+from ._equations import Equations, SymbolicCore
+
+__all__ = ["derive"]
+
+
+def derive(model: Model) -> Equations:
+    """Derive Lagrange's equations of `model`.
+
+    Parameters
+    ----------
+    model : Model
+        Checked first: every problem is reported at once as a :class:`ModelError`.
+
+    Returns
+    -------
+    Equations
+        Immutable: the residuals, the mass matrix M and forcing f with M q_ddot = f, and
+        their parts (see :class:`Equations`).
+    """
+    if not isinstance(model, Model):
+        raise TypeError(f"derive() expects a Model (lagrangian.load(...) or lagrangian.Model(...)), "
+                        f"got {type(model).__name__}")
+    model.validate()
+    snapshot = model.copy()
+    massive = [e for e in snapshot.elements if isinstance(e, (Particle, RigidBody))]
+    kin = Kinematics(snapshot.q, massive)
+    n = len(kin.q)
+
+    T = kin.se(snapshot.T)
+    V = kin.se(snapshot.V)
+    D = kin.se(snapshot.D)
+    Q = [kin.se(snapshot.Q.get(c, 0)) for c in snapshot.q]
+    for element in snapshot.elements:
+        c = element.contribute(kin)
+        T, V, D = T + c.T, V + c.V, D + c.D
+        if c.Q:
+            Q = [a + b for a, b in zip(Q, c.Q)]
+
+    L = T - V
+    q, qd, t = kin.q, kin.qd, kin.t
+    p = [L.diff(v) for v in qd]
+    M = se.zeros(n, n)
+    for i in range(n):
+        for j in range(i, n):
+            M[i, j] = p[i].diff(qd[j])
+            if j != i:
+                M[j, i] = M[i, j]
+    f = []
+    for i in range(n):
+        fi = L.diff(q[i]) - p[i].diff(t) - D.diff(qd[i]) + Q[i]
+        for j in range(n):
+            fi = fi - p[i].diff(q[j]) * qd[j]
+        f.append(fi)
+    core = SymbolicCore(q=tuple(q), qd=tuple(qd), t=t, T=T, V=V, D=D, Q=tuple(Q), L=L,
+                        p=tuple(p), M=M, f=tuple(f))
+    return Equations(model=snapshot, core=core)

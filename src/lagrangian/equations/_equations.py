@@ -1,0 +1,426 @@
+"""Equations: Lagrange's equations of a model, in every form users ask for.
+
+All forms share one convention, written once here:
+
+    M(q, t) q_ddot + C(q, q_dot) q_dot + G(q) = Q + gyroscopic_forces + centrifugal_forces
+                                                 + damping_forces + rheonomic_forces
+
+where M = d2T*/dq_dot2 is the mass matrix, C the Coriolis/centrifugal matrix from the
+Christoffel symbols of M (dM/dt - 2C is skew-symmetric), G = dV/dq, Q the generalized forces
+(B = dQ/du the input matrix), and, splitting T* = T2 + T1 + T0 by degree in the velocities
+(T1 = a(q, t) . q_dot):
+
+* gyroscopic_forces  = -Gamma q_dot with Gamma_ij = da_i/dq_j - da_j/dq_i (skew-symmetric),
+* centrifugal_forces = dT0/dq (Preumont's potential of centrifugal forces),
+* damping_forces     = -dD/dq_dot,
+* rheonomic_forces   = -(dM/dt) q_dot - da/dt (zero unless T depends on t explicitly).
+
+The residuals E_i = d/dt(dL/dq_dot_i) - dL/dq_i + dD/dq_dot_i - Q_i are the left side minus
+the right side, never rescaled; forcing f is such that M q_ddot = f.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import symengine as se
+import sympy
+
+from ..errors import LagrangianError
+from ..model import Model, ddot, dot
+from ..model._kinematics import to_sympy
+
+__all__ = ["Equations", "LinearSystem", "SymbolicCore"]
+
+
+@dataclass(frozen=True)
+class SymbolicCore:
+    """The SymEngine objects derive() computes (internal; Equations exposes SymPy versions)."""
+
+    q: tuple
+    qd: tuple
+    t: se.Symbol
+    T: se.Basic
+    V: se.Basic
+    D: se.Basic
+    Q: tuple
+    L: se.Basic
+    p: tuple
+    M: se.DenseMatrix
+    f: tuple
+
+
+@dataclass(frozen=True)
+class LinearSystem:
+    """M x'' + C x' + K x = f, for a system whose equations are linear in q, q_dot, q_ddot.
+
+    M, C, K are constant (they may hold parameters); f may depend on t and the inputs.
+    """
+
+    M: sympy.ImmutableMatrix
+    C: sympy.ImmutableMatrix
+    K: sympy.ImmutableMatrix
+    f: sympy.ImmutableMatrix
+
+    def latex(self) -> str:
+        return (f"{sympy.latex(self.M)} \\ddot{{x}} + {sympy.latex(self.C)} \\dot{{x}} + "
+                f"{sympy.latex(self.K)} x = {sympy.latex(self.f)}")
+
+
+def _vec(items) -> sympy.ImmutableMatrix:
+    return sympy.ImmutableMatrix([to_sympy(e) for e in items])
+
+
+def _nice(e: sympy.Expr, collect_on=()) -> sympy.Expr:
+    """A readable form for display: expanded and collected, when that stays small."""
+    if e.count_ops() > 400:
+        return e
+    out = sympy.expand(e)
+    if out.count_ops() > 400:
+        return e
+    if out.has(sympy.sin, sympy.cos) and out.count_ops() <= 150:
+        out = sympy.expand(sympy.trigsimp(out))
+    if collect_on:
+        out = sympy.collect(out, list(collect_on))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Equations:
+    """Lagrange's equations of a model (immutable; returned by :func:`lagrangian.derive`).
+
+    Attributes
+    ----------
+    model : Model
+        A snapshot of the model they were derived from.
+    coordinates, velocities, accelerations : tuple of sympy.Symbol, shape (n,)
+    mass_matrix : sympy.ImmutableMatrix, shape (n, n)
+        M, symmetric.
+    forcing : sympy.ImmutableMatrix, shape (n, 1)
+        f, with M q_ddot = f.
+    equations : tuple of sympy.Expr, shape (n,)
+        The residuals E_i (each equation reads E_i = 0).
+
+    The parts of the matrix form (see the module docstring) are properties computed on first
+    use: `coriolis_matrix` (C), `potential_gradient` (G), `generalized_forces` (Q),
+    `input_matrix` (B), `gyroscopic_matrix`, `gyroscopic_forces`, `centrifugal_forces`,
+    `damping_forces`, `rheonomic_forces`, and `linear` (a :class:`LinearSystem` or None).
+    """
+
+    model: Model = field(repr=False)
+    core: SymbolicCore = field(repr=False)
+
+    # ------------------------------------------------------------------ symbols
+    @property
+    def coordinates(self) -> tuple[sympy.Symbol, ...]:
+        return self.model.q
+
+    q = coordinates
+
+    @property
+    def velocities(self) -> tuple[sympy.Symbol, ...]:
+        return self.model.q_dot
+
+    @property
+    def accelerations(self) -> tuple[sympy.Symbol, ...]:
+        return self.model.q_ddot
+
+    @property
+    def t(self) -> sympy.Symbol:
+        return self.model.t
+
+    @property
+    def n(self) -> int:
+        """Number of degrees of freedom."""
+        return len(self.core.q)
+
+    @property
+    def parameters(self) -> dict[sympy.Symbol, float | None]:
+        return self.model.parameters
+
+    @property
+    def inputs(self) -> tuple[sympy.Symbol, ...]:
+        return self.model.inputs
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """Names of the state x = [q, q_dot]."""
+        return tuple(c.name for c in self.coordinates) + tuple(v.name for v in self.velocities)
+
+    # ----------------------------------------------------------- main results
+    @cached_property
+    def mass_matrix(self) -> sympy.ImmutableMatrix:
+        return sympy.ImmutableMatrix(self.n, self.n, [to_sympy(e) for e in self.core.M])
+
+    M = property(lambda self: self.mass_matrix, doc="Alias of `mass_matrix`.")
+
+    @cached_property
+    def forcing(self) -> sympy.ImmutableMatrix:
+        return _vec(self.core.f)
+
+    @cached_property
+    def _residuals_se(self) -> tuple:
+        qdd = [se.Symbol(a.name) for a in self.accelerations]
+        n = self.n
+        return tuple(sum((self.core.M[i, j] * qdd[j] for j in range(n)), se.Integer(0)) - self.core.f[i]
+                     for i in range(n))
+
+    @cached_property
+    def equations(self) -> tuple[sympy.Expr, ...]:
+        return tuple(to_sympy(e) for e in self._residuals_se)
+
+    @cached_property
+    def T(self) -> sympy.Expr:
+        """Kinetic co-energy T* (elements and explicit terms together)."""
+        return to_sympy(self.core.T)
+
+    @cached_property
+    def V(self) -> sympy.Expr:
+        return to_sympy(self.core.V)
+
+    @cached_property
+    def D(self) -> sympy.Expr:
+        return to_sympy(self.core.D)
+
+    @cached_property
+    def L(self) -> sympy.Expr:
+        """The Lagrangian T* - V."""
+        return to_sympy(self.core.L)
+
+    @cached_property
+    def generalized_forces(self) -> sympy.ImmutableMatrix:
+        """Q, from virtual work and the [forces] table (not including D)."""
+        return _vec(self.core.Q)
+
+    Q = property(lambda self: self.generalized_forces, doc="Alias of `generalized_forces`.")
+
+    @cached_property
+    def input_matrix(self) -> sympy.ImmutableMatrix:
+        """B = dQ/du, shape (n, number of inputs)."""
+        u = [se.Symbol(s.name) for s in self.inputs]
+        rows = [[to_sympy(Qi.diff(uj)) for uj in u] for Qi in self.core.Q]
+        return sympy.ImmutableMatrix(self.n, len(u), [x for r in rows for x in r])
+
+    B = property(lambda self: self.input_matrix, doc="Alias of `input_matrix`.")
+
+    @cached_property
+    def potential_gradient(self) -> sympy.ImmutableMatrix:
+        """G = dV/dq."""
+        return _vec(self.core.V.diff(qi) for qi in self.core.q)
+
+    G = property(lambda self: self.potential_gradient, doc="Alias of `potential_gradient`.")
+
+    # ------------------------------------------------------ kinetic structure
+    @cached_property
+    def _kinetic_split(self):
+        """(T2, T1 coefficients a, T0) in SymEngine; raises if T is not quadratic in q_dot."""
+        qd = self.core.qd
+        M = self.core.M
+        vel = set(qd)
+        for e in M:
+            if set(e.free_symbols) & vel:
+                raise LagrangianError(
+                    "T* is not quadratic in the velocities (its second derivatives still depend on "
+                    "q_dot), so the matrix-form parts C, gyroscopic and centrifugal forces are not defined; "
+                    "the residuals, M and f are still valid")
+        zero = {v: 0 for v in qd}
+        T = self.core.T
+        a = tuple(T.diff(v).subs(zero) for v in qd)
+        T0 = T.subs(zero)
+        return a, T0
+
+    @cached_property
+    def coriolis_matrix(self) -> sympy.ImmutableMatrix:
+        """C(q, q_dot) from the Christoffel symbols of M: C_ij = sum_k Gamma_ijk q_dot_k,
+        Gamma_ijk = (dM_ij/dq_k + dM_ik/dq_j - dM_jk/dq_i) / 2."""
+        self._kinetic_split  # checks T is quadratic
+        M, q, qd, n = self.core.M, self.core.q, self.core.qd, self.n
+        dM = [[[M[i, j].diff(q[k]) for k in range(n)] for j in range(n)] for i in range(n)]
+        C = []
+        for i in range(n):
+            for j in range(n):
+                cij = se.Integer(0)
+                for k in range(n):
+                    cij = cij + (dM[i][j][k] + dM[i][k][j] - dM[j][k][i]) * qd[k] / 2
+                C.append(to_sympy(cij))
+        return sympy.ImmutableMatrix(n, n, C)
+
+    C = property(lambda self: self.coriolis_matrix, doc="Alias of `coriolis_matrix`.")
+
+    @cached_property
+    def gyroscopic_matrix(self) -> sympy.ImmutableMatrix:
+        """Gamma_ij = da_i/dq_j - da_j/dq_i, skew-symmetric, from T1 = a . q_dot."""
+        a, _ = self._kinetic_split
+        q, n = self.core.q, self.n
+        return sympy.ImmutableMatrix(n, n, [to_sympy(a[i].diff(q[j]) - a[j].diff(q[i]))
+                                            for i in range(n) for j in range(n)])
+
+    @cached_property
+    def gyroscopic_forces(self) -> sympy.ImmutableMatrix:
+        """-Gamma q_dot (they do no work)."""
+        return -self.gyroscopic_matrix * sympy.Matrix(self.velocities)
+
+    @cached_property
+    def centrifugal_forces(self) -> sympy.ImmutableMatrix:
+        """dT0/dq: the forces of the centrifugal potential T0 (the part of T* free of q_dot)."""
+        _, T0 = self._kinetic_split
+        return _vec(T0.diff(qi) for qi in self.core.q)
+
+    @cached_property
+    def damping_forces(self) -> sympy.ImmutableMatrix:
+        """-dD/dq_dot."""
+        return _vec(-self.core.D.diff(v) for v in self.core.qd)
+
+    @cached_property
+    def rheonomic_forces(self) -> sympy.ImmutableMatrix:
+        """-(dM/dt) q_dot - da/dt: zero unless T* depends explicitly on t."""
+        a, _ = self._kinetic_split
+        M, qd, t, n = self.core.M, self.core.qd, self.core.t, self.n
+        return _vec(-sum((M[i, j].diff(t) * qd[j] for j in range(n)), se.Integer(0)) - a[i].diff(t)
+                    for i in range(n))
+
+    @property
+    def is_scleronomic(self) -> bool:
+        """True when T* and V do not depend explicitly on t."""
+        t = self.core.t
+        return t not in self.core.T.free_symbols and t not in self.core.V.free_symbols
+
+    # ----------------------------------------------------------------- linear
+    @cached_property
+    def linear(self) -> LinearSystem | None:
+        """M x'' + C x' + K x = f when the equations are linear in q, q_dot, q_ddot with constant
+        coefficients; None otherwise."""
+        qdd = [se.Symbol(a.name) for a in self.accelerations]
+        q, qd, n = self.core.q, self.core.qd, self.n
+        states = set(q) | set(qd) | set(qdd)
+        blocks = []
+        for var in (qdd, qd, q):
+            rows = []
+            for E in self._residuals_se:
+                for v in var:
+                    d = se.expand(E.diff(v))
+                    if set(d.free_symbols) & states:
+                        return None
+                    rows.append(to_sympy(d))
+            blocks.append(sympy.ImmutableMatrix(n, n, rows))
+        zero = {v: 0 for v in states}
+        f = sympy.ImmutableMatrix([to_sympy(-se.expand(E.subs(zero))) for E in self._residuals_se])
+        return LinearSystem(*blocks, f)
+
+    @property
+    def is_linear(self) -> bool:
+        return self.linear is not None
+
+    # ------------------------------------------------------- conserved quantity
+    @cached_property
+    def jacobi_integral(self) -> sympy.Expr:
+        """h = sum q_dot dL/dq_dot - L. It equals the energy T* + V when T* = T2, and is conserved
+        when L has no explicit t and D = 0, Q = 0."""
+        h = sum((v * pi for v, pi in zip(self.core.qd, self.core.p)), se.Integer(0)) - self.core.L
+        return to_sympy(se.expand(h))
+
+    @property
+    def is_conservative(self) -> bool:
+        """True when the Jacobi integral is conserved: L free of t, D = 0 and Q = 0."""
+        t = self.core.t
+        return (t not in self.core.L.free_symbols and self.core.D == 0
+                and all(Qi == 0 for Qi in self.core.Q))
+
+    # ------------------------------------------------------------- printing
+    def equation(self, i: int) -> sympy.Eq:
+        """The i-th equation as ``sympy.Eq(residual, 0)``."""
+        return sympy.Eq(self.display_equations[i], 0)
+
+    @cached_property
+    def display_equations(self) -> tuple[sympy.Expr, ...]:
+        """The residuals in a readable form (expanded, collected on accelerations and velocities)."""
+        on = list(self.accelerations) + list(self.velocities)
+        return tuple(_nice(e, on) for e in self.equations)
+
+    @cached_property
+    def display_mass_matrix(self) -> sympy.ImmutableMatrix:
+        return self.mass_matrix.applyfunc(_nice)
+
+    @cached_property
+    def display_forcing(self) -> sympy.ImmutableMatrix:
+        return self.forcing.applyfunc(_nice)
+
+    def text(self) -> str:
+        """The equations and the matrix form as plain text."""
+        lines = [f"Lagrange's equations of {self.model.name} "
+                 f"({self.n} coordinate{'s' if self.n != 1 else ''}: "
+                 f"{', '.join(c.name for c in self.coordinates)})", ""]
+        for i, (c, e) in enumerate(zip(self.coordinates, self.display_equations)):
+            lines.append(f"  ({i + 1}) [{c.name}]  {sympy.sstr(e)} = 0")
+        lines += ["", "Matrix form M(q) q_ddot = f(q, q_dot, t, u):", "  M ="]
+        for r in range(self.n):
+            lines.append("    [" + ", ".join(sympy.sstr(x) for x in self.display_mass_matrix.row(r)) + "]")
+        lines.append("  f =")
+        for x in self.display_forcing:
+            lines.append(f"    {sympy.sstr(x)}")
+        if self.linear is not None:
+            lin = self.linear
+            lines += ["", "Linear: M x'' + C x' + K x = f with",
+                      f"  M = {sympy.sstr(lin.M.tolist())}", f"  C = {sympy.sstr(lin.C.tolist())}",
+                      f"  K = {sympy.sstr(lin.K.tolist())}", f"  f = {sympy.sstr(list(lin.f))}"]
+        return "\n".join(lines)
+
+    __str__ = text
+
+    def latex(self, *, matrix_form: bool = True) -> str:
+        """LaTeX of each equation (an ``align`` environment) and of the matrix form."""
+        names = {s: _latex_name(s.name) for s in (*self.coordinates, *self.velocities, *self.accelerations)}
+        body = " \\\\\n".join(f"  {sympy.latex(e, symbol_names=names)} &= 0" for e in self.display_equations)
+        out = "\\begin{align}\n" + body + "\n\\end{align}"
+        if matrix_form:
+            qdd = sympy.Matrix(self.accelerations)
+            out += ("\n\\begin{equation}\n  " + sympy.latex(self.display_mass_matrix, symbol_names=names)
+                    + " " + sympy.latex(qdd, symbol_names=names) + " = "
+                    + sympy.latex(self.display_forcing, symbol_names=names) + "\n\\end{equation}")
+        return out
+
+    def _repr_latex_(self) -> str:
+        return "$$" + self.latex(matrix_form=False).replace("align", "aligned") + "$$"
+
+    def to_dict(self) -> dict:
+        """The JSON contract: coordinates, velocities, accelerations, parameters, inputs,
+        mass_matrix, forcing, equations (SymPy syntax), and linear (M, C, K, f) or null."""
+        s = sympy.sstr
+        out = {
+            "name": self.model.name,
+            "coordinates": [c.name for c in self.coordinates],
+            "velocities": [v.name for v in self.velocities],
+            "accelerations": [a.name for a in self.accelerations],
+            "parameters": {p.name: v for p, v in self.parameters.items()},
+            "inputs": [u.name for u in self.inputs],
+            "mass_matrix": [[s(x) for x in self.display_mass_matrix.row(r)] for r in range(self.n)],
+            "forcing": [s(x) for x in self.display_forcing],
+            "equations": [s(e) for e in self.display_equations],
+            "kinetic_coenergy": s(self.T),
+            "potential_energy": s(self.V),
+            "dissipation": s(self.D),
+            "generalized_forces": [s(x) for x in self.generalized_forces],
+            "linear": None,
+        }
+        if self.linear is not None:
+            lin = self.linear
+            out["linear"] = {k: [[s(x) for x in getattr(lin, k).row(r)] for r in range(self.n)]
+                             for k in ("M", "C", "K")}
+            out["linear"]["f"] = [s(x) for x in lin.f]
+        return out
+
+    def to_json(self, **kwargs) -> str:
+        return json.dumps(self.to_dict(), **({"indent": 2} | kwargs))
+
+    def __repr__(self) -> str:
+        return f"<Equations of {self.model.name!r}: {self.n} coordinates ({', '.join(self.state_names[:self.n])})>"
+
+
+def _latex_name(name: str) -> str:
+    for suffix, accent in (("_ddot", "\\ddot"), ("_dot", "\\dot")):
+        if name.endswith(suffix):
+            return f"{accent}{{{_latex_name(name[: -len(suffix)])}}}"
+    base = sympy.latex(sympy.Symbol(name))
+    return base

@@ -1,0 +1,210 @@
+"""Elements of a model: the parts T*, V, D and Q come from.
+
+Each element is a frozen dataclass of SymPy expressions. Its contribution to the energies
+and to the generalized forces is computed by :meth:`contribute`, in SymEngine, from a
+:class:`~lagrangian.model._kinematics.Kinematics` that knows the coordinates and how to take
+total time derivatives.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import sympy
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._kinematics import Kinematics
+
+__all__ = [
+    "Element", "Particle", "RigidBody", "Point", "Spring", "Damper", "Gravity", "Force", "Torque",
+    "Contribution",
+]
+
+Vector = tuple[sympy.Expr, ...]
+
+
+@dataclass(frozen=True)
+class Contribution:
+    """What one element adds: kinetic co-energy T, potential V, dissipation D, forces Q (by coordinate)."""
+
+    T: object = 0
+    V: object = 0
+    D: object = 0
+    Q: tuple = ()
+
+
+class Element:
+    """Base class. Subclasses are frozen dataclasses with a `name`."""
+
+    name: str
+    kind: str = "element"
+
+    def contribute(self, kin: "Kinematics") -> Contribution:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def expressions(self) -> dict[str, sympy.Expr]:
+        """Every expression of the element by field name, for checks (``position[1]`` etc.)."""
+        out: dict[str, sympy.Expr] = {}
+        for key, value in self.__dict__.items():
+            if isinstance(value, tuple):
+                for i, v in enumerate(value):
+                    if isinstance(v, sympy.Basic):
+                        out[f"{key}[{i}]"] = v
+            elif isinstance(value, sympy.Basic):
+                out[key] = value
+        return out
+
+
+@dataclass(frozen=True)
+class Point(Element):
+    """A massless point, named so that springs, dampers and loads can refer to it."""
+
+    name: str
+    position: Vector
+    kind = "point"
+
+    def contribute(self, kin):
+        return Contribution()
+
+
+@dataclass(frozen=True)
+class Particle(Element):
+    """A point mass at `position` (2 or 3 expressions of q and t): T* = m |v|^2 / 2."""
+
+    name: str
+    mass: sympy.Expr
+    position: Vector
+    kind = "particle"
+
+    def contribute(self, kin):
+        v = kin.velocity(self.position)
+        return Contribution(T=kin.se(self.mass) * sum(vi * vi for vi in v) / 2)
+
+
+@dataclass(frozen=True)
+class RigidBody(Element):
+    """A planar rigid body: mass, centroidal inertia, centre `position` and rotation `angle`.
+
+    T* = m |v_G|^2 / 2 + I (d angle/dt)^2 / 2.
+    """
+
+    name: str
+    mass: sympy.Expr
+    inertia: sympy.Expr
+    position: Vector
+    angle: sympy.Expr
+    kind = "rigid body"
+
+    def contribute(self, kin):
+        v = kin.velocity(self.position)
+        w = kin.rate(self.angle)
+        T = kin.se(self.mass) * sum(vi * vi for vi in v) / 2 + kin.se(self.inertia) * w * w / 2
+        return Contribution(T=T)
+
+
+@dataclass(frozen=True)
+class Spring(Element):
+    """A linear spring: V = k (length - rest_length)^2 / 2.
+
+    `length` is the distance between the two points of `between` (when given), or any scalar
+    expression (a coordinate, or an angle for a torsional spring).
+    """
+
+    name: str
+    stiffness: sympy.Expr
+    length: sympy.Expr
+    rest_length: sympy.Expr = sympy.Integer(0)
+    between: tuple[str, str] | None = None
+    ends: tuple[Vector, Vector] | None = field(default=None, repr=False)
+    kind = "spring"
+
+    def contribute(self, kin):
+        k = kin.se(self.stiffness)
+        if self.ends is not None and self.rest_length == 0:
+            d = [kin.se(b) - kin.se(a) for a, b in zip(*self.ends)]
+            return Contribution(V=k * sum(di * di for di in d) / 2)
+        stretch = kin.se(self.length) - kin.se(self.rest_length)
+        return Contribution(V=k * stretch * stretch / 2)
+
+
+@dataclass(frozen=True)
+class Damper(Element):
+    """A linear viscous damper: D = c (d length/dt)^2 / 2, with `length` as for :class:`Spring`."""
+
+    name: str
+    coefficient: sympy.Expr
+    length: sympy.Expr
+    between: tuple[str, str] | None = None
+    ends: tuple[Vector, Vector] | None = field(default=None, repr=False)
+    kind = "damper"
+
+    def contribute(self, kin):
+        c = kin.se(self.coefficient)
+        if self.ends is not None:
+            d = [kin.se(b) - kin.se(a) for a, b in zip(*self.ends)]
+            vd = [kin.rate(b) - kin.rate(a) for a, b in zip(*self.ends)]
+            dist2 = sum(di * di for di in d)
+            rate_times_length = sum(di * vi for di, vi in zip(d, vd))
+            return Contribution(D=c * rate_times_length * rate_times_length / dist2 / 2)
+        r = kin.rate(self.length)
+        return Contribution(D=c * r * r / 2)
+
+
+@dataclass(frozen=True)
+class Gravity(Element):
+    """Uniform gravity of magnitude `g` along `direction` (default: -y in 2D, -z in 3D).
+
+    V = -sum m g direction . r over every particle and rigid body.
+    """
+
+    g: sympy.Expr
+    direction: Vector | None = None
+    name: str = "gravity"
+    kind = "gravity"
+
+    def contribute(self, kin):
+        g = kin.se(self.g)
+        V = 0
+        for body in kin.massive_elements:
+            r = body.position
+            if self.direction is None:
+                n = [0] * (len(r) - 1) + [-1]
+            else:
+                n = [kin.se(c) for c in self.direction]
+                norm = sympy.sqrt(sum(sympy.sympify(c) ** 2 for c in self.direction))
+                n = [c / kin.se(norm) for c in n]
+            V = V - kin.se(body.mass) * g * sum(ni * kin.se(ri) for ni, ri in zip(n, r))
+        return Contribution(V=V)
+
+
+@dataclass(frozen=True)
+class Force(Element):
+    """A force vector applied at a point: Q_k = F . d(position)/dq_k (virtual work)."""
+
+    name: str
+    force: Vector
+    position: Vector
+    at: str | None = None
+    kind = "force"
+
+    def contribute(self, kin):
+        F = [kin.se(c) for c in self.force]
+        r = [kin.se(c) for c in self.position]
+        return Contribution(Q=tuple(sum(Fi * ri.diff(qk) for Fi, ri in zip(F, r)) for qk in kin.q))
+
+
+@dataclass(frozen=True)
+class Torque(Element):
+    """A torque acting on a rotation angle (of a body or any angle expression): Q_k = tau d(angle)/dq_k."""
+
+    name: str
+    torque: sympy.Expr
+    angle: sympy.Expr
+    body: str | None = None
+    kind = "torque"
+
+    def contribute(self, kin):
+        tau = kin.se(self.torque)
+        a = kin.se(self.angle)
+        return Contribution(Q=tuple(tau * a.diff(qk) for qk in kin.q))
