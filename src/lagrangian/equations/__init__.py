@@ -2,5 +2,7 @@
 
 from ._derive import derive
 from ._equations import Equations, LinearSystem
+from ._singular import SingularConfiguration, SingularityReport, singularities
 
-__all__ = ["derive", "Equations", "LinearSystem"]
+__all__ = ["derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
+           "SingularConfiguration"]

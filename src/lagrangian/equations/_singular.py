@@ -1,0 +1,393 @@
+"""singularities(equations): where det M = 0, the velocities with no inertia, why, and a fix.
+
+The seed's cart with an inverted pendulum and a massless cart has det M = M^2 L^2 cos(q2)^2:
+at q2 = +-pi/2 the motion q1_dot = L q2_dot (the cart sliding under a pendulum standing still)
+moves no mass, and no solver can find q_ddot there.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy
+
+from ..model._elements import Particle, RigidBody
+from ._equations import Equations
+
+__all__ = ["singularities", "SingularityReport", "SingularConfiguration", "hadamard_ratio"]
+
+_SYMBOLIC_DET_MAX_N = 4
+
+
+@dataclass(frozen=True)
+class SingularConfiguration:
+    """One place where det M = 0.
+
+    Attributes
+    ----------
+    where : dict of str to sympy.Expr
+        Coordinate values ({} when M is singular everywhere).
+    condition : str
+        The same as text, e.g. ``"q2 = pi/2"``.
+    null_velocity : dict of str to sympy.Expr
+        A velocity direction {"q1_dot": L, "q2_dot": 1} with no inertia there.
+    still : tuple of str
+        Elements with mass that do not move along that direction.
+    moving_massless : tuple of str
+        Elements whose mass is zero and that do move along it.
+    """
+
+    where: dict
+    condition: str
+    null_velocity: dict
+    still: tuple = ()
+    moving_massless: tuple = ()
+
+    def velocity_text(self) -> str:
+        items = [(k, v) for k, v in self.null_velocity.items() if v != 0]
+        if len(items) == 1:
+            return f"{items[0][0]} alone (every other velocity zero)"
+        ref_name, ref = items[-1]
+        parts = [f"{k} = {sympy.sstr(sympy.simplify(v / ref) * sympy.Symbol(ref_name))}"
+                 for k, v in items[:-1]]
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class SingularityReport:
+    """The diagnosis of a mass matrix (returned by :func:`singularities`).
+
+    Attributes
+    ----------
+    det_mass_matrix : sympy.Expr
+        det M in factored form, with symbolic parameters (None when n is too large to expand).
+    det_with_values : sympy.Expr or None
+        det M with the model's parameter values.
+    singular : bool
+        Whether det M vanishes at some real configuration for the parameter values.
+    everywhere : bool
+        Whether det M vanishes identically (every configuration).
+    configurations : tuple of SingularConfiguration
+    cause, fix : str
+        The likely cause and how to fix the model ("" when not singular).
+    """
+
+    det_mass_matrix: sympy.Expr | None
+    det_with_values: sympy.Expr | None
+    singular: bool
+    everywhere: bool
+    configurations: tuple = ()
+    cause: str = ""
+    fix: str = ""
+    coordinates: tuple = field(default=(), repr=False)
+
+    def text(self) -> str:
+        lines = []
+        if self.det_mass_matrix is not None:
+            lines.append(f"det M = {sympy.sstr(self.det_mass_matrix)}")
+        if not self.singular:
+            lines.append("The mass matrix is regular: det M does not vanish at any real configuration "
+                         "for the parameter values.")
+            return "\n".join(lines)
+        if self.everywhere:
+            lines.append("det M vanishes at every configuration for the parameter values: the mass matrix "
+                         "is always singular.")
+        else:
+            conds = " or ".join(c.condition for c in self.configurations) or "some configurations"
+            lines.append(f"det M vanishes where {conds}.")
+        for c in self.configurations:
+            at = f"At {c.condition}" if c.condition else "Everywhere"
+            lines.append(f"{at}, the velocity combination {c.velocity_text()} has no inertia"
+                         + (f": {_still(c.still)}." if c.still else "."))
+        lines.append(f"Likely cause: {self.cause}")
+        lines.append(f"Fix: {self.fix}")
+        return "\n".join(lines)
+
+    __str__ = text
+
+    def to_dict(self) -> dict:
+        s = sympy.sstr
+        return {
+            "singular": bool(self.singular),
+            "everywhere": bool(self.everywhere),
+            "det_mass_matrix": None if self.det_mass_matrix is None else s(self.det_mass_matrix),
+            "det_with_values": None if self.det_with_values is None else s(self.det_with_values),
+            "configurations": [
+                {"where": {k: s(v) for k, v in c.where.items()}, "condition": c.condition,
+                 "null_velocity": {k: s(v) for k, v in c.null_velocity.items()},
+                 "still": list(c.still), "moving_massless": list(c.moving_massless)}
+                for c in self.configurations],
+            "cause": self.cause,
+            "fix": self.fix,
+            "diagnosis": self.text(),
+        }
+
+
+def _still(names) -> str:
+    return ", ".join(names) + (" stays still" if len(names) == 1 else " stay still")
+
+
+def hadamard_ratio(M: np.ndarray) -> float:
+    """det M / prod(diag M) for a symmetric positive semi-definite M: 1 for a diagonal matrix,
+    0 for a singular one, negative or 0 when M is not positive definite."""
+    d = np.diag(M)
+    if np.any(d <= 0) or not np.all(np.isfinite(M)):
+        return 0.0
+    s = 1.0 / np.sqrt(d)
+    try:
+        Lc = np.linalg.cholesky(M * s[:, None] * s[None, :])
+    except np.linalg.LinAlgError:
+        return 0.0
+    return float(np.prod(np.diag(Lc)) ** 2)
+
+
+def _values(eqs: Equations) -> dict:
+    return {p: sympy.nsimplify(v) if v is not None else p for p, v in eqs.parameters.items() if v is not None}
+
+
+def _wrap(value: sympy.Expr) -> sympy.Expr:
+    """An angle in (-pi, pi] when it is a number."""
+    if value.is_number:
+        v = float(value)
+        if np.isfinite(v):
+            k = sympy.floor((value + sympy.pi) / (2 * sympy.pi))
+            w = sympy.nsimplify(value - 2 * sympy.pi * k)
+            if w == -sympy.pi:
+                w = sympy.pi
+            return w
+    return value
+
+
+def _is_angle(eqs: Equations, q: sympy.Symbol) -> bool:
+    """A coordinate that appears inside trigonometric functions is treated as an angle."""
+    exprs = list(eqs.mass_matrix) + [eqs.V]
+    for e in exprs:
+        for f in e.atoms(sympy.sin, sympy.cos, sympy.tan):
+            if q in f.free_symbols:
+                return True
+    return False
+
+
+def _zeros_of_factor(eqs: Equations, f: sympy.Expr) -> list[dict] | None:
+    """Real zeros of a factor of det M: a list of {q: value} (angles wrapped into (-pi, pi]),
+    or None if they could not be found symbolically."""
+    qs = [q for q in eqs.coordinates if q in f.free_symbols]
+    if len(qs) != 1:
+        return None
+    q = qs[0]
+    angle = _is_angle(eqs, q)
+    domain = sympy.Interval.Lopen(-sympy.pi, sympy.pi) if angle else sympy.S.Reals
+    try:
+        sol = sympy.solveset(f, q, domain)
+    except Exception:  # noqa: BLE001 - solveset raises many kinds; fall back to numerics
+        return None
+    if isinstance(sol, sympy.FiniteSet):
+        out = []
+        for v in sorted(sol, key=lambda s: float(s) if s.is_number else 0):
+            if v.is_number and not v.is_real:
+                continue
+            out.append({q: _wrap(v) if angle else v})
+        return out
+    if sol == sympy.S.EmptySet:
+        return []
+    return None
+
+
+def _numeric_zero_search(eqs: Equations, det_num: sympy.Expr) -> list[dict]:
+    """Look for real zeros of det M numerically (multi-start minimisation of det^2)."""
+    from scipy.optimize import minimize
+
+    qs = [q for q in eqs.coordinates if q in det_num.free_symbols]
+    if not qs:
+        return []
+    func = sympy.lambdify([qs], det_num, "numpy")
+    rng = np.random.default_rng(0)
+    scale = max(abs(float(func(rng.uniform(-np.pi, np.pi, len(qs))))) for _ in range(20)) or 1.0
+    found: list[np.ndarray] = []
+    for _ in range(40):
+        x0 = rng.uniform(-np.pi, np.pi, len(qs))
+        res = minimize(lambda x: (float(func(x)) / scale) ** 2, x0, method="Nelder-Mead",
+                       options={"xatol": 1e-10, "fatol": 1e-24, "maxiter": 4000})
+        if res.fun < 1e-16:
+            x = np.array([(v + np.pi) % (2 * np.pi) - np.pi if _is_angle(eqs, q) else v
+                          for v, q in zip(res.x, qs)])
+            if not any(np.allclose(x, y, atol=1e-5) for y in found):
+                found.append(x)
+    return [{q: sympy.Float(v, 8) for q, v in zip(qs, x)} for x in found[:4]]
+
+
+def _null_direction(M: sympy.Matrix, M_values: sympy.Matrix, where: dict) -> sympy.Matrix | None:
+    for mat in (M, M_values):
+        at = mat.subs(where)
+        try:
+            ns = at.nullspace(simplify=True)
+        except Exception:  # noqa: BLE001
+            ns = []
+        if ns:
+            v = ns[0]
+            nz = [x for x in v if x != 0]
+            return (v / nz[-1]).applyfunc(sympy.simplify) if nz else v
+    # numerical fallback
+    A = np.array(M_values.subs(where).evalf(), dtype=float)
+    w, V = np.linalg.eigh(A)
+    v = V[:, 0]
+    v = v / v[np.argmax(np.abs(v))]
+    return sympy.Matrix([sympy.nsimplify(round(x, 10)) for x in v])
+
+
+def _element_motion(eqs: Equations, where: dict, direction: sympy.Matrix, values: dict):
+    """Which massive elements stay still along `direction` at `where`, and which massless ones move."""
+    still, moving_massless = [], []
+    qd = eqs.velocities
+    at = {**values, **where}
+    for el in eqs.model.elements:
+        if not isinstance(el, (Particle, RigidBody)):
+            continue
+        coords = list(el.position) + ([el.angle] if isinstance(el, RigidBody) else [])
+        moves = False
+        for c in coords:
+            rate = sum(sympy.diff(c, q) * d for q, d in zip(eqs.coordinates, direction))
+            val = sympy.simplify(rate.subs(at))
+            if val != 0:
+                moves = True
+                break
+        mass = sympy.sympify(el.mass).subs(values)
+        massless = mass == 0
+        if moves and massless:
+            moving_massless.append(f"{el.kind} '{el.name}' (mass {sympy.sstr(el.mass)} = 0)")
+        elif not moves and not massless:
+            still.append(f"{el.kind} '{el.name}'")
+    del qd
+    return tuple(still), tuple(moving_massless)
+
+
+def _blamed_coordinate(eqs: Equations, direction: sympy.Matrix) -> sympy.Symbol:
+    support = [q for q, d in zip(eqs.coordinates, direction) if d != 0]
+    translations = [q for q in support if not _is_angle(eqs, q)]
+    return (translations or support)[0]
+
+
+def singularities(equations: Equations) -> SingularityReport:
+    """Diagnose the mass matrix of `equations`.
+
+    det M is computed symbolically and factored (for up to 4 coordinates; numerically beyond),
+    its real zeros are found for the parameter values, and at each the velocity combination with
+    no inertia is named, with the likely cause and a fix.
+
+    Returns
+    -------
+    SingularityReport
+    """
+    eqs = equations
+    values = _values(eqs)
+    M = sympy.Matrix(eqs.mass_matrix)
+    M_values = M.subs(values)
+    n = eqs.n
+    det = det_values = None
+    if n <= _SYMBOLIC_DET_MAX_N:
+        raw = M.det(method="berkowitz")
+        det = sympy.factor(sympy.trigsimp(sympy.expand(raw)))
+        det_values = sympy.factor(sympy.trigsimp(sympy.expand(raw.subs(values))))
+        everywhere = det_values == 0
+    else:
+        everywhere = _numerically_zero_everywhere(eqs, M_values)
+    configurations: list[SingularConfiguration] = []
+    if everywhere:
+        configurations.append(_configuration(eqs, M, M_values, {}, values))
+    else:
+        zeros: list[dict] = []
+        symbolic_ok = det_values is not None
+        if symbolic_ok:
+            factors = [f for f, _ in sympy.factor_list(det_values)[1]]
+            for f in factors:
+                if not (f.free_symbols & set(eqs.coordinates)):
+                    continue
+                z = _zeros_of_factor(eqs, f)
+                if z is None:
+                    zeros.extend(_numeric_zero_search(eqs, f))
+                else:
+                    zeros.extend(z)
+        else:
+            zeros = _numeric_det_search(eqs, M_values)
+        seen = set()
+        for z in zeros:
+            key = tuple(sorted((k.name, sympy.sstr(v)) for k, v in z.items()))
+            if key in seen:
+                continue
+            seen.add(key)
+            configurations.append(_configuration(eqs, M, M_values, z, values))
+    singular = bool(configurations)
+    cause = fix = ""
+    if singular:
+        cause, fix = _cause_and_fix(eqs, configurations[0], values)
+    return SingularityReport(det, det_values, singular, bool(everywhere), tuple(configurations),
+                             cause, fix, tuple(q.name for q in eqs.coordinates))
+
+
+def _configuration(eqs, M, M_values, where, values) -> SingularConfiguration:
+    direction = _null_direction(M, M_values, where)
+    cond = " and ".join(f"{q.name} = {sympy.sstr(v)}" for q, v in where.items())
+    still, massless = _element_motion(eqs, where, direction, values) if direction is not None else ((), ())
+    nv = {d.name: x for d, x in zip(eqs.velocities, direction)} if direction is not None else {}
+    return SingularConfiguration({q.name: v for q, v in where.items()}, cond, nv, still, massless)
+
+
+def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tuple[str, str]:
+    direction = [c.null_velocity.get(v.name, 0) for v in eqs.velocities]
+    q = _blamed_coordinate(eqs, direction)
+    has_elements = any(isinstance(e, (Particle, RigidBody)) for e in eqs.model.elements)
+    if c.moving_massless:
+        cause = (f"along this motion only massless parts move: {', '.join(c.moving_massless)}; "
+                 "every body with mass stays still, so the motion has no inertia.")
+        fix = ("give the massless part a positive mass (set its mass parameter > 0), "
+               f"or eliminate coordinate {q.name} if it is not a real degree of freedom.")
+        return cause, fix
+    if has_elements:
+        still = f" ({_still(c.still)})" if c.still else ""
+        cause = (f"coordinate {q.name} moves no mass of its own: along this combination no element with "
+                 f"mass moves{still}, as when a cart or slider is modelled without its mass "
+                 "(the seed's massless cart).")
+    else:
+        cause = (f"T* does not depend on this combination of velocities there: the motion of coordinate "
+                 f"{q.name} carries no inertia of its own (for example a massless cart or slider).")
+    fix = (f"give the body that {q.name} moves a mass (add a particle or rigid body with mass whose "
+           f"position depends on {q.name}, e.g. a cart of mass M1 at ({q.name}, 0), or a term "
+           f"1/2*M1*{q.name}_dot**2 in T), or eliminate coordinate {q.name} from the model.")
+    return cause, fix
+
+
+def _sample_states(eqs, M_values, count=64):
+    qs = list(eqs.coordinates)
+    syms = [s for s in M_values.free_symbols if s not in qs]
+    func = sympy.lambdify([qs, syms], M_values, "numpy")
+    rng = np.random.default_rng(1)
+    fill = [0.0] * len(syms)
+    for _ in range(count):
+        x = rng.uniform(-np.pi, np.pi, len(qs))
+        yield x, np.array(func(x, fill), dtype=float)
+
+
+def _numerically_zero_everywhere(eqs, M_values) -> bool:
+    return all(hadamard_ratio(A) < 1e-12 for _, A in itertools.islice(_sample_states(eqs, M_values), 8))
+
+
+def _numeric_det_search(eqs, M_values) -> list[dict]:
+    """For large n: the configurations among random samples and local minima where M loses rank."""
+    from scipy.optimize import minimize
+
+    qs = list(eqs.coordinates)
+    syms = [s for s in M_values.free_symbols if s not in qs]
+    func = sympy.lambdify([qs, syms], M_values, "numpy")
+    fill = [0.0] * len(syms)
+    rng = np.random.default_rng(2)
+    found = []
+    for _ in range(12):
+        x0 = rng.uniform(-np.pi, np.pi, len(qs))
+        res = minimize(lambda x: hadamard_ratio(np.array(func(x, fill), dtype=float)), x0,
+                       method="Nelder-Mead", options={"maxiter": 2000, "xatol": 1e-9, "fatol": 1e-16})
+        if res.fun < 1e-12:
+            found.append({q: sympy.Float(v, 8) for q, v in zip(qs, res.x)})
+            break
+    return found

@@ -1,0 +1,118 @@
+"""compile(equations) -> NumericModel: the numerical state equations x' = f(t, x, u, p).
+
+This is the portable backend: SymEngine's Lambdify with common-subexpression elimination
+evaluates M and the forcing in one call, and NumPy solves M q_ddot = f (Cholesky, which also
+measures how close M is to singular). Faster backends plug in behind the same interface.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass, field
+
+import numpy as np
+import symengine as se
+
+from ..equations import Equations
+from ..equations._singular import hadamard_ratio
+
+__all__ = ["NumericModel", "compile_equations", "SINGULAR_RATIO"]
+
+#: det M / prod(diag M) below which the mass matrix counts as singular.
+SINGULAR_RATIO = 1e-12
+
+_CACHE: "weakref.WeakKeyDictionary[Equations, NumericModel]" = weakref.WeakKeyDictionary()
+
+
+class _Singular(Exception):
+    def __init__(self, t, x, ratio):
+        self.t, self.x, self.ratio = t, x, ratio
+
+
+@dataclass(frozen=True, eq=False)
+class NumericModel:
+    """The numerical form of :class:`~lagrangian.equations.Equations`.
+
+    Every function takes ``(t, x, u, p)``: time (float), state ``x = [q, q_dot]`` (shape (2n,),
+    in `state_names` order), inputs ``u`` (shape (m,), `input_names` order) and parameters ``p``
+    (shape (k,), `parameter_names` order; `parameter_values` holds the model's values, NaN where
+    the model gives none).
+    """
+
+    equations: Equations = field(repr=False)
+    state_names: tuple[str, ...]
+    input_names: tuple[str, ...]
+    parameter_names: tuple[str, ...]
+    parameter_values: np.ndarray = field(repr=False)
+    _fun: object = field(repr=False)
+    _energy: object = field(repr=False)
+
+    @property
+    def n(self) -> int:
+        return len(self.state_names) // 2
+
+    def _evaluate(self, t, x, u, p):
+        n = self.n
+        args = np.concatenate(([t], x, u, p))
+        out = np.asarray(self._fun(args), dtype=float).ravel()
+        return out[: n * n].reshape(n, n), out[n * n:]
+
+    def mass_matrix(self, t, x, u, p) -> np.ndarray:
+        """M at the state, shape (n, n)."""
+        return self._evaluate(t, np.asarray(x, float), np.asarray(u, float), np.asarray(p, float))[0]
+
+    def forcing(self, t, x, u, p) -> np.ndarray:
+        """f at the state, shape (n,)."""
+        return self._evaluate(t, np.asarray(x, float), np.asarray(u, float), np.asarray(p, float))[1]
+
+    def accelerations(self, t, x, u, p) -> np.ndarray:
+        """q_ddot solving M q_ddot = f; raises :class:`_Singular` where M is singular."""
+        M, f = self._evaluate(t, x, u, p)
+        d = np.diag(M)
+        if np.all(d > 0) and np.all(np.isfinite(M)):
+            s = 1.0 / np.sqrt(d)
+            try:
+                Lc = np.linalg.cholesky(M * s[:, None] * s[None, :])
+            except np.linalg.LinAlgError:
+                Lc = None
+            if Lc is not None:
+                ratio = float(np.prod(np.diag(Lc)) ** 2)
+                if ratio > SINGULAR_RATIO and np.all(np.isfinite(f)):
+                    y = np.linalg.solve(Lc, f * s)
+                    return np.linalg.solve(Lc.T, y) * s
+                raise _Singular(t, np.array(x), ratio)
+        raise _Singular(t, np.array(x), hadamard_ratio(M))
+
+    def rhs(self, t, x, u, p) -> np.ndarray:
+        """x' = [q_dot, q_ddot], shape (2n,)."""
+        x = np.asarray(x, float)
+        return np.concatenate((x[self.n:], self.accelerations(t, x, np.asarray(u, float),
+                                                               np.asarray(p, float))))
+
+    def singular_ratio(self, t, x, u, p) -> float:
+        """det M / prod(diag M) at the state: 1 for a diagonal M, 0 for a singular one."""
+        return hadamard_ratio(self.mass_matrix(t, x, u, p))
+
+    def energy(self, t, x, u, p) -> float:
+        """The Jacobi integral h = q_dot . dL/dq_dot - L (the energy T* + V when T* = T2)."""
+        return float(self._energy(np.concatenate(([t], np.asarray(x, float), u, p)))[0])
+
+
+def compile_equations(equations: Equations) -> NumericModel:
+    """The numerical state equations of `equations` (cached per Equations object)."""
+    cached = _CACHE.get(equations)
+    if cached is not None:
+        return cached
+    core = equations.core
+    inputs = [se.Symbol(u.name) for u in equations.inputs]
+    params = list(equations.parameters)
+    args = [core.t, *core.q, *core.qd, *inputs, *[se.Symbol(p.name) for p in params]]
+    exprs = [core.M[i, j] for i in range(equations.n) for j in range(equations.n)] + list(core.f)
+    fun = se.Lambdify(args, exprs, cse=True, real=True)
+    h = sum((v * pi for v, pi in zip(core.qd, core.p)), se.Integer(0)) - core.L
+    energy = se.Lambdify(args, [h], cse=True, real=True)
+    values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
+    nm = NumericModel(equations, equations.state_names, tuple(u.name for u in equations.inputs),
+                      tuple(p.name for p in params), values, fun, energy)
+    _CACHE[equations] = nm
+    return nm

@@ -1,0 +1,296 @@
+"""simulate(...) -> Trajectory: integrate the state equations with an adaptive integrator."""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+from typing import Callable, Mapping
+
+import numpy as np
+import sympy
+
+from ..equations import Equations, derive, singularities
+from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError
+from ..model import Model
+from ._compiled import NumericModel, _Singular, compile_equations
+from ._trajectory import Trajectory
+
+__all__ = ["simulate", "output_times", "METHODS"]
+
+#: Integrators accepted by ``method`` (SciPy's solve_ivp names).
+METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
+#: Event threshold on det M / prod(diag M): closer to singular than this stops the simulation.
+_EVENT_RATIO = 1e-9
+
+
+def output_times(t_end: float, dt: float) -> np.ndarray:
+    """0, dt, 2 dt, ... up to and including t_end (to rounding)."""
+    count = int(math.floor(t_end / dt * (1 + 1e-12) + 1e-9))
+    return np.arange(count + 1) * dt
+
+
+def _as_numeric(system) -> NumericModel:
+    if isinstance(system, NumericModel):
+        return system
+    if isinstance(system, Model):
+        system = derive(system)
+    if isinstance(system, Equations):
+        return compile_equations(system)
+    raise TypeError(f"simulate() expects a Model, Equations or NumericModel, got {type(system).__name__}")
+
+
+def _closest(name, names) -> str:
+    hint = difflib.get_close_matches(str(name), list(names), n=1)
+    return f" (did you mean '{hint[0]}'?)" if hint else ""
+
+
+def _parameters(nm: NumericModel, params: Mapping | None, problems: list[Problem]) -> np.ndarray:
+    values = nm.parameter_values.copy()
+    for name, value in (params or {}).items():
+        name = getattr(name, "name", name)
+        if name not in nm.parameter_names:
+            problems.append(Problem(f"'{name}' is not a parameter of the model{_closest(name, nm.parameter_names)}; "
+                                    f"its parameters are {', '.join(nm.parameter_names) or 'none'}",
+                                    key=f"params.{name}"))
+            continue
+        if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
+            problems.append(Problem(f"the value of parameter '{name}' must be a finite number, got {value!r}",
+                                    key=f"params.{name}"))
+            continue
+        values[nm.parameter_names.index(name)] = float(value)
+    for name, v in zip(nm.parameter_names, values):
+        if np.isnan(v):
+            problems.append(Problem(f"parameter '{name}' has no value: give one in the model or pass "
+                                    f"params={{'{name}': ...}} (--param {name}=... on the command line)",
+                                    key=f"params.{name}"))
+    return values
+
+
+def _initial_state(nm: NumericModel, initial, problems: list[Problem]) -> np.ndarray:
+    x0 = np.zeros(2 * nm.n)
+    if initial is None:
+        return x0
+    if not isinstance(initial, Mapping):
+        arr = np.asarray(initial, dtype=float)
+        if arr.shape != (2 * nm.n,):
+            problems.append(Problem(f"the initial state must have {2 * nm.n} values "
+                                    f"({', '.join(nm.state_names)}), got shape {arr.shape}", key="initial"))
+            return x0
+        return arr
+    for name, value in initial.items():
+        name = getattr(name, "name", name)
+        if name not in nm.state_names:
+            problems.append(Problem(f"'{name}' is not a coordinate or velocity{_closest(name, nm.state_names)}; "
+                                    f"the state is {', '.join(nm.state_names)}", key=f"initial.{name}"))
+            continue
+        if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
+            problems.append(Problem(f"the initial value of '{name}' must be a finite number, got {value!r}",
+                                    key=f"initial.{name}"))
+            continue
+        x0[nm.state_names.index(name)] = float(value)
+    return x0
+
+
+def _input_function(nm: NumericModel, inputs, pvalues, problems: list[Problem]) -> Callable[[float], np.ndarray]:
+    m = len(nm.input_names)
+    constant = np.zeros(m)
+    funcs: list[tuple[int, Callable]] = []
+    for name, spec in (inputs or {}).items():
+        name = getattr(name, "name", name)
+        if name not in nm.input_names:
+            problems.append(Problem(f"'{name}' is not an input of the model{_closest(name, nm.input_names)}; "
+                                    f"its inputs are {', '.join(nm.input_names) or 'none'}", key=f"inputs.{name}"))
+            continue
+        i = nm.input_names.index(name)
+        if isinstance(spec, numbers.Real) and not isinstance(spec, bool):
+            constant[i] = float(spec)
+        elif isinstance(spec, (str, sympy.Basic)):
+            try:
+                funcs.append((i, _expression_of_t(nm, spec, pvalues)))
+            except ModelError as exc:
+                problems.extend(Problem(p.message, key=f"inputs.{name}") for p in exc.problems)
+        elif callable(spec):
+            funcs.append((i, spec))
+        else:
+            problems.append(Problem(f"input '{name}' must be a number, an expression of t (a string) or a "
+                                    f"function of t, got {spec!r}", key=f"inputs.{name}"))
+    if not funcs:
+        return lambda t: constant
+
+    def u(t: float) -> np.ndarray:
+        out = constant.copy()
+        for i, f in funcs:
+            out[i] = float(f(t))
+        return out
+
+    return u
+
+
+def _expression_of_t(nm: NumericModel, spec, pvalues) -> Callable[[float], float]:
+    from ..io._expr import parse_expression
+    from ..errors import ExpressionError
+
+    t = nm.equations.t
+    names = {"t": t, **{p.name: p for p in nm.equations.parameters}}
+    if isinstance(spec, str):
+        try:
+            expr = parse_expression(spec, names)
+        except ExpressionError as exc:
+            raise ModelError(f"{exc} (an input is an expression of t and the parameters)") from None
+    else:
+        expr = spec
+    extra = expr.free_symbols - set(names.values())
+    if extra:
+        raise ModelError(f"an input may depend only on t and the parameters, not on "
+                         f"{', '.join(sorted(s.name for s in extra))}")
+    params = list(nm.equations.parameters)
+    f = sympy.lambdify([t, params], expr, "math")
+    pv = [float(v) for v in pvalues]
+    return lambda time: f(time, pv)
+
+
+def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mapping | None = None,
+             params: Mapping | None = None, dt: float | None = None, t_eval=None,
+             rtol: float | None = None, atol: float | None = None, method: str = "DOP853",
+             max_step: float = math.inf) -> Trajectory:
+    """Integrate x' = f(t, x, u, p) from t = 0 to `t_end`.
+
+    Parameters
+    ----------
+    system : Model, Equations or NumericModel
+    t_end : float
+        Final time (default: the model's [simulation] t_end).
+    initial : mapping of str to float, or array_like, shape (2n,)
+        Initial coordinates and velocities by name (``{"q2": 0.5, "q2_dot": 0}``); those not
+        given are 0. Default: the model's [simulation] initial values.
+    inputs : mapping of str to float, str or callable
+        Each input as a constant, an expression of t and the parameters (``"1.5*sin(3*t)"``)
+        or a function of t. Inputs not given are 0.
+    params : mapping of str to float
+        Parameter values that override the model's.
+    dt : float
+        Output every dt: t = 0, dt, 2 dt, ... <= t_end (default: the model's, or 0.01).
+    t_eval : array_like, optional
+        Explicit output times instead of `dt`.
+    rtol, atol : float
+        Tolerances of the adaptive integrator (default 1e-9 both).
+    method : str
+        One of METHODS (default DOP853, an explicit 8th-order Runge-Kutta method).
+    max_step : float
+        Largest step the integrator may take.
+
+    Returns
+    -------
+    Trajectory
+
+    Raises
+    ------
+    ModelError
+        Bad input (unknown names, missing parameter values), every problem at once.
+    SingularMassMatrixError
+        The motion reached a configuration where M is singular; names the time, the state
+        and the diagnosis.
+    SimulationError
+        The integrator failed for another reason.
+    """
+    from scipy.integrate import solve_ivp
+
+    nm = _as_numeric(system)
+    defaults = nm.equations.model.simulation
+    problems: list[Problem] = []
+    t_end = defaults.get("t_end") if t_end is None else t_end
+    if t_end is None:
+        problems.append(Problem("t_end is needed: pass t_end=... (--t-end on the command line) or set "
+                                "t_end under [simulation] in the model file", key="t_end"))
+    elif not isinstance(t_end, numbers.Real) or not t_end > 0 or not math.isfinite(t_end):
+        problems.append(Problem(f"t_end must be a positive number, got {t_end!r}", key="t_end"))
+    dt = defaults.get("dt", 0.01) if dt is None else dt
+    if not isinstance(dt, numbers.Real) or not dt > 0 or not math.isfinite(dt):
+        problems.append(Problem(f"dt must be a positive number, got {dt!r}", key="dt"))
+    rtol = defaults.get("rtol", 1e-9) if rtol is None else rtol
+    atol = defaults.get("atol", 1e-9) if atol is None else atol
+    for key, tol in (("rtol", rtol), ("atol", atol)):
+        if not isinstance(tol, numbers.Real) or not tol > 0:
+            problems.append(Problem(f"{key} must be a positive number, got {tol!r}", key=key))
+    if method not in METHODS:
+        problems.append(Problem(f"unknown method '{method}'{_closest(method, METHODS)}; "
+                                f"choose one of {', '.join(METHODS)}", key="method"))
+    p = _parameters(nm, params, problems)
+    x0 = _initial_state(nm, defaults.get("initial") if initial is None else initial, problems)
+    u_of_t = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
+    if problems:
+        raise ModelError(problems)
+
+    times = output_times(float(t_end), float(dt)) if t_eval is None else np.asarray(t_eval, dtype=float)
+    eq = nm.equations
+    nfev = 0
+
+    def rhs(t, x):
+        nonlocal nfev
+        nfev += 1
+        return nm.rhs(t, x, u_of_t(t), p)
+
+    def near_singular(t, x):
+        return nm.singular_ratio(t, x, u_of_t(t), p) - _EVENT_RATIO
+
+    near_singular.terminal = True
+    near_singular.direction = -1
+    try:
+        sol = solve_ivp(rhs, (0.0, float(times[-1]) if len(times) else float(t_end)), x0, method=method,
+                        t_eval=times, rtol=rtol, atol=atol, max_step=max_step, events=near_singular)
+    except _Singular as s:
+        raise _singular_error(nm, s.t, s.x, s.ratio) from None
+    if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_of_t, p) < 1e-6):
+        if sol.status == 1 and len(sol.t_events[0]):
+            te, xe = sol.t_events[0][0], sol.y_events[0][0]
+        else:
+            te, xe = _last_state(sol)
+        raise _singular_error(nm, te, xe, nm.singular_ratio(te, xe, u_of_t(te), p))
+    if sol.status != 0:
+        te, xe = _last_state(sol)
+        raise SimulationError(f"the integrator stopped at t = {te:.6g}: {sol.message} "
+                              f"(state {_state_text(nm, xe)}); try a smaller rtol/atol, a stiff method "
+                              "such as method='Radau', or check the model's parameters",
+                              status=sol.status, time=te)
+    if not np.all(np.isfinite(sol.y)):
+        raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
+                              "and initial state", status=-1)
+    U = np.array([u_of_t(t) for t in sol.t]).reshape(len(sol.t), len(nm.input_names))
+    energy = name = None
+    if eq.core.t not in eq.core.L.free_symbols:
+        energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(sol.t, sol.y.T, U)])
+        name = "energy" if _is_natural(eq) else "jacobi_integral"
+    return Trajectory(sol.t, sol.y.T, nm.state_names, U, nm.input_names, energy, name,
+                      eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message)
+
+
+def _is_natural(eq: Equations) -> bool:
+    """T* = T2: no terms of degree 1 or 0 in the velocities."""
+    zero = {v: 0 for v in eq.core.qd}
+    T = eq.core.T
+    return T.subs(zero) == 0 and all(T.diff(v).subs(zero) == 0 for v in eq.core.qd)
+
+
+def _last_state(sol):
+    # solve_ivp's t_eval output may stop short of where the integrator failed; use its last point.
+    return float(sol.t[-1]), sol.y[:, -1]
+
+
+def _last_ratio(nm, sol, u_of_t, p) -> float:
+    te, xe = _last_state(sol)
+    return nm.singular_ratio(te, xe, u_of_t(te), p)
+
+
+def _state_text(nm: NumericModel, x) -> str:
+    return ", ".join(f"{k} = {v:.6g}" for k, v in zip(nm.state_names, x))
+
+
+def _singular_error(nm: NumericModel, t, x, ratio) -> SingularMassMatrixError:
+    report = singularities(nm.equations)
+    diagnosis = report.text()
+    state = dict(zip(nm.state_names, map(float, x)))
+    msg = (f"the mass matrix became singular at t = {float(t):.6g} (det M / prod(diag M) = {ratio:.3g}) "
+           f"in the state {_state_text(nm, x)}: q_ddot cannot be solved for there, so the simulation stops.\n"
+           f"{diagnosis}")
+    return SingularMassMatrixError(msg, time=float(t), state=state, diagnosis=diagnosis)
