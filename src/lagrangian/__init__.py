@@ -10,6 +10,7 @@ from .equations import (Equations, LinearSystem, SingularConfiguration, Singular
                         singularities)
 from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileError, SimulationError,
                      SingularMassMatrixError, UnknownNameError)
+from .io import load
 from .model import Model, ddot, dot, t
 from .numeric import NumericModel, Trajectory, simulate
 from .numeric import compile_equations as compile
@@ -17,7 +18,7 @@ from .numeric import compile_equations as compile
 __version__ = "0.1.0"
 
 __all__ = [
-    "Model", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
+    "Model", "load", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
     "SingularConfiguration", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
     "SingularMassMatrixError", "SimulationError",

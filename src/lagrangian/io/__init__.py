@@ -1,0 +1,50 @@
+"""Input and output: model files (a safe expression parser and one-pass checks), loading by name."""
+
+from __future__ import annotations
+
+import difflib
+import os
+from pathlib import Path
+
+from ..errors import ModelFileError, Problem
+from ._expr import parse_expression
+
+__all__ = ["load", "parse_expression", "load_model_file", "loads_model"]
+
+
+def load_model_file(path):
+    from ._modelfile import load_model_file as _load
+
+    return _load(path)
+
+
+def loads_model(text: str, *, source: str = "<string>"):
+    from ._modelfile import loads_model as _loads
+
+    return _loads(text, source=source)
+
+
+def load(source: str | os.PathLike):
+    """A Model from a built-in example name (``"cart-pendulum"``, ``"pendulum-chain-5"``) or the
+    path of a TOML model file.
+
+    Raises
+    ------
+    ModelFileError
+        The file has problems (all of them are listed), or there is no such file or example.
+    """
+    from ..examples import example_names, example_source
+
+    text = None
+    if isinstance(source, str) and not source.endswith(".toml") and os.sep not in source:
+        text = example_source(source)
+        if text is not None:
+            return loads_model(text, source=f"<example {source}>")
+    path = Path(source)
+    if path.exists() or str(source).endswith(".toml") or os.sep in str(source):
+        return load_model_file(path)
+    hint = difflib.get_close_matches(str(source), example_names(), n=1, cutoff=0.5)
+    extra = f" Did you mean '{hint[0]}'?" if hint else ""
+    raise ModelFileError([Problem(
+        f"'{source}' is neither a model file nor a built-in example.{extra} "
+        "Run `lagrangian examples` to list the examples, or give the path of a .toml model file.")])

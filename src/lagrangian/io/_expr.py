@@ -610,18 +610,19 @@ class _Evaluator:
                       f"{MAX_BITS} binary digits; use smaller numbers or keep the "
                       "exponent symbolic", position)
 
-    def eval(self, node: _Node) -> tuple[sympy.Expr, int]:
+    def build(self, node: _Node) -> tuple[sympy.Expr, int]:
         if isinstance(node, _Num):
             return node.value, _rational_bits(node.value)
         if isinstance(node, _Name):
             return self.name(node)
         if isinstance(node, _Neg):
-            value, bits = self.eval(node.operand)
+            value, bits = self.build(node.operand)
             return -value, bits
         if isinstance(node, _Sum):
-            values, total = [], 0
+            values: list[sympy.Expr] = []
+            total = 0
             for negated, term in node.terms:
-                value, bits = self.eval(term)
+                value, bits = self.build(term)
                 values.append(-value if negated else value)
                 total += bits
             self.check_bits(total, None)
@@ -647,9 +648,10 @@ class _Evaluator:
         return value, bits  # type: ignore[return-value]
 
     def product(self, node: _Product) -> tuple[sympy.Expr, int]:
-        values, total = [], 0
+        values: list[sympy.Expr] = []
+        total = 0
         for divided, factor, position in node.factors:
-            value, bits = self.eval(factor)
+            value, bits = self.build(factor)
             total += bits
             if divided:
                 if value.is_Number and value.is_zero:
@@ -661,8 +663,8 @@ class _Evaluator:
         return sympy.Mul(*values), total
 
     def power(self, node: _Pow) -> tuple[sympy.Expr, int]:
-        base, base_bits = self.eval(node.base)
-        exponent, exponent_bits = self.eval(node.exponent)
+        base, base_bits = self.build(node.base)
+        exponent, exponent_bits = self.build(node.exponent)
         if exponent.is_Rational:
             if base.is_Number and base.is_zero and exponent.is_negative:
                 self.fail("division by zero: 0 raised to a negative power", node.pos)
@@ -681,9 +683,10 @@ class _Evaluator:
 
     def call(self, node: _Call) -> tuple[sympy.Expr, int]:
         function, _arity, _example = _FUNCTIONS[node.function]
-        args, total = [], 0
+        args: list[sympy.Expr] = []
+        total = 0
         for arg in node.args:
-            value, bits = self.eval(arg)
+            value, bits = self.build(arg)
             args.append(value)
             total += bits
         result = function(*args)
@@ -744,12 +747,12 @@ def parse_expression(text: str, names: Mapping[str, sympy.Basic]) -> sympy.Expr:
         tree = parser.parse()
         if parser.unknown:
             candidates = sorted(set(names) | set(_CONSTANTS))
-            unknown = []
+            unknown: list[tuple[str, int, str | None]] = []
             for name, position in parser.unknown.items():
                 close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
                 unknown.append((name, position, close[0] if close else None))
             raise UnknownNameError(text, unknown)
-        result, _bits = _Evaluator(text, names).eval(tree)
+        result, _bits = _Evaluator(text, names).build(tree)
     except RecursionError:  # pragma: no cover - the depth limit comes first
         _fail(text, "expression nested too deeply: simplify it or split it into "
                     "parameters", None)
