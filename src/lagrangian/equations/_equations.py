@@ -25,6 +25,7 @@ import json
 from dataclasses import dataclass, field
 from functools import cached_property
 
+import numpy as np
 import symengine as se
 import sympy
 
@@ -284,8 +285,13 @@ class Equations:
     @property
     def is_scleronomic(self) -> bool:
         """True when T* and V do not depend explicitly on t."""
-        t = self.core.t
-        return t not in self.core.T.free_symbols and t not in self.core.V.free_symbols
+        return not (_depends_on(self.core.T, self.core.t) or _depends_on(self.core.V, self.core.t))
+
+    @cached_property
+    def explicit_time(self) -> bool:
+        """True when L depends explicitly on t (checked after cancellation: a spinning frame whose
+        rotation drops out of T*, as in the rotating pendulum, does not count)."""
+        return _depends_on(self.core.L, self.core.t)
 
     # ----------------------------------------------------------------- linear
     @cached_property
@@ -324,9 +330,7 @@ class Equations:
     @property
     def is_conservative(self) -> bool:
         """True when the Jacobi integral is conserved: L free of t, D = 0 and Q = 0."""
-        t = self.core.t
-        return (t not in self.core.L.free_symbols and self.core.D == 0
-                and all(Qi == 0 for Qi in self.core.Q))
+        return (not self.explicit_time and self.core.D == 0 and all(Qi == 0 for Qi in self.core.Q))
 
     # ------------------------------------------------------------- printing
     def equation(self, i: int) -> sympy.Eq:
@@ -416,6 +420,28 @@ class Equations:
 
     def __repr__(self) -> str:
         return f"<Equations of {self.model.name!r}: {self.n} coordinates ({', '.join(self.state_names[:self.n])})>"
+
+
+def _depends_on(expr: se.Basic, var: se.Symbol, samples: int = 6) -> bool:
+    """Whether `expr` really depends on `var`: d expr/d var is evaluated at random points, so
+    dependence that cancels (sin^2 + cos^2 of a rotation angle) is not counted."""
+    if var not in expr.free_symbols:
+        return False
+    d = expr.diff(var)
+    if d == 0:
+        return False
+    symbols = sorted(d.free_symbols | expr.free_symbols, key=str)
+    rng = np.random.default_rng(12345)
+    for _ in range(samples):
+        point = {s: se.Float(float(v)) for s, v in zip(symbols, rng.uniform(0.3, 1.7, len(symbols)))}
+        try:
+            value = complex(d.subs(point).n())
+            scale = abs(complex(expr.subs(point).n())) + 1.0
+        except (RuntimeError, TypeError, ValueError):
+            return True
+        if not np.isfinite(value) or abs(value) > 1e-10 * scale:
+            return True
+    return False
 
 
 def _latex_name(name: str) -> str:

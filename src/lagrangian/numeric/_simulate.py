@@ -258,7 +258,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
                               "and initial state", status=-1)
     U = np.array([u_of_t(t) for t in sol.t]).reshape(len(sol.t), len(nm.input_names))
     energy = name = None
-    if eq.core.t not in eq.core.L.free_symbols:
+    if not eq.explicit_time:
         energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(sol.t, sol.y.T, U)])
         name = "energy" if _is_natural(eq) else "jacobi_integral"
     return Trajectory(sol.t, sol.y.T, nm.state_names, U, nm.input_names, energy, name,
