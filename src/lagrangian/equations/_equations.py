@@ -297,17 +297,18 @@ class Equations:
     @cached_property
     def linear(self) -> LinearSystem | None:
         """M x'' + C x' + K x = f when the equations are linear in q, q_dot, q_ddot with constant
-        coefficients; None otherwise."""
+        coefficients (free of t and the inputs; they may hold parameters); None otherwise."""
         qdd = [se.Symbol(a.name) for a in self.accelerations]
         q, qd, n = self.core.q, self.core.qd, self.n
         states = set(q) | set(qd) | set(qdd)
+        varying = states | {self.core.t} | {se.Symbol(u.name) for u in self.inputs}
         blocks = []
         for var in (qdd, qd, q):
             rows = []
             for E in self._residuals_se:
                 for v in var:
                     d = se.expand(E.diff(v))
-                    if set(d.free_symbols) & states:
+                    if set(d.free_symbols) & varying:
                         return None
                     rows.append(to_sympy(d))
             blocks.append(sympy.ImmutableMatrix(n, n, rows))

@@ -7,7 +7,6 @@ moves no mass, and no solver can find q_ddot there.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,7 +15,7 @@ import sympy
 from ..model._elements import Particle, RigidBody
 from ._equations import Equations
 
-__all__ = ["singularities", "SingularityReport", "SingularConfiguration", "hadamard_ratio"]
+__all__ = ["singularities", "SingularityReport", "SingularConfiguration", "inertia_measure"]
 
 _SYMBOLIC_DET_MAX_N = 4
 
@@ -129,9 +128,10 @@ def _still(names) -> str:
     return ", ".join(names) + (" stays still" if len(names) == 1 else " stay still")
 
 
-def hadamard_ratio(M: np.ndarray) -> float:
-    """det M / prod(diag M) for a symmetric positive semi-definite M: 1 for a diagonal matrix,
-    0 for a singular one, negative or 0 when M is not positive definite."""
+def inertia_measure(M: np.ndarray) -> float:
+    """How far a symmetric M is from singular: the smallest squared pivot of the Cholesky factor
+    of M scaled to a unit diagonal. 1 for a diagonal M, 0 for a singular one (or one that is not
+    positive definite). Unlike det M / prod(diag M), it does not decay with the size of M."""
     d = np.diag(M)
     if np.any(d <= 0) or not np.all(np.isfinite(M)):
         return 0.0
@@ -140,7 +140,7 @@ def hadamard_ratio(M: np.ndarray) -> float:
         Lc = np.linalg.cholesky(M * s[:, None] * s[None, :])
     except np.linalg.LinAlgError:
         return 0.0
-    return float(np.prod(np.diag(Lc)) ** 2)
+    return float(np.min(np.diag(Lc)) ** 2)
 
 
 def _values(eqs: Equations) -> dict:
@@ -358,36 +358,34 @@ def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tu
     return cause, fix
 
 
-def _sample_states(eqs, M_values, count=64):
-    qs = list(eqs.coordinates)
-    syms = [s for s in M_values.free_symbols if s not in qs]
-    func = sympy.lambdify([qs, syms], M_values, "numpy")
-    rng = np.random.default_rng(1)
-    fill = [0.0] * len(syms)
-    for _ in range(count):
-        x = rng.uniform(-np.pi, np.pi, len(qs))
-        yield x, np.array(func(x, fill), dtype=float)
+def _numeric_mass_matrix(eqs: Equations):
+    """M(q) with the parameter values as a fast function of q (SymEngine), for large n."""
+    import symengine as se
+
+    core = eqs.core
+    values = {se.Symbol(p.name): float(v) for p, v in eqs.parameters.items() if v is not None}
+    n = eqs.n
+    entries = [core.M[i, j].subs(values).subs({core.t: 0}) for i in range(n) for j in range(n)]
+    f = se.Lambdify(list(core.q), entries, cse=True, real=True)
+    return lambda x: np.asarray(f(np.asarray(x, float)), dtype=float).reshape(n, n)
 
 
 def _numerically_zero_everywhere(eqs, M_values) -> bool:
-    return all(hadamard_ratio(A) < 1e-12 for _, A in itertools.islice(_sample_states(eqs, M_values), 8))
+    M = _numeric_mass_matrix(eqs)
+    rng = np.random.default_rng(1)
+    return all(inertia_measure(M(rng.uniform(-np.pi, np.pi, eqs.n))) < 1e-12 for _ in range(8))
 
 
 def _numeric_det_search(eqs, M_values) -> list[dict]:
-    """For large n: the configurations among random samples and local minima where M loses rank."""
+    """For large n: a local minimisation of the inertia measure from a few random starts."""
     from scipy.optimize import minimize
 
-    qs = list(eqs.coordinates)
-    syms = [s for s in M_values.free_symbols if s not in qs]
-    func = sympy.lambdify([qs, syms], M_values, "numpy")
-    fill = [0.0] * len(syms)
+    M = _numeric_mass_matrix(eqs)
     rng = np.random.default_rng(2)
-    found = []
-    for _ in range(12):
-        x0 = rng.uniform(-np.pi, np.pi, len(qs))
-        res = minimize(lambda x: hadamard_ratio(np.array(func(x, fill), dtype=float)), x0,
-                       method="Nelder-Mead", options={"maxiter": 2000, "xatol": 1e-9, "fatol": 1e-16})
+    for _ in range(4):
+        x0 = rng.uniform(-np.pi, np.pi, eqs.n)
+        res = minimize(lambda x: inertia_measure(M(x)), x0, method="Powell",
+                       options={"maxfev": 400 * eqs.n, "xtol": 1e-9, "ftol": 1e-16})
         if res.fun < 1e-12:
-            found.append({q: sympy.Float(v, 8) for q, v in zip(qs, res.x)})
-            break
-    return found
+            return [{q: sympy.Float(v, 8) for q, v in zip(eqs.coordinates, res.x)}]
+    return []

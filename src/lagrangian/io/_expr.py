@@ -749,7 +749,7 @@ def parse_expression(text: str, names: Mapping[str, sympy.Basic]) -> sympy.Expr:
             candidates = sorted(set(names) | set(_CONSTANTS))
             unknown: list[tuple[str, int, str | None]] = []
             for name, position in parser.unknown.items():
-                close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.6)
+                close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.5)
                 unknown.append((name, position, close[0] if close else None))
             raise UnknownNameError(text, unknown)
         result, _bits = _Evaluator(text, names).build(tree)

@@ -102,7 +102,7 @@ import sympy
 from ..errors import ExpressionError, ModelError, ModelFileError, Problem, UnknownNameError
 from ..model._elements import Element
 from ..model._model import Model
-from ..model._symbols import check_name, t
+from ..model._symbols import t
 from ._expr import parse_expression
 
 __all__ = ["load_model_file", "loads_model"]
@@ -551,13 +551,15 @@ class _Reader:
                     "[[bodies]], [[springs]], ... header")
         else:
             hint = _did_you_mean(key, _TOP_LEVEL)
-        what = "table" if isinstance(value, (dict, list)) and not isinstance(value, str) else "key"
+        is_table = isinstance(value, dict) or (
+            isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value))
+        what = "table" if is_table else "key"
         self.problem(key, f"unknown top-level {what} '{key}'{hint}. The known ones are: "
                           + ", ".join(_TOP_LEVEL))
 
     def unknown_key(self, key: str, name: str, allowed: Sequence[str], table: str) -> None:
         """A key that does not belong in `table`."""
-        if name in _TOP_LEVEL and name not in allowed and name not in ("name",):
+        if name in _TOP_LEVEL and name not in allowed:
             hint = (f"; '{name}' is a top-level key: in TOML every key after a {table} header "
                     "belongs to that table, so move it before the first [table] header")
         else:
@@ -977,7 +979,14 @@ class _Reader:
                               "points of the same dimension (both planar or both spatial)")
             entry.ok = False
             return None
-        return {"between": [where for where, _ in ends]}  # type: ignore[misc]
+        (a, _), (b, _) = ends  # type: ignore[misc]
+        if (isinstance(a, str) and a == b) or (not isinstance(a, str) and not isinstance(b, str)
+                                              and a == b):
+            self.problem(key, f"both ends of the {what} '{entry.name}' are the same point, so its "
+                              "length is always zero: give two different points")
+            entry.ok = False
+            return None
+        return {"between": [a, b]}
 
     def location(self, value: object, key: str, entry: _Entry) -> tuple[Any, int | None] | None:
         """A point name or a position list -> (what Model takes, number of components)."""

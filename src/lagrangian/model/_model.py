@@ -104,7 +104,7 @@ class Model:
     def parameter(self, name: str, value: float | None = None) -> sympy.Symbol:
         """Declare a named constant with its value (SI units, radians)."""
         self._check_new_name(name, "parameter")
-        if value is not None and not isinstance(value, numbers.Real):
+        if value is not None and (not isinstance(value, numbers.Real) or isinstance(value, bool)):
             raise ModelError(f"parameter '{name}': the value must be a real number, got {value!r}")
         s = sympy.Symbol(name)
         self._parameters[s] = None if value is None else float(value)
@@ -300,6 +300,9 @@ class Model:
         name = self._unique_element_name(name, "damper")
         where = f"damper '{name}'"
         L, ends, names = self._length(between, length, where)
+        if ends is not None and all(sympy.simplify(a - b) == 0 for a, b in zip(*ends)):
+            raise ModelError(f"{where}.between: both ends are the same point, so the damper has no length "
+                             "and no direction; attach it between two different points")
         e = Damper(name, self.expr(coefficient, f"{where}.coefficient"), L, names, ends)
         self._elements.append(e)
         return e
@@ -310,6 +313,9 @@ class Model:
         if any(isinstance(e, Gravity) for e in self._elements):
             raise ModelError("gravity is added twice: a model has at most one uniform gravity field")
         d = None if direction is None else self._vector(direction, "gravity.direction")
+        if d is not None and all(c == 0 for c in d):
+            raise ModelError("gravity.direction is the zero vector: give the direction gravity pulls in, "
+                             "e.g. (0, -1) in a plane or (0, 0, -1) in space")
         e = Gravity(self.expr(g, "gravity.g"), d)
         self._elements.append(e)
         return e
@@ -444,8 +450,8 @@ class Model:
                     continue
                 val = e.subs(values)
                 if val.is_number and val.is_real and float(val) < 0:
-                    problems.append(Problem(f"{field_name} is negative ({float(val):g}): a {field_name} must be "
-                                            "zero or positive; check the sign or the parameter values",
+                    problems.append(Problem(f"{field_name} is negative ({float(val):g}): it must be zero or positive; "
+                                            "check the sign or the parameter values",
                                             key=f"{el.kind} '{el.name}'.{field_name}"))
         return problems
 

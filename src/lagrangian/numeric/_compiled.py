@@ -14,11 +14,11 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
-from ..equations._singular import hadamard_ratio
+from ..equations._singular import inertia_measure
 
 __all__ = ["NumericModel", "compile_equations", "SINGULAR_RATIO"]
 
-#: det M / prod(diag M) below which the mass matrix counts as singular.
+#: inertia_measure(M) below which the mass matrix counts as singular.
 SINGULAR_RATIO = 1e-12
 
 _CACHE: "weakref.WeakKeyDictionary[Equations, NumericModel]" = weakref.WeakKeyDictionary()
@@ -76,12 +76,12 @@ class NumericModel:
             except np.linalg.LinAlgError:
                 Lc = None
             if Lc is not None:
-                ratio = float(np.prod(np.diag(Lc)) ** 2)
+                ratio = float(np.min(np.diag(Lc)) ** 2)
                 if ratio > SINGULAR_RATIO and np.all(np.isfinite(f)):
                     y = np.linalg.solve(Lc, f * s)
                     return np.linalg.solve(Lc.T, y) * s
                 raise _Singular(t, np.array(x), ratio)
-        raise _Singular(t, np.array(x), hadamard_ratio(M))
+        raise _Singular(t, np.array(x), inertia_measure(M))
 
     def rhs(self, t, x, u, p) -> np.ndarray:
         """x' = [q_dot, q_ddot], shape (2n,)."""
@@ -90,8 +90,8 @@ class NumericModel:
                                                                np.asarray(p, float))))
 
     def singular_ratio(self, t, x, u, p) -> float:
-        """det M / prod(diag M) at the state: 1 for a diagonal M, 0 for a singular one."""
-        return hadamard_ratio(self.mass_matrix(t, x, u, p))
+        """inertia_measure(M) at the state: 1 for a diagonal M, 0 for a singular one."""
+        return inertia_measure(self.mass_matrix(t, x, u, p))
 
     def energy(self, t, x, u, p) -> float:
         """The Jacobi integral h = q_dot . dL/dq_dot - L (the energy T* + V when T* = T2)."""

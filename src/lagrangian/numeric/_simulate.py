@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+from decimal import Decimal
 import math
 import numbers
 from typing import Callable, Mapping
@@ -20,14 +21,18 @@ __all__ = ["simulate", "output_times", "METHODS"]
 
 #: Integrators accepted by ``method`` (SciPy's solve_ivp names).
 METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
-#: Event threshold on det M / prod(diag M): closer to singular than this stops the simulation.
+#: Event threshold on the inertia measure of M (see inertia_measure): closer to singular than this stops the simulation.
 _EVENT_RATIO = 1e-9
 
 
 def output_times(t_end: float, dt: float) -> np.ndarray:
-    """0, dt, 2 dt, ... up to and including t_end (to rounding)."""
+    """0, dt, 2 dt, ... <= t_end, as the decimal multiples of dt (0.3 * 3 is 0.9, not 0.8999...)."""
     count = int(math.floor(t_end / dt * (1 + 1e-12) + 1e-9))
-    return np.arange(count + 1) * dt
+    decimals = max(0, -Decimal(repr(float(dt))).normalize().as_tuple().exponent)
+    times = np.arange(count + 1) * dt
+    if decimals <= 15:
+        times = np.round(times, decimals)
+    return times[times <= t_end * (1 + 1e-12)] if count else times
 
 
 def _as_numeric(system) -> NumericModel:
@@ -59,8 +64,9 @@ def _parameters(nm: NumericModel, params: Mapping | None, problems: list[Problem
                                     key=f"params.{name}"))
             continue
         values[nm.parameter_names.index(name)] = float(value)
+    reported = {p.key for p in problems}
     for name, v in zip(nm.parameter_names, values):
-        if np.isnan(v):
+        if np.isnan(v) and f"params.{name}" not in reported:
             problems.append(Problem(f"parameter '{name}' has no value: give one in the model or pass "
                                     f"params={{'{name}': ...}} (--param {name}=... on the command line)",
                                     key=f"params.{name}"))
@@ -121,7 +127,12 @@ def _input_function(nm: NumericModel, inputs, pvalues, problems: list[Problem]) 
     def u(t: float) -> np.ndarray:
         out = constant.copy()
         for i, f in funcs:
-            out[i] = float(f(t))
+            value = f(t)
+            try:
+                out[i] = float(value)
+            except (TypeError, ValueError):
+                raise ModelError(f"input '{nm.input_names[i]}': its function returned {value!r} at t = {t:g}; "
+                                 "expected a number (a float) for each time") from None
         return out
 
     return u
@@ -222,7 +233,13 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     if problems:
         raise ModelError(problems)
 
-    times = output_times(float(t_end), float(dt)) if t_eval is None else np.asarray(t_eval, dtype=float)
+    if t_eval is None:
+        times = output_times(float(t_end), float(dt))
+    else:
+        times = np.asarray(t_eval, dtype=float).ravel()
+        if times.size == 0 or times[0] < 0 or np.any(np.diff(times) <= 0) or times[-1] > t_end * (1 + 1e-12):
+            raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
+                             f"got {t_eval!r}")
     eq = nm.equations
     nfev = 0
 
@@ -237,8 +254,12 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     near_singular.terminal = True
     near_singular.direction = -1
     try:
-        sol = solve_ivp(rhs, (0.0, float(times[-1]) if len(times) else float(t_end)), x0, method=method,
-                        t_eval=times, rtol=rtol, atol=atol, max_step=max_step, events=near_singular)
+        if times[-1] == 0:  # t_end < dt: the initial state is the whole output
+            rhs(0.0, x0)  # still stops with a clear error when M is singular at the start
+            sol = _Initial(times, x0)
+        else:
+            sol = solve_ivp(rhs, (0.0, float(times[-1])), x0, method=method, t_eval=times, rtol=rtol, atol=atol,
+                            max_step=max_step, events=near_singular)
     except _Singular as s:
         raise _singular_error(nm, s.t, s.x, s.ratio) from None
     if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_of_t, p) < 1e-6):
@@ -263,6 +284,14 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         name = "energy" if _is_natural(eq) else "jacobi_integral"
     return Trajectory(sol.t, sol.y.T, nm.state_names, U, nm.input_names, energy, name,
                       eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message)
+
+
+class _Initial:
+    """The 'solution' when the only output time is t = 0."""
+
+    def __init__(self, times, x0):
+        self.t, self.y, self.status, self.message = times[:1], x0[:, None], 0, "t_end < dt: initial state only"
+        self.t_events = [np.zeros(0)]
 
 
 def _is_natural(eq: Equations) -> bool:
@@ -290,7 +319,7 @@ def _singular_error(nm: NumericModel, t, x, ratio) -> SingularMassMatrixError:
     report = singularities(nm.equations)
     diagnosis = report.text()
     state = dict(zip(nm.state_names, map(float, x)))
-    msg = (f"the mass matrix became singular at t = {float(t):.6g} (det M / prod(diag M) = {ratio:.3g}) "
+    msg = (f"the mass matrix became singular at t = {float(t):.6g} (inertia measure of M = {ratio:.3g}) "
            f"in the state {_state_text(nm, x)}: q_ddot cannot be solved for there, so the simulation stops.\n"
            f"{diagnosis}")
     return SingularMassMatrixError(msg, time=float(t), state=state, diagnosis=diagnosis)
