@@ -75,7 +75,8 @@ def _vec(items) -> sympy.ImmutableMatrix:
 
 
 def _nice(e: sympy.Expr, collect_on=()) -> sympy.Expr:
-    """A readable form for display: expanded and collected, when that stays small."""
+    """A readable form: expanded, trigonometric identities applied and collected, when that stays
+    small (large expressions, as in long chains, are left as derived)."""
     if e.count_ops() > 400:
         return e
     out = sympy.expand(e)
@@ -153,13 +154,16 @@ class Equations:
     # ----------------------------------------------------------- main results
     @cached_property
     def mass_matrix(self) -> sympy.ImmutableMatrix:
-        return sympy.ImmutableMatrix(self.n, self.n, [to_sympy(e) for e in self.core.M])
+        return sympy.ImmutableMatrix(self.n, self.n, [_nice(to_sympy(e)) for e in self.core.M])
 
     M = property(lambda self: self.mass_matrix, doc="Alias of `mass_matrix`.")
 
     @cached_property
     def forcing(self) -> sympy.ImmutableMatrix:
-        return _vec(self.core.f)
+        return self._vec_nice(self.core.f, self.velocities)
+
+    def _vec_nice(self, items, collect_on=()) -> sympy.ImmutableMatrix:
+        return sympy.ImmutableMatrix([_nice(to_sympy(e), collect_on) for e in items])
 
     @cached_property
     def _residuals_se(self) -> tuple:
@@ -170,7 +174,9 @@ class Equations:
 
     @cached_property
     def equations(self) -> tuple[sympy.Expr, ...]:
-        return tuple(to_sympy(e) for e in self._residuals_se)
+        """The residuals E_i (expanded and collected on accelerations and velocities when small)."""
+        on = list(self.accelerations) + list(self.velocities)
+        return tuple(_nice(to_sympy(e), on) for e in self._residuals_se)
 
     @cached_property
     def T(self) -> sympy.Expr:
@@ -336,34 +342,20 @@ class Equations:
     # ------------------------------------------------------------- printing
     def equation(self, i: int) -> sympy.Eq:
         """The i-th equation as ``sympy.Eq(residual, 0)``."""
-        return sympy.Eq(self.display_equations[i], 0)
-
-    @cached_property
-    def display_equations(self) -> tuple[sympy.Expr, ...]:
-        """The residuals in a readable form (expanded, collected on accelerations and velocities)."""
-        on = list(self.accelerations) + list(self.velocities)
-        return tuple(_nice(e, on) for e in self.equations)
-
-    @cached_property
-    def display_mass_matrix(self) -> sympy.ImmutableMatrix:
-        return self.mass_matrix.applyfunc(_nice)
-
-    @cached_property
-    def display_forcing(self) -> sympy.ImmutableMatrix:
-        return self.forcing.applyfunc(_nice)
+        return sympy.Eq(self.equations[i], 0)
 
     def text(self) -> str:
         """The equations and the matrix form as plain text."""
         lines = [f"Lagrange's equations of {self.model.name} "
                  f"({self.n} coordinate{'s' if self.n != 1 else ''}: "
                  f"{', '.join(c.name for c in self.coordinates)})", ""]
-        for i, (c, e) in enumerate(zip(self.coordinates, self.display_equations)):
+        for i, (c, e) in enumerate(zip(self.coordinates, self.equations)):
             lines.append(f"  ({i + 1}) [{c.name}]  {sympy.sstr(e)} = 0")
         lines += ["", "Matrix form M(q) q_ddot = f(q, q_dot, t, u):", "  M ="]
         for r in range(self.n):
-            lines.append("    [" + ", ".join(sympy.sstr(x) for x in self.display_mass_matrix.row(r)) + "]")
+            lines.append("    [" + ", ".join(sympy.sstr(x) for x in self.mass_matrix.row(r)) + "]")
         lines.append("  f =")
-        for x in self.display_forcing:
+        for x in self.forcing:
             lines.append(f"    {sympy.sstr(x)}")
         if self.linear is not None:
             lin = self.linear
@@ -377,13 +369,13 @@ class Equations:
     def latex(self, *, matrix_form: bool = True) -> str:
         """LaTeX of each equation (an ``align`` environment) and of the matrix form."""
         names = {s: _latex_name(s.name) for s in (*self.coordinates, *self.velocities, *self.accelerations)}
-        body = " \\\\\n".join(f"  {sympy.latex(e, symbol_names=names)} &= 0" for e in self.display_equations)
+        body = " \\\\\n".join(f"  {sympy.latex(e, symbol_names=names)} &= 0" for e in self.equations)
         out = "\\begin{align}\n" + body + "\n\\end{align}"
         if matrix_form:
             qdd = sympy.Matrix(self.accelerations)
-            out += ("\n\\begin{equation}\n  " + sympy.latex(self.display_mass_matrix, symbol_names=names)
+            out += ("\n\\begin{equation}\n  " + sympy.latex(self.mass_matrix, symbol_names=names)
                     + " " + sympy.latex(qdd, symbol_names=names) + " = "
-                    + sympy.latex(self.display_forcing, symbol_names=names) + "\n\\end{equation}")
+                    + sympy.latex(self.forcing, symbol_names=names) + "\n\\end{equation}")
         return out
 
     def _repr_latex_(self) -> str:
@@ -400,9 +392,9 @@ class Equations:
             "accelerations": [a.name for a in self.accelerations],
             "parameters": {p.name: v for p, v in self.parameters.items()},
             "inputs": [u.name for u in self.inputs],
-            "mass_matrix": [[s(x) for x in self.display_mass_matrix.row(r)] for r in range(self.n)],
-            "forcing": [s(x) for x in self.display_forcing],
-            "equations": [s(e) for e in self.display_equations],
+            "mass_matrix": [[s(x) for x in self.mass_matrix.row(r)] for r in range(self.n)],
+            "forcing": [s(x) for x in self.forcing],
+            "equations": [s(e) for e in self.equations],
             "kinetic_coenergy": s(self.T),
             "potential_energy": s(self.V),
             "dissipation": s(self.D),
