@@ -43,7 +43,7 @@ def derive(model: Model) -> Equations:
         raise TypeError(f"derive() expects a Model (lagrangian.load(...) or lagrangian.Model(...)), "
                         f"got {type(model).__name__}")
     model.validate()
-    snapshot = model.copy()
+    snapshot = model.copy()._freeze()
     massive = [e for e in snapshot.elements if isinstance(e, (Particle, RigidBody))]
     kin = Kinematics(snapshot.q, massive)
     n = len(kin.q)

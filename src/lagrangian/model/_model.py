@@ -8,6 +8,7 @@ A Model is a description that you build step by step (in Python or from a model 
 from __future__ import annotations
 
 import copy
+import math
 import difflib
 import numbers
 from typing import Iterable, Mapping, Sequence
@@ -93,9 +94,13 @@ class Model:
         """
         if not names:
             raise ModelError("coordinate(): give at least one name, e.g. m.coordinate('x')")
+        self._check_mutable()
+        for i, name in enumerate(names):  # all or nothing
+            self._check_new_name(name, "coordinate")
+            if name in names[:i]:
+                raise ModelError(f"'{name}' is declared twice: each coordinate, parameter and input needs its own name")
         out = []
         for name in names:
-            self._check_new_name(name, "coordinate")
             s = sympy.Symbol(name)
             self._coordinates.append(s)
             out.append(s)
@@ -104,8 +109,9 @@ class Model:
     def parameter(self, name: str, value: float | None = None) -> sympy.Symbol:
         """Declare a named constant with its value (SI units, radians)."""
         self._check_new_name(name, "parameter")
-        if value is not None and (not isinstance(value, numbers.Real) or isinstance(value, bool)):
-            raise ModelError(f"parameter '{name}': the value must be a real number, got {value!r}")
+        if value is not None and (not isinstance(value, numbers.Real) or isinstance(value, bool)
+                                  or not math.isfinite(value)):
+            raise ModelError(f"parameter '{name}': the value must be a finite real number, got {value!r}")
         s = sympy.Symbol(name)
         self._parameters[s] = None if value is None else float(value)
         return s
@@ -175,7 +181,17 @@ class Model:
             out[u.name] = u
         return out
 
+    def _check_mutable(self) -> None:
+        if getattr(self, "_frozen", False):
+            raise ModelError(f"model '{self.name}' is the snapshot held by an Equations object and cannot change: "
+                             "change a copy (model.copy()) and derive it again")
+
+    def _freeze(self) -> "Model":
+        self._frozen = True
+        return self
+
     def _check_new_name(self, name, kind) -> None:
+        self._check_mutable()
         why = check_name(name, kind)
         if why is None and name in self._all_names():
             why = f"'{name}' is declared twice: each coordinate, parameter and input needs its own name"
@@ -190,9 +206,9 @@ class Model:
     def expr(self, value, where: str = "expression") -> sympy.Expr:
         """`value` as a SymPy expression: numbers and SymPy objects as they are, strings parsed
         safely (never executed) with this model's names."""
-        if isinstance(value, sympy.Basic):
+        if isinstance(value, sympy.Expr):
             return value
-        if isinstance(value, bool):
+        if isinstance(value, (bool, sympy.Basic)):
             raise ModelError(f"{where}: expected an expression or a number, got {value!r}")
         if isinstance(value, numbers.Integral):
             return sympy.Integer(int(value))
@@ -223,6 +239,7 @@ class Model:
                 and isinstance(e, (Particle, RigidBody, Point))}
 
     def _unique_element_name(self, name: str | None, kind: str) -> str:
+        self._check_mutable()
         taken = {e.name for e in self._elements}
         if name is None:
             i = 1
@@ -312,8 +329,9 @@ class Model:
         (default: -y for planar positions, -z for spatial ones)."""
         if any(isinstance(e, Gravity) for e in self._elements):
             raise ModelError("gravity is added twice: a model has at most one uniform gravity field")
+        self._unique_element_name("gravity", "gravity")
         d = None if direction is None else self._vector(direction, "gravity.direction")
-        if d is not None and all(c == 0 for c in d):
+        if d is not None and all(c.is_zero for c in d):
             raise ModelError("gravity.direction is the zero vector: give the direction gravity pulls in, "
                              "e.g. (0, -1) in a plane or (0, 0, -1) in space")
         e = Gravity(self.expr(g, "gravity.g"), d)
@@ -356,12 +374,13 @@ class Model:
     # ----------------------------------------------------------------- energies
     def add_energy(self, *, T=0, V=0, D=0) -> None:
         """Add explicit terms to the kinetic co-energy T, the potential V and the dissipation D."""
-        self._T = self._T + self.expr(T, "energy.T")
-        self._V = self._V + self.expr(V, "energy.V")
-        self._D = self._D + self.expr(D, "energy.D")
+        self._check_mutable()
+        terms = [self.expr(T, "energy.T"), self.expr(V, "energy.V"), self.expr(D, "energy.D")]  # all or nothing
+        self._T, self._V, self._D = self._T + terms[0], self._V + terms[1], self._D + terms[2]
 
     def add_generalized_force(self, coordinate, expr) -> None:
         """Add a generalized force (not already in D) on `coordinate` (its symbol or name)."""
+        self._check_mutable()
         name = coordinate.name if isinstance(coordinate, sympy.Symbol) else coordinate
         matches = [c for c in self._coordinates if c.name == name]
         if not matches:
@@ -405,9 +424,13 @@ class Model:
         sources: list[tuple[str, sympy.Expr, str]] = [
             ("energy.T", self._T, "T"), ("energy.V", self._V, "V"), ("energy.D", self._D, "D")]
         sources += [(f"forces.{c.name}", e, "Q") for c, e in self._Q.items()]
+        el_of = {}
         for el in self._elements:
             for field_name, e in el.expressions().items():
-                role = "position" if field_name.startswith(("position", "angle", "force[")) else field_name
+                el_of[f"{el.kind} '{el.name}'.{field_name}"] = el
+                role = "position" if field_name.startswith(("position", "angle")) else field_name
+                if isinstance(el, Force) and field_name.startswith("force["):
+                    role = "force"  # a force may depend on velocities (and inputs)
                 if isinstance(el, (Spring, Damper)) and field_name == "length":
                     role = "length"
                 sources.append((f"{el.kind} '{el.name}'.{field_name}", e, role))
@@ -425,7 +448,7 @@ class Model:
                                         "the equations produce accelerations, write energies and forces "
                                         "in terms of coordinates and velocities", key=where))
             if role in ("V", "position", "length", "inertia", "mass", "stiffness", "rest_length",
-                        "coefficient", "g") and free & qd and not (role == "position" and where.startswith("force")):
+                        "coefficient", "g") and free & qd:
                 names = ", ".join(sorted(s.name for s in free & qd))
                 what = {"V": "the potential energy V depends only on coordinates and time"}.get(
                     role, f"a {role} depends only on coordinates and time")
@@ -437,7 +460,7 @@ class Model:
                 problems.append(Problem(f"input {names} appears in T, whose time derivative the equations "
                                         "would need: inputs may appear in V, D and forces; write a "
                                         "prescribed motion as a function of t instead", key=where))
-            if role == "position" and free & inputs and not where.startswith(("force", "torque")):
+            if role == "position" and free & inputs and not isinstance(el_of.get(where), (Force, Torque)):
                 names = ", ".join(sorted(s.name for s in free & inputs))
                 problems.append(Problem(f"input {names} appears in a position, whose velocity the equations "
                                         "would need: write a prescribed motion as a function of t instead",
@@ -463,8 +486,10 @@ class Model:
 
     # ------------------------------------------------------------------- misc
     def copy(self) -> "Model":
-        """An independent copy (elements are immutable and shared)."""
-        return copy.copy(self)._with_copied_containers()
+        """An independent, changeable copy (elements are immutable and shared)."""
+        out = copy.copy(self)._with_copied_containers()
+        out._frozen = False
+        return out
 
     def _with_copied_containers(self):
         self._coordinates = list(self._coordinates)

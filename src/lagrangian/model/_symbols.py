@@ -48,15 +48,16 @@ def _name_of(q) -> str:
 
 def check_name(name: object, kind: str) -> str | None:
     """Return why `name` cannot name a `kind` (coordinate, parameter, input), or None if it can."""
+    a = "an" if kind[:1] in "aeiou" else "a"
     if not isinstance(name, str):
-        return f"a {kind} name must be a string, got {name!r}"
+        return f"{a} {kind} name must be a string, got {name!r}"
     if not _NAME.match(name):
         return (f"'{name}' is not a valid {kind} name: use letters, digits and underscores, "
                 "starting with a letter (for example 'theta1')")
     if keyword.iskeyword(name):
-        return f"'{name}' is a Python keyword and cannot name a {kind}: choose another name"
+        return f"'{name}' is a Python keyword and cannot name {a} {kind}: choose another name"
     if name in RESERVED_NAMES:
-        return f"'{name}' is reserved (time, pi or a function name) and cannot name a {kind}: choose another name"
+        return f"'{name}' is reserved (time, pi or a function name) and cannot name {a} {kind}: choose another name"
     if name.endswith("_dot") or name.endswith("_ddot"):
         return (f"'{name}' ends in _dot or _ddot, which is kept for velocities and accelerations: "
                 f"choose another {kind} name")

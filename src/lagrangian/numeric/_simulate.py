@@ -46,7 +46,7 @@ def _as_numeric(system) -> NumericModel:
 
 
 def _closest(name, names) -> str:
-    hint = difflib.get_close_matches(str(name), list(names), n=1)
+    hint = difflib.get_close_matches(str(name), list(names), n=1, cutoff=0.5)
     return f" (did you mean '{hint[0]}'?)" if hint else ""
 
 
