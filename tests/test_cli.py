@@ -615,9 +615,6 @@ def test_simulate_unknown_initial_q9_did_you_mean(capsys):
     assert "did you mean" in err.lower()
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: --initial splits on every comma, also inside parentheses: "
-                   "`--initial q2=atan2(1,2)` fails with \"--initial '2)': expected NAME=VALUE\" although the value "
-                   "parser accepts atan2 (cli/__init__.py _assignments uses item.split(','))")
 def test_simulate_initial_value_with_a_comma_inside_parentheses(capsys, oscillator):
     rc, out, err = run_cli(capsys, "simulate", oscillator, "--t-end", "0.5", "--dt", "0.5", "--initial", "x=atan2(1,2)")
     assert rc == 0, err
@@ -625,9 +622,6 @@ def test_simulate_initial_value_with_a_comma_inside_parentheses(capsys, oscillat
     assert body[0][1] == pytest.approx(math.atan2(1, 2))
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: a model file with [simulation] atol = 0 loads and derives (the loader "
-                   "and its docs allow atol >= 0) but `simulate` then rejects it with exit 2: "
-                   "'[atol]: atol must be a positive number, got 0.0'; `--atol 0` is rejected the same way")
 def test_model_file_atol_zero_is_accepted_consistently(capsys, tmp_path):
     path = tmp_path / "osc_atol0.toml"
     path.write_text(OSCILLATOR + "\n[simulation]\nt_end = 1.0\natol = 0\n")
@@ -742,9 +736,6 @@ def test_console_script_help(exe):
     assert p.returncode == 0 and "Example" in p.stdout and p.stderr == ""
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: writing to a closed pipe (`lagrangian ... | head -1` when the reader "
-                   "exits early) is reported as bad input: 'lagrangian check: error: Broken pipe: ' and exit 2 "
-                   "(BrokenPipeError is an OSError, caught by main()'s OSError handler meant for unreadable files)")
 def test_console_script_closed_stdout_is_not_bad_input(exe):
     p = subprocess.Popen([exe, "check", "cart-pendulum-massless", "--json"], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
@@ -752,3 +743,29 @@ def test_console_script_closed_stdout_is_not_bad_input(exe):
     err = p.stderr.read()
     rc = p.wait(timeout=120)
     assert rc != 2 and "Broken pipe" not in err, (rc, err)
+
+
+def test_family_size_out_of_range_says_the_range(capsys):
+    rc, out, err = run_cli(capsys, "derive", "pendulum-chain-201")
+    assert rc == 2
+    assert "a pendulum-chain has 1 to 200 elements; choose n in that range, e.g. pendulum-chain-5" in err
+
+
+def test_method_names_are_case_insensitive(capsys, oscillator):
+    rc, out, err = run_cli(capsys, "simulate", oscillator, "--t-end", "0.5", "--dt", "0.5", "--method", "rk45")
+    assert rc == 0, err
+
+
+def test_output_folder_is_checked_before_simulating(capsys, tmp_path):
+    rc, out, err = run_cli(capsys, "simulate", "cart-pendulum", "--output", str(tmp_path / "nope" / "o.csv"))
+    assert rc == 2
+    assert "the folder" in err and "does not exist; create it or choose another path" in err
+
+
+def test_failed_simulation_keeps_an_existing_output_file(capsys, tmp_path):
+    target = tmp_path / "out.csv"
+    target.write_text("precious\n")
+    rc, out, err = run_cli(capsys, "simulate", "cart-pendulum-massless", "--t-end", "5", "--output", str(target))
+    assert rc == 1
+    assert target.read_text() == "precious\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]

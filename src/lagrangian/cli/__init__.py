@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
 from typing import Sequence
 
 from ..errors import ExpressionError, LagrangianError, ModelError, SimulationError, SingularMassMatrixError
@@ -85,10 +87,22 @@ def _version() -> str:
     return __version__
 
 
+def _split_top_level(text: str) -> list[str]:
+    """Split at the commas that are not inside parentheses: "q1=0,q2=atan2(1,2)" -> 2 parts."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        depth += (ch == "(") - (ch == ")")
+        if ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
 def _assignments(items: Sequence[str], what: str, *, split_commas: bool = True) -> dict[str, str]:
     out: dict[str, str] = {}
     for item in items:
-        parts = item.split(",") if split_commas else [item]
+        parts = _split_top_level(item) if split_commas else [item]
         for part in parts:
             part = part.strip()
             if not part:
@@ -132,6 +146,8 @@ def _cmd_derive(args) -> int:
 def _cmd_simulate(args) -> int:
     from .. import derive, load, simulate
 
+    if args.output != "-":
+        _check_writable(args.output)
     model = load(args.model)
     initial = {k: _number(v, f"--initial {k}") for k, v in _assignments(args.initial, "initial").items()}
     params = {k: _number(v, f"--param {k}") for k, v in _assignments(args.param, "param").items()}
@@ -148,11 +164,37 @@ def _cmd_simulate(args) -> int:
     if args.output == "-":
         sys.stdout.write(traj.to_csv())
     else:
-        traj.to_csv(args.output)
+        _write_atomically(args.output, traj.to_csv())
         drift = traj.energy_drift
         extra = f"; {traj.energy_name} drift {drift:.2e}" if drift is not None and traj.conservative else ""
         print(f"wrote {len(traj.t)} rows (t = 0 .. {traj.t[-1]:g}) to {args.output}{extra}")
     return 0
+
+
+def _check_writable(path: str) -> None:
+    """Fail before a long computation, not after it, when the output cannot be written."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise ModelError(f"--output {path}: it is a directory; give a file name such as {os.path.join(path, 'out.csv')}")
+    if not os.path.isdir(folder):
+        raise ModelError(f"--output {path}: the folder {folder} does not exist; create it or choose another path")
+    if not os.access(folder, os.W_OK):
+        raise ModelError(f"--output {path}: the folder {folder} is not writable; choose another path")
+
+
+def _write_atomically(path: str, text: str) -> None:
+    """Write to a temporary file beside `path`, then rename: an existing file is replaced only by a
+    complete new one."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".lagrangian-", suffix=".csv.tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def _cmd_check(args) -> int:
@@ -195,7 +237,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     if args.command is None:
-        parser.print_help()
+        parser.print_help(sys.stderr)
         return 2
     handler = {"derive": _cmd_derive, "simulate": _cmd_simulate, "check": _cmd_check,
                "examples": _cmd_examples}[args.command]
@@ -210,6 +252,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except LagrangianError as exc:
         print(f"lagrangian {args.command}: error: {exc}", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # the reader of our output went away (| head): not an error of ours
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except OSError:
+            pass
+        return 0
     except OSError as exc:
         print(f"lagrangian {args.command}: error: {exc.strerror or exc}: {exc.filename or ''}", file=sys.stderr)
         return 2

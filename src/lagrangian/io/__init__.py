@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 from pathlib import Path
 
 from ..errors import ModelFileError, Problem
@@ -43,6 +44,11 @@ def load(source: str | os.PathLike):
     path = Path(source)
     if path.exists() or str(source).endswith(".toml") or os.sep in str(source):
         return load_model_file(path)
+    family = re.match(r"(pendulum-chain|spring-mass-damper-chain)-(-?[0-9]+)\Z", str(source))
+    if family:
+        raise ModelFileError([Problem(
+            f"'{source}': a {family.group(1)} has 1 to 200 elements; choose n in that range, "
+            f"e.g. {family.group(1)}-5")])
     hint = difflib.get_close_matches(str(source), example_names(), n=1, cutoff=0.5)
     extra = f" Did you mean '{hint[0]}'?" if hint else ""
     raise ModelFileError([Problem(

@@ -74,7 +74,7 @@ their velocities ``<coordinate>_dot``, the parameters, the inputs and the time `
     t_end = 10.0                         # > 0
     dt = 0.01                            # > 0: output step
     rtol = 1e-9                          # > 0
-    atol = 1e-9                          # >= 0
+    atol = 1e-9                          # > 0
     initial = { q2 = 0.5, q2_dot = 0.0 } # coordinate and velocity names -> numbers
     inputs = { F = "0.5*sin(3*t)" }      # input name -> expression of t and parameters, or number
 
@@ -1143,7 +1143,7 @@ class _Reader:
             return
         out: dict[str, Any] = {}
         limits = {"t_end": (0.0, True, "final time"), "dt": (0.0, True, "time step"),
-                  "rtol": (0.0, True, "relative tolerance"), "atol": (0.0, False, "absolute tolerance")}
+                  "rtol": (0.0, True, "relative tolerance"), "atol": (0.0, True, "absolute tolerance")}
         for name, item in table.items():
             key = f"simulation.{name}"
             if name in limits:

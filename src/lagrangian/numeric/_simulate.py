@@ -221,9 +221,12 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         problems.append(Problem(f"dt must be a positive number, got {dt!r}", key="dt"))
     rtol = defaults.get("rtol", 1e-9) if rtol is None else rtol
     atol = defaults.get("atol", 1e-9) if atol is None else atol
-    for key, tol in (("rtol", rtol), ("atol", atol)):
-        if not isinstance(tol, numbers.Real) or not tol > 0:
-            problems.append(Problem(f"{key} must be a positive number, got {tol!r}", key=key))
+    if not isinstance(rtol, numbers.Real) or not rtol > 0:
+        problems.append(Problem(f"rtol must be a positive number, got {rtol!r}", key="rtol"))
+    if not isinstance(atol, numbers.Real) or not atol > 0:
+        problems.append(Problem(f"atol must be a positive number, got {atol!r} (with atol = 0 a state component "
+                                "that passes through zero cannot be controlled)", key="atol"))
+    method = {m.upper(): m for m in METHODS}.get(str(method).upper(), method)
     if method not in METHODS:
         problems.append(Problem(f"unknown method '{method}'{_closest(method, METHODS)}; "
                                 f"choose one of {', '.join(METHODS)}", key="method"))
