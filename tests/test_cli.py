@@ -769,3 +769,12 @@ def test_failed_simulation_keeps_an_existing_output_file(capsys, tmp_path):
     assert rc == 1
     assert target.read_text() == "precious\n"
     assert [p.name for p in tmp_path.iterdir()] == ["out.csv"]
+
+
+def test_check_json_det_is_a_sympy_string_for_large_models(capsys):
+    rc, out, err = run_cli(capsys, "check", "pendulum-chain-5", "--json")
+    assert rc == 0, err
+    data = json.loads(out)
+    assert data["singular"] is False
+    det = sympy.sympify(data["det_mass_matrix"])
+    assert isinstance(det, sympy.Determinant) and det.arg.shape == (5, 5)

@@ -61,7 +61,8 @@ class SingularityReport:
     Attributes
     ----------
     det_mass_matrix : sympy.Expr
-        det M in factored form, with symbolic parameters (None when n is too large to expand).
+        det M in factored form, with symbolic parameters; for more than 4 coordinates the
+        unevaluated ``sympy.Determinant(M)`` (expanding it is hopeless for long chains).
     det_with_values : sympy.Expr or None
         det M with the model's parameter values.
     singular : bool
@@ -84,7 +85,10 @@ class SingularityReport:
 
     def text(self) -> str:
         lines = []
-        if self.det_mass_matrix is not None:
+        if isinstance(self.det_mass_matrix, sympy.Determinant):
+            lines.append(f"det M: not expanded for {len(self.coordinates)} coordinates; its zeros are "
+                         "searched for numerically.")
+        elif self.det_mass_matrix is not None:
             lines.append(f"det M = {sympy.sstr(self.det_mass_matrix)}")
         if not self.singular:
             lines.append("The mass matrix is regular: det M does not vanish at any real configuration "
@@ -111,7 +115,7 @@ class SingularityReport:
         return {
             "singular": bool(self.singular),
             "everywhere": bool(self.everywhere),
-            "det_mass_matrix": None if self.det_mass_matrix is None else s(self.det_mass_matrix),
+            "det_mass_matrix": _det_text(self.det_mass_matrix),
             "det_with_values": None if self.det_with_values is None else s(self.det_with_values),
             "configurations": [
                 {"where": {k: s(v) for k, v in c.where.items()}, "condition": c.condition,
@@ -122,6 +126,15 @@ class SingularityReport:
             "fix": self.fix,
             "diagnosis": self.text(),
         }
+
+
+def _det_text(det) -> str | None:
+    """det M as one line of SymPy syntax."""
+    if det is None:
+        return None
+    if isinstance(det, sympy.Determinant):
+        return f"Determinant(Matrix({sympy.sstr(det.arg.tolist())}))"
+    return sympy.sstr(det)
 
 
 def _still(names) -> str:
@@ -291,7 +304,8 @@ def singularities(equations: Equations) -> SingularityReport:
         det = sympy.factor(sympy.trigsimp(sympy.expand(raw)))
         det_values = sympy.factor(sympy.trigsimp(sympy.expand(raw.subs(values))))
         everywhere = det_values == 0
-    else:
+    else:  # expanding det M of a large system is hopeless: keep it unevaluated, search numerically
+        det = sympy.Determinant(sympy.ImmutableMatrix(M))
         everywhere = _numerically_zero_everywhere(eqs, M_values)
     configurations: list[SingularConfiguration] = []
     if everywhere:
