@@ -10,7 +10,6 @@ numerically at random points as a second, independent check.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 import sympy as sp
 from sympy.physics.mechanics import (LagrangesMethod, Lagrangian, Particle, Point, ReferenceFrame,
                                      RigidBody, dynamicsymbols, inertia, msubs)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import ast
 import inspect
 import re
-import time
 
 import pytest
 import sympy
@@ -440,12 +439,11 @@ def test_undefined_values(text, position, pattern):
     "10**10**10", "2**100000", "2^(10^6)", "(2*x)**(10**10)", "sqrt(3)**(10**9)",
     "2**60000 * 2**60000", "(10**1000)**1000",
 ])
-def test_huge_numbers_are_refused_quickly(text):
-    start = time.perf_counter()
+def test_huge_numbers_are_refused(text):
+    # refused before SymPy would try to build the number (which would hang)
     with pytest.raises(ExpressionError, match=r"number too large: this would create a "
                                               r"number with more than \d+ binary digits"):
         parse(text)
-    assert time.perf_counter() - start < 2
 
 
 def test_large_but_reasonable_numbers_and_symbolic_powers():

@@ -19,7 +19,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Model", "load", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
-    "SingularConfiguration", "dot", "ddot", "t",
+    "SingularConfiguration", "compile", "NumericModel", "simulate", "Trajectory", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
     "SingularMassMatrixError", "SimulationError",
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp", "log",

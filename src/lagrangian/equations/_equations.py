@@ -30,7 +30,7 @@ import symengine as se
 import sympy
 
 from ..errors import LagrangianError
-from ..model import Model, ddot, dot
+from ..model import Model
 from ..model._kinematics import to_sympy
 
 __all__ = ["Equations", "LinearSystem", "SymbolicCore"]

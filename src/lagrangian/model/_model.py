@@ -11,7 +11,7 @@ import copy
 import math
 import difflib
 import numbers
-from typing import Iterable, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import sympy
 
@@ -417,7 +417,6 @@ class Model:
                                     "(m.coordinate('x'), or coordinates = [\"x\"] in a model file)",
                                     key="coordinates"))
         known = set(self.names().values())
-        q = set(self._coordinates)
         qd = {dot(c) for c in self._coordinates}
         qdd = {ddot(c) for c in self._coordinates}
         inputs = set(self._inputs)
