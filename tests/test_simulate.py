@@ -417,3 +417,11 @@ def test_input_function_returning_an_array_is_refused_clearly():
                      T="m*x_dot**2/2", V="k*x**2/2", Q={"x": "F"})
     with pytest.raises(ModelError, match="input 'F': its function returned .* expected a number"):
         lg.simulate(model, 1.0, inputs={"F": lambda t: np.array([1.0, 2.0])})
+
+
+def test_non_finite_forcing_is_a_simulation_error_not_a_singular_mass_matrix():
+    # V = sqrt(x) has dV/dx = 1/(2 sqrt(x)): not finite at x = -1
+    model = lg.Model("sqrt", coordinates=["x"], parameters={"m": 1.0}, T="m*x_dot**2/2", V="sqrt(x)")
+    with pytest.raises(lg.SimulationError, match=r"the forcing f is not finite \(NaN or infinity\) at t = 0 "
+                                                 r"in the state x = -1, x_dot = 0: check the model's parameters"):
+        lg.simulate(model, 1.0, {"x": -1.0})

@@ -156,8 +156,6 @@ def _cmd_simulate(args) -> int:
     if args.show_equations:
         print(eqs.text(), file=sys.stderr if args.output == "-" else sys.stdout)
     defaults = model.simulation
-    if initial:
-        initial = {**{k: 0.0 for k in eqs.state_names}, **initial}
     traj = simulate(eqs, args.t_end, initial or None,
                     inputs={**defaults.get("inputs", {}), **inputs} or None, params=params,
                     dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method)

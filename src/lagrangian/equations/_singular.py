@@ -141,23 +141,30 @@ def _still(names) -> str:
     return ", ".join(names) + (" stays still" if len(names) == 1 else " stay still")
 
 
-def inertia_measure(M: np.ndarray) -> float:
-    """How far a symmetric M is from singular: the smallest squared pivot of the Cholesky factor
-    of M scaled to a unit diagonal. 1 for a diagonal M, 0 for a singular one (or one that is not
-    positive definite). Unlike det M / prod(diag M), it does not decay with the size of M."""
+def scaled_cholesky(M: np.ndarray):
+    """(s, Lc) with Lc Lc^T = diag(s) M diag(s) and s = 1/sqrt(diag M), or None when M is not
+    positive definite (or not finite)."""
     d = np.diag(M)
     if np.any(d <= 0) or not np.all(np.isfinite(M)):
-        return 0.0
+        return None
     s = 1.0 / np.sqrt(d)
     try:
-        Lc = np.linalg.cholesky(M * s[:, None] * s[None, :])
+        return s, np.linalg.cholesky(M * s[:, None] * s[None, :])
     except np.linalg.LinAlgError:
-        return 0.0
-    return float(np.min(np.diag(Lc)) ** 2)
+        return None
+
+
+def inertia_measure(M: np.ndarray, factor=None) -> float:
+    """How far a symmetric M is from singular: the smallest squared pivot of the Cholesky factor
+    of M scaled to a unit diagonal. 1 for a diagonal M, 0 for a singular one (or one that is not
+    positive definite). Unlike det M / prod(diag M), it does not decay with the size of M.
+    `factor` is ``scaled_cholesky(M)`` when the caller has it already."""
+    factor = scaled_cholesky(M) if factor is None else factor
+    return 0.0 if factor is None else float(np.min(np.diag(factor[1])) ** 2)
 
 
 def _values(eqs: Equations) -> dict:
-    return {p: sympy.nsimplify(v) if v is not None else p for p, v in eqs.parameters.items() if v is not None}
+    return {p: sympy.nsimplify(v) for p, v in eqs.parameters.items() if v is not None}
 
 
 def _wrap(value: sympy.Expr) -> sympy.Expr:
@@ -253,7 +260,6 @@ def _null_direction(M: sympy.Matrix, M_values: sympy.Matrix, where: dict) -> sym
 def _element_motion(eqs: Equations, where: dict, direction: sympy.Matrix, values: dict):
     """Which massive elements stay still along `direction` at `where`, and which massless ones move."""
     still, moving_massless = [], []
-    qd = eqs.velocities
     at = {**values, **where}
     for el in eqs.model.elements:
         if not isinstance(el, (Particle, RigidBody)):
@@ -272,7 +278,6 @@ def _element_motion(eqs: Equations, where: dict, direction: sympy.Matrix, values
             moving_massless.append(f"{el.kind} '{el.name}' (mass {sympy.sstr(el.mass)} = 0)")
         elif not moves and not massless:
             still.append(f"{el.kind} '{el.name}'")
-    del qd
     return tuple(still), tuple(moving_massless)
 
 

@@ -165,15 +165,13 @@ class Gravity(Element):
 
     def contribute(self, kin):
         g = kin.se(self.g)
+        if self.direction is not None:
+            norm = sympy.sqrt(sum(c ** 2 for c in self.direction))
+            unit = [kin.se(c / norm) for c in self.direction]
         V = 0
         for body in kin.massive_elements:
             r = body.position
-            if self.direction is None:
-                n = [0] * (len(r) - 1) + [-1]
-            else:
-                n = [kin.se(c) for c in self.direction]
-                norm = sympy.sqrt(sum(sympy.sympify(c) ** 2 for c in self.direction))
-                n = [c / kin.se(norm) for c in n]
+            n = unit if self.direction is not None else [0] * (len(r) - 1) + [-1]
             V = V - kin.se(body.mass) * g * sum(ni * kin.se(ri) for ni, ri in zip(n, r))
         return Contribution(V=V)
 

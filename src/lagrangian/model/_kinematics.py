@@ -41,16 +41,10 @@ class Kinematics:
         self._cache: dict = {}
 
     def se(self, expr) -> se.Basic:
-        key = expr if isinstance(expr, (sympy.Basic, int, float)) else id(expr)
-        try:
-            return self._cache[key]
-        except (KeyError, TypeError):
-            pass
-        out = to_se(expr)
-        try:
-            self._cache[key] = out
-        except TypeError:
-            pass
+        """`expr` in SymEngine (converted once per expression)."""
+        out = self._cache.get(expr)
+        if out is None:
+            out = self._cache[expr] = to_se(expr)
         return out
 
     def rate(self, expr) -> se.Basic:

@@ -14,7 +14,7 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
-from ..equations._singular import inertia_measure
+from ..equations._singular import inertia_measure, scaled_cholesky
 
 __all__ = ["NumericModel", "compile_equations", "SINGULAR_RATIO"]
 
@@ -27,6 +27,11 @@ _CACHE: "weakref.WeakKeyDictionary[Equations, NumericModel]" = weakref.WeakKeyDi
 class _Singular(Exception):
     def __init__(self, t, x, ratio):
         self.t, self.x, self.ratio = t, x, ratio
+
+
+class _NotFinite(Exception):
+    def __init__(self, t, x):
+        self.t, self.x = t, x
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,29 +70,31 @@ class NumericModel:
         """f at the state, shape (n,)."""
         return self._evaluate(t, np.asarray(x, float), np.asarray(u, float), np.asarray(p, float))[1]
 
-    def accelerations(self, t, x, u, p) -> np.ndarray:
-        """q_ddot solving M q_ddot = f; raises :class:`_Singular` where M is singular."""
+    def solve(self, t, x, u, p) -> tuple[np.ndarray, float]:
+        """(q_ddot, inertia measure of M): q_ddot solves M q_ddot = f.
+
+        Raises :class:`_Singular` where the measure is below SINGULAR_RATIO and
+        :class:`_NotFinite` where f is not finite.
+        """
         M, f = self._evaluate(t, x, u, p)
-        d = np.diag(M)
-        if np.all(d > 0) and np.all(np.isfinite(M)):
-            s = 1.0 / np.sqrt(d)
-            try:
-                Lc = np.linalg.cholesky(M * s[:, None] * s[None, :])
-            except np.linalg.LinAlgError:
-                Lc = None
-            if Lc is not None:
-                ratio = float(np.min(np.diag(Lc)) ** 2)
-                if ratio > SINGULAR_RATIO and np.all(np.isfinite(f)):
-                    y = np.linalg.solve(Lc, f * s)
-                    return np.linalg.solve(Lc.T, y) * s
-                raise _Singular(t, np.array(x), ratio)
-        raise _Singular(t, np.array(x), inertia_measure(M))
+        factor = scaled_cholesky(M)
+        measure = inertia_measure(M, factor)
+        if measure <= SINGULAR_RATIO:
+            raise _Singular(t, np.array(x), measure)
+        if not np.all(np.isfinite(f)):
+            raise _NotFinite(t, np.array(x))
+        s, Lc = factor
+        y = np.linalg.solve(Lc, f * s)
+        return np.linalg.solve(Lc.T, y) * s, measure
+
+    def accelerations(self, t, x, u, p) -> np.ndarray:
+        """q_ddot solving M q_ddot = f, shape (n,)."""
+        return self.solve(t, np.asarray(x, float), np.asarray(u, float), np.asarray(p, float))[0]
 
     def rhs(self, t, x, u, p) -> np.ndarray:
         """x' = [q_dot, q_ddot], shape (2n,)."""
         x = np.asarray(x, float)
-        return np.concatenate((x[self.n:], self.accelerations(t, x, np.asarray(u, float),
-                                                               np.asarray(p, float))))
+        return np.concatenate((x[self.n:], self.accelerations(t, x, u, p)))
 
     def singular_ratio(self, t, x, u, p) -> float:
         """inertia_measure(M) at the state: 1 for a diagonal M, 0 for a singular one."""

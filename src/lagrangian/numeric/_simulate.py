@@ -14,7 +14,7 @@ import sympy
 from ..equations import Equations, derive, singularities
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError
 from ..model import Model
-from ._compiled import NumericModel, _Singular, compile_equations
+from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations
 from ._trajectory import Trajectory
 
 __all__ = ["simulate", "output_times", "METHODS"]
@@ -50,20 +50,29 @@ def _closest(name, names) -> str:
     return f" (did you mean '{hint[0]}'?)" if hint else ""
 
 
+def _named_values(values: Mapping, names: tuple[str, ...], what: str, key: str,
+                  problems: list[Problem]) -> dict[int, float]:
+    """{index in `names`: value} for a mapping of names (or symbols) to finite numbers; every bad
+    name or value becomes a problem."""
+    out: dict[int, float] = {}
+    for name, value in values.items():
+        name = getattr(name, "name", name)
+        if name not in names:
+            problems.append(Problem(f"'{name}' is not {what}{_closest(name, names)}; "
+                                    f"the choices are {', '.join(names) or 'none'}", key=f"{key}.{name}"))
+        elif not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
+            problems.append(Problem(f"the value of '{name}' must be a finite number, got {value!r}",
+                                    key=f"{key}.{name}"))
+        else:
+            out[names.index(name)] = float(value)
+    return out
+
+
 def _parameters(nm: NumericModel, params: Mapping | None, problems: list[Problem]) -> np.ndarray:
     values = nm.parameter_values.copy()
-    for name, value in (params or {}).items():
-        name = getattr(name, "name", name)
-        if name not in nm.parameter_names:
-            problems.append(Problem(f"'{name}' is not a parameter of the model{_closest(name, nm.parameter_names)}; "
-                                    f"its parameters are {', '.join(nm.parameter_names) or 'none'}",
-                                    key=f"params.{name}"))
-            continue
-        if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
-            problems.append(Problem(f"the value of parameter '{name}' must be a finite number, got {value!r}",
-                                    key=f"params.{name}"))
-            continue
-        values[nm.parameter_names.index(name)] = float(value)
+    for i, v in _named_values(params or {}, nm.parameter_names, "a parameter of the model", "params",
+                              problems).items():
+        values[i] = v
     reported = {p.key for p in problems}
     for name, v in zip(nm.parameter_names, values):
         if np.isnan(v) and f"params.{name}" not in reported:
@@ -84,17 +93,8 @@ def _initial_state(nm: NumericModel, initial, problems: list[Problem]) -> np.nda
                                     f"({', '.join(nm.state_names)}), got shape {arr.shape}", key="initial"))
             return x0
         return arr
-    for name, value in initial.items():
-        name = getattr(name, "name", name)
-        if name not in nm.state_names:
-            problems.append(Problem(f"'{name}' is not a coordinate or velocity{_closest(name, nm.state_names)}; "
-                                    f"the state is {', '.join(nm.state_names)}", key=f"initial.{name}"))
-            continue
-        if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
-            problems.append(Problem(f"the initial value of '{name}' must be a finite number, got {value!r}",
-                                    key=f"initial.{name}"))
-            continue
-        x0[nm.state_names.index(name)] = float(value)
+    for i, v in _named_values(initial, nm.state_names, "a coordinate or velocity", "initial", problems).items():
+        x0[i] = v
     return x0
 
 
@@ -246,12 +246,19 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     eq = nm.equations
     nfev = 0
 
+    last = [None, None, 1.0]  # t, x and inertia measure of the latest right-hand side
+
     def rhs(t, x):
         nonlocal nfev
         nfev += 1
-        return nm.rhs(t, x, u_of_t(t), p)
+        qdd, last[2] = nm.solve(t, x, u_of_t(t), p)
+        last[0], last[1] = t, x
+        return np.concatenate((x[nm.n:], qdd))
 
     def near_singular(t, x):
+        # the integrator has just evaluated the right-hand side at the end of the step: reuse it
+        if t == last[0] and np.array_equal(x, last[1]):
+            return last[2] - _EVENT_RATIO
         return nm.singular_ratio(t, x, u_of_t(t), p) - _EVENT_RATIO
 
     near_singular.terminal = True
@@ -265,6 +272,11 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
                             max_step=max_step, events=near_singular)
     except _Singular as s:
         raise _singular_error(nm, s.t, s.x, s.ratio) from None
+    except _NotFinite as s:
+        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {float(s.t):.6g} in the state "
+                              f"{_state_text(nm, s.x)}: check the model's parameters and expressions "
+                              "(a division by zero, a log or sqrt of a negative number)", status=-1,
+                              time=float(s.t)) from None
     if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_of_t, p) < 1e-6):
         if sol.status == 1 and len(sol.t_events[0]):
             te, xe = sol.t_events[0][0], sol.y_events[0][0]
