@@ -778,3 +778,9 @@ def test_check_json_det_is_a_sympy_string_for_large_models(capsys):
     assert data["singular"] is False
     det = sympy.sympify(data["det_mass_matrix"])
     assert isinstance(det, sympy.Determinant) and det.arg.shape == (5, 5)
+
+
+def test_output_that_is_a_directory_is_refused_before_simulating(capsys, tmp_path):
+    rc, out, err = run_cli(capsys, "simulate", "cart-pendulum", "--output", str(tmp_path))
+    assert rc == 2
+    assert "it is a directory; give a file name such as" in err
