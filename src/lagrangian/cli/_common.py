@@ -1,0 +1,121 @@
+"""Helpers shared by the CLI's commands: NAME=VALUE options, numbers, safe output files, and the
+simulation options that `simulate` and `animate` share."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from typing import Sequence
+
+from ..errors import ExpressionError, ModelError
+
+MODEL_HELP = "a model file (.toml) or a built-in example name (see `lagrangian examples`)"
+
+
+def split_top_level(text: str) -> list[str]:
+    """Split at the commas that are not inside parentheses: "q1=0,q2=atan2(1,2)" -> 2 parts."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        depth += (ch == "(") - (ch == ")")
+        if ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
+def assignments(items: Sequence[str], what: str, *, split_commas: bool = True) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for item in items:
+        parts = split_top_level(item) if split_commas else [item]
+        for part in parts:
+            part = part.strip()
+            if not part:
+                continue
+            if "=" not in part:
+                raise ModelError(f"--{what} '{part}': expected NAME=VALUE, for example --{what} "
+                                 + ("q2=0.5" if what == "initial" else "F=1.5*sin(3*t)" if what == "input" else "k=2"))
+            name, value = part.split("=", 1)
+            out[name.strip()] = value.strip()
+    return out
+
+
+def number(text: str, where: str) -> float:
+    """A number, or a constant expression such as pi/2 (parsed safely)."""
+    from ..io._expr import parse_expression
+
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    try:
+        value = parse_expression(text, {})
+    except ExpressionError as exc:
+        raise ModelError(f"{where}: '{text}' is not a number ({exc.reason}); write e.g. 0.5 or pi/2") from None
+    return float(value)
+
+
+def check_writable(path: str, example: str = "out.csv") -> None:
+    """Fail before a long computation, not after it, when the output cannot be written."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise ModelError(f"--output {path}: it is a directory; give a file name such as {os.path.join(path, example)}")
+    if not os.path.isdir(folder):
+        raise ModelError(f"--output {path}: the folder {folder} does not exist; create it or choose another path")
+    if not os.access(folder, os.W_OK):
+        raise ModelError(f"--output {path}: the folder {folder} is not writable; choose another path")
+
+
+def write_atomically(path: str, data: str | bytes) -> None:
+    """Write to a temporary file beside `path`, then rename: an existing file is replaced only by a
+    complete new one."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".lagrangian-", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb" if isinstance(data, bytes) else "w", **({} if isinstance(data, bytes) else {"newline": ""})) as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+
+
+def add_simulation_options(s: argparse.ArgumentParser) -> None:
+    """The options of a simulation, shared by every command that simulates (simulate, animate)."""
+    s.add_argument("--t-end", type=float, metavar="T", help="final time (s)")
+    s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE,...",
+                   help="initial coordinates and velocities, e.g. q1=0,q2=0.5,q2_dot=0 (values may use pi); others are 0")
+    s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a parameter value (repeatable, or comma-separated)")
+    s.add_argument("--input", action="append", default=[], metavar="NAME=EXPR",
+                   help="an input as an expression of t, e.g. \"F=1.5*sin(3*t)\" (repeatable); inputs not given are 0")
+    s.add_argument("--dt", type=float, help="output interval (default: the model's, or 0.01)")
+    s.add_argument("--rtol", type=float, help="relative tolerance (default 1e-9)")
+    s.add_argument("--atol", type=float, help="absolute tolerance (default 1e-9)")
+    s.add_argument("--method", default="DOP853", help="integrator: DOP853 (default), RK45, RK23, Radau, BDF, LSODA")
+    s.add_argument("--show-equations", action="store_true", help="print the equations before simulating")
+
+
+def run_simulation(args, *, equations_to=None):
+    """Load, derive and simulate as the simulation options say; returns (model, equations, trajectory).
+
+    `equations_to` is the stream for --show-equations (stderr when stdout carries the data)."""
+    from .. import derive, load, simulate
+
+    model = load(args.model)
+    initial = {k: number(v, f"--initial {k}") for k, v in assignments(args.initial, "initial").items()}
+    params = {k: number(v, f"--param {k}") for k, v in assignments(args.param, "param").items()}
+    inputs = assignments(args.input, "input", split_commas=False)
+    eqs = derive(model)
+    if args.show_equations:
+        print(eqs.text(), file=equations_to or sys.stdout)
+    defaults = model.simulation
+    traj = simulate(eqs, args.t_end, initial or None,
+                    inputs={**defaults.get("inputs", {}), **inputs} or None, params=params,
+                    dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method)
+    return model, eqs, traj
