@@ -1,0 +1,14 @@
+"""Analysis: equilibria, linearization, stability, modes and parameter continuation.
+
+equations --equilibria--> (Equilibrium, ...) ; equations --linearize--> LinearModel --modes--> Modes ;
+equations --continuation--> Continuation (branches and critical parameter values).
+"""
+
+from ._continuation import Branch, BranchPoint, Continuation, continuation
+from ._equilibria import Equilibrium, equilibria
+from ._modes import Modes, modes
+from ._linearize import STABILITY, LinearModel, SymbolicLinearization, classify, linearize
+
+__all__ = ["equilibria", "Equilibrium", "linearize", "LinearModel", "SymbolicLinearization", "classify",
+           "STABILITY", "modes", "Modes", "continuation",
+           "Continuation", "Branch", "BranchPoint"]

@@ -1,0 +1,449 @@
+"""linearize(equations, at=...) -> LinearModel, and the stability of a linearization.
+
+About an operating point (q0, q_dot0, u0) where M0 q_ddot0 = f0, the residuals
+E = M(q) q_ddot - f(q, q_dot, t, u) give, to first order in the deviations,
+
+    M0 dq'' + (C0 + G0) dq' + K0 dq = B0 du,
+
+with M0 = M(q0), K0 = d(M q_ddot0)/dq - df/dq, C0 + G0 = -df/dq_dot (C0 its symmetric part: damping;
+G0 its skew-symmetric part: gyroscopic, and Coriolis terms away from rest) and B0 = df/du, all at the
+operating point. The state-space form x' = A x + B u, x = [dq, dq_dot], has
+
+    A = [[0, I], [-M0^-1 K0, -M0^-1 (C0 + G0)]],   B = [[0], [M0^-1 B0]]
+
+(outputs y = x: C = I, D = 0). Everything comes from derivatives evaluated at the point and a
+linear solve with M0; nothing divides by a symbolic M, so no NaN appears.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+import symengine as se
+import sympy
+
+from ..equations import Equations, singularities
+from ..equations._singular import inertia_measure
+from ..errors import ModelError, Problem, SingularMassMatrixError
+from ..model._kinematics import to_sympy
+from ._setting import Setting, derivatives, read_only, resolve_setting
+
+__all__ = ["linearize", "LinearModel", "SymbolicLinearization", "classify", "STABILITY"]
+
+#: The stability classes, from the eigenvalues of A and the Lagrange-Dirichlet criterion.
+STABILITY = ("asymptotically stable", "stable", "marginally stable", "unstable")
+
+_SINGULAR = 1e-12
+
+
+@dataclass(frozen=True)
+class SymbolicLinearization:
+    """The linearization with symbolic parameters (SymPy matrices), at an exact operating point.
+
+    M, C, G, K: shape (n, n); input_matrix: shape (n, m); A: (2n, 2n); B: (2n, m)."""
+
+    M: sympy.ImmutableMatrix
+    C: sympy.ImmutableMatrix
+    G: sympy.ImmutableMatrix
+    K: sympy.ImmutableMatrix
+    input_matrix: sympy.ImmutableMatrix
+    A: sympy.ImmutableMatrix
+    B: sympy.ImmutableMatrix
+
+
+def classify(A: np.ndarray, K: np.ndarray, C: np.ndarray, G: np.ndarray,
+             keep: np.ndarray | None = None) -> tuple[str, bool, bool | None]:
+    """(stability class, stable, Lagrange-Dirichlet applies and holds) of a linearization.
+
+    `keep` selects the coordinates whose positions matter: a cyclic coordinate (one the equations do
+    not contain) is left out, so the free drift along it is not counted as instability.
+
+    * unstable: an eigenvalue of A with a positive real part, or a defective one on the imaginary axis;
+    * asymptotically stable: every eigenvalue in the open left half-plane;
+    * stable: Lagrange-Dirichlet: K symmetric positive definite (a strict minimum of the potential,
+      centrifugal potential included), damping positive semi-definite: stable for the nonlinear
+      system too;
+    * marginally stable: eigenvalues on the imaginary axis, non-defective: the linearization is
+      bounded but does not decide the nonlinear system.
+    """
+    n = K.shape[0]
+    keep = np.arange(n) if keep is None else np.asarray(keep, dtype=int)
+    rows = np.concatenate((keep, n + np.arange(n)))
+    Ar = A[np.ix_(rows, rows)]
+    lam = np.linalg.eigvals(Ar) if Ar.size else np.zeros(0, complex)
+    scale = max(1.0, float(np.max(np.abs(lam)))) if lam.size else 1.0
+    tol = 1e-7 * scale
+    Kr = K[np.ix_(keep, keep)]
+    ld = None
+    if Kr.size and np.allclose(Kr, Kr.T, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(Kr).max())):
+        Cs = (C + C.T) / 2
+        c_ok = not Cs.size or np.linalg.eigvalsh(Cs).min() >= -1e-9 * max(1.0, np.abs(Cs).max())
+        kmin = np.linalg.eigvalsh((Kr + Kr.T) / 2).min()
+        ld = bool(c_ok and kmin > 1e-9 * max(1.0, np.abs(Kr).max()))
+    if lam.size and np.max(lam.real) > tol:
+        return "unstable", False, ld
+    if not lam.size or np.max(lam.real) < -tol:
+        return "asymptotically stable", True, ld
+    if ld:
+        return "stable", True, ld
+    # eigenvalues on the imaginary axis: bounded only if each is non-defective
+    on_axis = lam[np.abs(lam.real) <= tol]
+    seen: list[complex] = []
+    for z in on_axis:
+        if any(abs(z - s) <= tol for s in seen):
+            continue
+        seen.append(z)
+        algebraic = int(np.sum(np.abs(lam - z) <= tol))
+        rank = np.linalg.matrix_rank(Ar - z * np.eye(len(Ar)), tol=1e-6 * scale)
+        if len(Ar) - rank < algebraic:
+            return "unstable", False, ld
+    return "marginally stable", True, ld
+
+
+@dataclass(frozen=True, eq=False)
+class LinearModel:
+    """A linearization (returned by :func:`linearize`); all arrays are read-only.
+
+    Attributes
+    ----------
+    coordinate_names, state_names, input_names : tuple of str
+        n coordinates; the state x = [q, q_dot] (2n); m inputs.
+    operating_point : mapping of str to float
+        q0 and q_dot0 by state name.
+    input_values, parameter_values : mapping of str to float
+    t : float
+    M, C, G, K : ndarray, shape (n, n)
+        M0 dq'' + (C + G) dq' + K dq = input_matrix du, with C the damping (symmetric part of
+        -df/dq_dot) and G the gyroscopic part (skew-symmetric).
+    input_matrix : ndarray, shape (n, m)
+    A : ndarray, shape (2n, 2n)
+    B : ndarray, shape (2n, m)
+    accelerations : ndarray, shape (n,)
+        q_ddot0 at the operating point (zero at an equilibrium).
+    family : tuple of str
+        Cyclic coordinates (absent from the equations): moving along them changes nothing.
+    """
+
+    equations: Equations = field(repr=False)
+    coordinate_names: tuple[str, ...]
+    state_names: tuple[str, ...]
+    input_names: tuple[str, ...]
+    operating_point: Mapping[str, float]
+    input_values: Mapping[str, float]
+    parameter_values: Mapping[str, float]
+    t: float
+    M: np.ndarray = field(repr=False)
+    C: np.ndarray = field(repr=False)
+    G: np.ndarray = field(repr=False)
+    K: np.ndarray = field(repr=False)
+    input_matrix: np.ndarray = field(repr=False)
+    A: np.ndarray = field(repr=False)
+    B: np.ndarray = field(repr=False)
+    accelerations: np.ndarray = field(repr=False)
+    family: tuple[str, ...] = ()
+    _exact_point: Mapping = field(default_factory=lambda: MappingProxyType({}), repr=False)
+
+    @property
+    def n(self) -> int:
+        return len(self.coordinate_names)
+
+    @property
+    def output_matrix(self) -> np.ndarray:
+        """C of the state-space form (outputs y = x): the identity, shape (2n, 2n)."""
+        return np.eye(2 * self.n)
+
+    @property
+    def feedthrough(self) -> np.ndarray:
+        """D of the state-space form: zeros, shape (2n, m)."""
+        return np.zeros((2 * self.n, len(self.input_names)))
+
+    @property
+    def is_equilibrium(self) -> bool:
+        """Whether the operating point is at rest with zero acceleration."""
+        qd = np.array([self.operating_point[s] for s in self.state_names[self.n:]])
+        scale = 1.0 + float(np.abs(self.A).max()) if self.A.size else 1.0
+        return bool(np.all(qd == 0) and np.all(np.abs(self.accelerations) <= 1e-9 * scale))
+
+    @cached_property
+    def eigenvalues(self) -> np.ndarray:
+        """Eigenvalues of A, shape (2n,), sorted by real part then imaginary part."""
+        lam = np.linalg.eigvals(self.A)
+        lam = lam[np.lexsort((lam.imag, lam.real))]
+        return read_only(lam)
+
+    @cached_property
+    def _stability(self):
+        keep = [i for i, c in enumerate(self.coordinate_names) if c not in self.family]
+        return classify(self.A, self.K, self.C, self.G, np.array(keep, dtype=int))
+
+    @property
+    def stability(self) -> str:
+        """One of STABILITY (see :func:`classify`)."""
+        return self._stability[0]
+
+    @property
+    def stable(self) -> bool:
+        """True unless the linearization is unstable (marginal counts as stable)."""
+        return self._stability[1]
+
+    @property
+    def lagrange_dirichlet(self) -> bool | None:
+        """Whether the Lagrange-Dirichlet criterion holds (K positive definite, damping positive
+        semi-definite); None where it does not apply (K not symmetric)."""
+        return self._stability[2]
+
+    @cached_property
+    def symbolic(self) -> SymbolicLinearization:
+        """The same linearization with symbolic parameters, at the exact operating point
+        (floats given for it are read as exact numbers, 3.14159... as pi)."""
+        return _symbolic(self)
+
+    def to_control(self):
+        """A python-control StateSpace (A, B, I, 0) with the state and input names (needs the
+        optional extra: pip install "lagrangian[control]")."""
+        try:
+            import control
+        except ImportError:
+            raise ImportError("to_control() needs python-control: pip install \"lagrangian[control]\"") from None
+        return control.ss(self.A, self.B, self.output_matrix, self.feedthrough,
+                          states=list(self.state_names), inputs=list(self.input_names),
+                          outputs=list(self.state_names))
+
+    def to_dict(self) -> dict:
+        """The JSON contract: state_names, input_names, A, B, M, C, K (numeric lists), and G,
+        input_matrix, operating_point, inputs, parameters, eigenvalues ([re, im]), stability."""
+        return {
+            "state_names": list(self.state_names),
+            "input_names": list(self.input_names),
+            "operating_point": dict(self.operating_point),
+            "inputs": dict(self.input_values),
+            "parameters": dict(self.parameter_values),
+            "t": self.t,
+            "A": self.A.tolist(), "B": self.B.tolist(),
+            "M": self.M.tolist(), "C": self.C.tolist(), "G": self.G.tolist(), "K": self.K.tolist(),
+            "input_matrix": self.input_matrix.tolist(),
+            "eigenvalues": [[float(z.real), float(z.imag)] for z in self.eigenvalues],
+            "stability": self.stability,
+            "stable": self.stable,
+        }
+
+    def text(self) -> str:
+        def mat(name, a):
+            rows = [" ".join(f"{x:12.6g}" for x in r) for r in np.atleast_2d(a)] if a.size else ["(empty)"]
+            return [f"  {name} ="] + [f"    {r}" for r in rows]
+
+        at = ", ".join(f"{k} = {v:.6g}" for k, v in self.operating_point.items())
+        lines = [f"Linearization of {self.equations.model.name} at {at}"
+                 + (f", inputs {', '.join(f'{k} = {v:g}' for k, v in self.input_values.items())}"
+                    if self.input_values else ""),
+                 "  M dq'' + (C + G) dq' + K dq = B0 du;  x' = A x + B u, x = ["
+                 + ", ".join(self.state_names) + "]"]
+        for name in ("M", "C", "G", "K"):
+            lines += mat(name, getattr(self, name))
+        lines += mat("B0", self.input_matrix) + mat("A", self.A) + mat("B", self.B)
+        lines.append("  eigenvalues: " + ", ".join(_complex_text(z) for z in self.eigenvalues))
+        lines.append(f"  {self.stability}" + (" (Lagrange-Dirichlet: K positive definite)"
+                                               if self.stability == "stable" else ""))
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        at = ", ".join(f"{k}={v:.4g}" for k, v in self.operating_point.items())
+        return f"<LinearModel of {self.equations.model.name!r} at {at}: {self.stability}>"
+
+
+def _complex_text(z: complex) -> str:
+    if abs(z.imag) <= 1e-12 * max(1.0, abs(z)):
+        return f"{z.real:.6g}"
+    return f"{z.real:.6g}{z.imag:+.6g}j"
+
+
+def _point(equations: Equations, at, problems: list[Problem]) -> tuple[dict[str, float], dict]:
+    """State values by name (others 0) and their exact forms."""
+    names = equations.state_names
+    values = {s: 0.0 for s in names}
+    exact: dict = {}
+    if at is None:
+        return values, exact
+    if not isinstance(at, Mapping):
+        arr = np.asarray(at, dtype=float).ravel()
+        if arr.shape == (equations.n,):
+            arr = np.concatenate((arr, np.zeros(equations.n)))
+        if arr.shape != (2 * equations.n,) or not np.all(np.isfinite(arr)):
+            problems.append(Problem(f"the operating point must give {equations.n} coordinates or "
+                                    f"{2 * equations.n} state values ({', '.join(names)}), got {at!r}", key="at"))
+            return values, exact
+        return dict(zip(names, map(float, arr))), exact
+    from ._setting import _closest, _number
+
+    for name, value in at.items():
+        name = str(getattr(name, "name", name))
+        number = _number(value)
+        if name not in names:
+            problems.append(Problem(f"'{name}' is not a coordinate or velocity{_closest(name, names)}; the "
+                                    f"choices are {', '.join(names)}", key=f"at.{name}"))
+        elif number is None:
+            problems.append(Problem(f"the value of '{name}' must be a finite number, got {value!r}",
+                                    key=f"at.{name}"))
+        else:
+            values[name] = number
+            if isinstance(value, sympy.Basic):
+                exact[name] = value
+    return values, exact
+
+
+def linearize(equations: Equations, at: Mapping | None = None, *, inputs: Mapping | None = None,
+              params: Mapping | None = None, t: float = 0.0) -> LinearModel:
+    """Linearize the equations about an operating point.
+
+    Parameters
+    ----------
+    equations : Equations
+    at : mapping of str to float, or array_like, shape (n,) or (2n,)
+        The operating point: coordinates and velocities by name (``{"q2": sympy.pi/2}``); those
+        not given are 0. An equilibrium's ``coordinates`` work as they are.
+    inputs : mapping of str to float
+        Constant input values (default 0).
+    params : mapping of str to float
+        Parameter values that override the model's.
+    t : float
+        The time, for models whose equations depend on t.
+
+    Returns
+    -------
+    LinearModel
+
+    Raises
+    ------
+    ModelError
+        An unknown name or a value that is not a number.
+    SingularMassMatrixError
+        M is singular at the operating point (with the diagnosis of :func:`singularities`).
+    """
+    problems: list[Problem] = []
+    try:
+        setting = resolve_setting(equations, params, inputs, t)
+    except ModelError as exc:
+        problems.extend(exc.problems)
+        setting = None
+    point, exact = _point(equations, at, problems)
+    if problems:
+        raise ModelError(problems)
+    return linearize_at(equations, point, setting, exact)
+
+
+def linearize_at(equations: Equations, point: Mapping[str, float], setting: Setting,
+                 exact: Mapping | None = None) -> LinearModel:
+    """linearize() for checked values (used by equilibria and continuation)."""
+    n = equations.n
+    names = equations.state_names
+    x = np.array([point[s] for s in names], dtype=float)
+    q, qd = x[:n], x[n:]
+    d = derivatives(equations)
+    u, p = setting.u, setting.p
+    base = d.full(q, qd, setting.t, u, p, np.zeros(n))
+    M, f = base["M"], base["f"]
+    if not np.all(np.isfinite(M)) or inertia_measure(M) <= _SINGULAR:
+        raise _singular_error(equations, point)
+    qdd = np.linalg.solve(M, f)
+    parts = d.full(q, qd, setting.t, u, p, qdd) if np.any(qdd) else base
+    D = -parts["fqd"]
+    K = parts["Maq"] - parts["fq"]
+    B0 = parts["fu"]
+    D, K, B0 = _clean(D), _clean(K), _clean(B0)
+    C, G = (D + D.T) / 2, (D - D.T) / 2
+    A = np.zeros((2 * n, 2 * n))
+    A[:n, n:] = np.eye(n)
+    A[n:, :n] = -np.linalg.solve(M, K)
+    A[n:, n:] = -np.linalg.solve(M, D)
+    B = np.zeros((2 * n, B0.shape[1]))
+    if B0.size:
+        B[n:] = np.linalg.solve(M, B0)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        bad = ", ".join(f"{k} = {v:g}" for k, v in point.items())
+        raise ModelError(f"the linearization at {bad} is not finite (a derivative of the equations is "
+                         "infinite or undefined there); choose another operating point")
+    A, B = _clean(A), _clean(B)
+    return LinearModel(
+        equations=equations, coordinate_names=names[:n], state_names=names,
+        input_names=tuple(setting.inputs), operating_point=MappingProxyType(dict(zip(names, map(float, x)))),
+        input_values=setting.inputs, parameter_values=setting.parameters, t=setting.t,
+        M=read_only(M), C=read_only(C), G=read_only(G), K=read_only(K), input_matrix=read_only(B0),
+        A=read_only(A), B=read_only(B), accelerations=read_only(qdd), family=cyclic_coordinates(equations),
+        _exact_point=MappingProxyType(dict(exact or {})))
+
+
+def _clean(a: np.ndarray) -> np.ndarray:
+    """Round-off (cos(pi/2) = 6e-17) set to exact zeros, relative to the matrix's largest entry;
+    -0.0 printed as 0."""
+    if a.size:
+        a = np.where(np.abs(a) <= 1e-14 * np.abs(a).max(), 0.0, a)
+    return a + 0.0
+
+
+def cyclic_coordinates(equations: Equations) -> tuple[str, ...]:
+    """Coordinates absent from M and f: the equations are the same wherever they are."""
+    core = equations.core
+    used = set()
+    for e in (*core.M, *core.f):
+        used |= e.free_symbols
+    return tuple(q.name for q, qs in zip(equations.coordinates, core.q) if qs not in used)
+
+
+def _singular_error(equations: Equations, point: Mapping[str, float]) -> SingularMassMatrixError:
+    where = ", ".join(f"{k} = {v:.6g}" for k, v in point.items() if not k.endswith("_dot"))
+    diagnosis = singularities(equations).text()
+    return SingularMassMatrixError(
+        f"the mass matrix is singular at the operating point ({where}), so the equations cannot be "
+        f"solved for q_ddot there and have no linearization in state-space form.\n{diagnosis}",
+        state=dict(point), diagnosis=diagnosis)
+
+
+def _exact_number(value: float, given=None) -> sympy.Expr:
+    if given is not None:
+        return sympy.sympify(given)
+    if value == int(value) and abs(value) < 2**53:
+        return sympy.Integer(int(value))
+    guess = sympy.nsimplify(value, [sympy.pi], tolerance=1e-12)
+    return guess if abs(float(guess) - value) <= 1e-12 * max(1.0, abs(value)) else sympy.Float(value)
+
+
+def _symbolic(lin: LinearModel) -> SymbolicLinearization:
+    eqs = lin.equations
+    core, n = eqs.core, eqs.n
+    point = {se.Symbol(s): se.sympify(_exact_number(v, lin._exact_point.get(s)))
+             for s, v in lin.operating_point.items()}
+    point[core.t] = se.sympify(_exact_number(lin.t))
+    point.update({se.Symbol(u): se.sympify(_exact_number(v)) for u, v in lin.input_values.items()})
+    q, qd = list(core.q), list(core.qd)
+    us = [se.Symbol(u) for u in lin.input_names]
+
+    def at(e):
+        return sympy.simplify(to_sympy(se.expand(e.subs(point))) if not isinstance(e, sympy.Basic) else e)
+
+    def matrix(rows, cols, entry):
+        return sympy.Matrix(rows, cols, [entry(i, j) for i in range(rows) for j in range(cols)])
+
+    M = matrix(n, n, lambda i, j: at(core.M[i, j]))
+    f = sympy.Matrix([at(fi) for fi in core.f])
+    qdd = sympy.simplify(M.LUsolve(f)) if any(v != 0 for v in f) else sympy.zeros(n, 1)
+    a = {se.Symbol(f"_a{i}"): se.sympify(qdd[i]) for i in range(n)}
+    Ma = [sum((core.M[i, j] * se.Symbol(f"_a{j}") for j in range(n)), se.Integer(0)) for i in range(n)]
+    K = matrix(n, n, lambda i, j: at(Ma[i].diff(q[j]).subs(a) - core.f[i].diff(q[j])))
+    D = matrix(n, n, lambda i, j: at(-core.f[i].diff(qd[j])))
+    B0 = matrix(n, len(us), lambda i, j: at(core.f[i].diff(us[j])))
+    C = sympy.simplify((D + D.T) / 2)
+    G = sympy.simplify((D - D.T) / 2)
+    A = sympy.zeros(2 * n, 2 * n)
+    A[:n, n:] = sympy.eye(n)
+    A[n:, :n] = sympy.simplify(-M.LUsolve(K))
+    A[n:, n:] = sympy.simplify(-M.LUsolve(D))
+    B = sympy.zeros(2 * n, len(us))
+    if us:
+        B[n:, :] = sympy.simplify(M.LUsolve(B0))
+    I = sympy.ImmutableMatrix
+    return SymbolicLinearization(I(M), I(C), I(G), I(K), I(B0), I(A), I(B))
+

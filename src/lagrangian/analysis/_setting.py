@@ -1,0 +1,180 @@
+"""The fixed values an analysis works at (parameters, constant inputs, time) and the numerical
+derivatives of the forcing that every analysis shares.
+
+With M(q, t) q_ddot = f(q, q_dot, t, u), an analysis needs f and its Jacobians with respect to q,
+q_dot and u, evaluated at points; they are differentiated once in SymEngine and evaluated with
+Lambdify (common subexpressions shared), cached per Equations object.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import weakref
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+import symengine as se
+import sympy
+
+from ..equations import Equations
+from ..errors import ModelError, Problem
+
+__all__ = ["Setting", "resolve_setting", "derivatives", "read_only"]
+
+
+def read_only(a) -> np.ndarray:
+    a = np.array(a)
+    a.setflags(write=False)
+    return a
+
+
+def _closest(name: str, names) -> str:
+    hint = difflib.get_close_matches(name, list(names), n=1, cutoff=0.5)
+    return f" (did you mean '{hint[0]}'?)" if hint else ""
+
+
+def _number(value) -> float | None:
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, numbers.Real):
+        value = float(value)
+    elif isinstance(value, sympy.Basic) and value.is_number:
+        try:
+            value = float(value)
+        except TypeError:
+            return None
+    else:
+        return None
+    return value if math.isfinite(value) else None
+
+
+@dataclass(frozen=True)
+class Setting:
+    """Parameter values, constant input values and the time at which an analysis is done.
+
+    `parameters` and `inputs` map names to floats, in the model's order."""
+
+    parameters: Mapping[str, float]
+    inputs: Mapping[str, float]
+    t: float = 0.0
+
+    @property
+    def p(self) -> np.ndarray:
+        return np.array(list(self.parameters.values()), dtype=float)
+
+    @property
+    def u(self) -> np.ndarray:
+        return np.array(list(self.inputs.values()), dtype=float)
+
+    def with_parameter(self, name: str, value: float) -> "Setting":
+        return Setting(MappingProxyType({**self.parameters, name: float(value)}), self.inputs, self.t)
+
+
+def _named(values: Mapping | None, names: tuple[str, ...], what: str, key: str,
+           problems: list[Problem]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for name, value in (values or {}).items():
+        name = str(getattr(name, "name", name))
+        number = _number(value)
+        if name not in names:
+            problems.append(Problem(f"'{name}' is not {what}{_closest(name, names)}; the choices are "
+                                    f"{', '.join(names) or 'none'}", key=f"{key}.{name}"))
+        elif number is None:
+            problems.append(Problem(f"the value of '{name}' must be a finite number, got {value!r}",
+                                    key=f"{key}.{name}"))
+        else:
+            out[name] = number
+    return out
+
+
+def resolve_setting(equations: Equations, params: Mapping | None = None, inputs: Mapping | None = None,
+                    t: float = 0.0, *, free: tuple[str, ...] = ()) -> Setting:
+    """Check and complete the values: parameters default to the model's, inputs to 0.
+
+    `free` names parameters that need no value (a swept parameter). Every problem is reported at
+    once as a :class:`ModelError`."""
+    if not isinstance(equations, Equations):
+        raise TypeError(f"expected Equations (lagrangian.derive(model)), got {type(equations).__name__}")
+    problems: list[Problem] = []
+    pnames = tuple(p.name for p in equations.parameters)
+    unames = tuple(u.name for u in equations.inputs)
+    given_p = _named(params, pnames, "a parameter of the model", "params", problems)
+    given_u = _named(inputs, unames, "an input of the model", "inputs", problems)
+    values: dict[str, float] = {}
+    for sym, default in equations.parameters.items():
+        v = given_p.get(sym.name, default)
+        if v is None and sym.name not in free:
+            if f"params.{sym.name}" not in {p.key for p in problems}:
+                problems.append(Problem(f"parameter '{sym.name}' has no value: give one in the model or pass "
+                                        f"params={{'{sym.name}': ...}} (--param {sym.name}=... on the command "
+                                        "line)", key=f"params.{sym.name}"))
+            continue
+        values[sym.name] = float("nan") if v is None else float(v)
+    if _number(t) is None:
+        problems.append(Problem(f"the time t must be a finite number, got {t!r}", key="t"))
+    if problems:
+        raise ModelError(problems)
+    return Setting(MappingProxyType(values), MappingProxyType({u: given_u.get(u, 0.0) for u in unames}), float(t))
+
+
+class Derivatives:
+    """Numerical f, M and Jacobians of f at (q, q_dot, t, u, p) for one Equations object."""
+
+    def __init__(self, equations: Equations):
+        core = equations.core
+        n = equations.n
+        self.n, self.m = n, len(equations.inputs)
+        q, qd, t = list(core.q), list(core.qd), core.t
+        u = [se.Symbol(s.name) for s in equations.inputs]
+        p = [se.Symbol(s.name) for s in equations.parameters]
+        a = [se.Symbol(f"_a{i}") for i in range(n)]  # placeholder accelerations for d(M a)/dq
+        self._args = [*q, *qd, t, *u, *p]
+        f = list(core.f)
+        M = [core.M[i, j] for i in range(n) for j in range(n)]
+        fq = [fi.diff(qj) for fi in f for qj in q]
+        fqd = [fi.diff(vj) for fi in f for vj in qd]
+        fu = [fi.diff(uj) for fi in f for uj in u]
+        Ma = [sum((core.M[i, j] * a[j] for j in range(n)), se.Integer(0)) for i in range(n)]
+        Maq = [e.diff(qj) for e in Ma for qj in q]
+        self._full = se.Lambdify(self._args + a, M + f + fq + fqd + fu + Maq, cse=True, real=True)
+        zero = {v: se.Integer(0) for v in qd}
+        fs = [fi.subs(zero) for fi in f]
+        fsq = [e.diff(qj) for e in fs for qj in q]
+        self._static = se.Lambdify(self._args, fs + fsq, cse=True, real=True)
+        self.static_forcing = tuple(fs)
+
+    def _argv(self, q, qd, t, u, p, extra=()):
+        return np.concatenate((q, qd, [t], u, p, extra)).astype(float)
+
+    def static(self, q, t, u, p) -> tuple[np.ndarray, np.ndarray]:
+        """(f, df/dq) at rest (q_dot = 0): shapes (n,), (n, n)."""
+        n = self.n
+        out = np.asarray(self._static(self._argv(q, np.zeros(n), t, u, p)), dtype=float).ravel()
+        return out[:n], out[n:].reshape(n, n)
+
+    def full(self, q, qd, t, u, p, qdd) -> dict[str, np.ndarray]:
+        """M, f, df/dq, df/dq_dot, df/du and d(M a)/dq at a = qdd."""
+        n, m = self.n, self.m
+        out = np.asarray(self._full(self._argv(q, qd, t, u, p, qdd)), dtype=float).ravel()
+        sizes = {"M": (n, n), "f": (n,), "fq": (n, n), "fqd": (n, n), "fu": (n, m), "Maq": (n, n)}
+        parts, k = {}, 0
+        for key, shape in sizes.items():
+            size = int(np.prod(shape))
+            parts[key] = out[k:k + size].reshape(shape)
+            k += size
+        return parts
+
+
+_CACHE: "weakref.WeakKeyDictionary[Equations, Derivatives]" = weakref.WeakKeyDictionary()
+
+
+def derivatives(equations: Equations) -> Derivatives:
+    """The numerical derivatives of `equations` (built once per Equations object)."""
+    d = _CACHE.get(equations)
+    if d is None:
+        d = _CACHE[equations] = Derivatives(equations)
+    return d

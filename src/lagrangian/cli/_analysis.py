@@ -1,0 +1,189 @@
+"""The analysis commands: equilibria, linearize, modes, sweep."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+
+from ..errors import ModelError
+from ._common import MODEL_HELP, assignments, check_writable, number
+
+
+def register(sub, fmt) -> None:
+    e = sub.add_parser("equilibria", help="find the equilibria and their stability", formatter_class=fmt,
+                       description="Find the states at rest (exactly when SymPy can, with the conditions "
+                       "for them to exist; by a multi-start numerical search otherwise) and classify their "
+                       "stability from the eigenvalues of the linearization.",
+                       epilog="Examples:\n  lagrangian equilibria rotating-pendulum --param Omega=6\n"
+                              "  lagrangian equilibria cart-pendulum --input F=0 --json")
+    e.add_argument("model", help=MODEL_HELP)
+    _values(e)
+    e.add_argument("--json", action="store_true",
+                   help="print a JSON list of {coordinates, stable, eigenvalues, stability, exact, conditions, family}")
+    e.set_defaults(handler=_cmd_equilibria)
+
+    lin = sub.add_parser("linearize", help="linearize about an operating point", formatter_class=fmt,
+                         description="Linearize about an operating point: M dq'' + (C + G) dq' + K dq = B0 du "
+                         "and the state space x' = A x + B u, x = [q, q_dot]. Without --at, about the first "
+                         "stable equilibrium.",
+                         epilog="Examples:\n  lagrangian linearize cart-pendulum --at q1=0,q2=pi/2\n"
+                                "  lagrangian linearize cart-pendulum --at q2=pi/2 --input F=0 --json")
+    lin.add_argument("model", help=MODEL_HELP)
+    _at(lin)
+    _values(lin)
+    lin.add_argument("--json", action="store_true",
+                     help="print one JSON object: state_names, input_names, A, B, M, C, K, G, input_matrix, ...")
+    lin.set_defaults(handler=_cmd_linearize)
+
+    m = sub.add_parser("modes", help="natural frequencies, mode shapes and damping ratios", formatter_class=fmt,
+                       description="Natural frequencies (Hz and rad/s), mass-normalized mode shapes, modal "
+                       "masses and stiffnesses, damping ratios, about an operating point (default: the first "
+                       "stable equilibrium).",
+                       epilog="Examples:\n  lagrangian modes mck\n  lagrangian modes sliding-mass-pendulum "
+                              "--at q1=0.24525,q2=0 --json")
+    m.add_argument("model", help=MODEL_HELP)
+    _at(m)
+    _values(m)
+    m.add_argument("--json", action="store_true",
+                   help="print one JSON object: frequencies_hz (ascending), damping_ratios, shapes, ...")
+    m.set_defaults(handler=_cmd_modes)
+
+    s = sub.add_parser("sweep", help="follow the equilibria as a parameter varies (bifurcation diagram)",
+                       formatter_class=fmt,
+                       description="Follow the equilibria and their stability as one parameter varies; report "
+                       "the branches and the critical values of the parameter (exact when possible); "
+                       "optionally draw the bifurcation diagram.",
+                       epilog="Examples:\n  lagrangian sweep rotating-pendulum --param Omega --from 0 --to 8 "
+                              "--steps 200 --plot omega.png\n"
+                              "  lagrangian sweep rotating-pendulum --param Omega --param l=1 --from 0 --to 8 --json")
+    s.add_argument("model", help=MODEL_HELP)
+    s.add_argument("--param", action="append", default=[], metavar="NAME[=VALUE]",
+                   help="the parameter to sweep (a name), and other parameter values (NAME=VALUE, repeatable)")
+    s.add_argument("--from", dest="start", type=float, required=True, metavar="A", help="first value")
+    s.add_argument("--to", dest="stop", type=float, required=True, metavar="B", help="last value")
+    s.add_argument("--steps", type=int, default=200, help="number of intervals between A and B (default 200)")
+    s.add_argument("--input", action="append", default=[], metavar="NAME=VALUE",
+                   help="a constant input value (repeatable, or comma-separated); inputs not given are 0")
+    s.add_argument("--plot", metavar="FILE", help="draw the bifurcation diagram into FILE (.png, .pdf, .svg)")
+    s.add_argument("--coordinate", metavar="NAME", help="the coordinate on the diagram's vertical axis")
+    s.add_argument("--json", action="store_true",
+                   help="print one JSON object: branches (each a list of {param, coordinates, stable}), "
+                        "critical_values, ...")
+    s.set_defaults(handler=_cmd_sweep)
+
+
+def _values(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a parameter value (repeatable, or comma-separated)")
+    p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE",
+                   help="a constant input value (repeatable, or comma-separated); inputs not given are 0")
+
+
+def _at(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--at", action="append", default=[], metavar="NAME=VALUE,...",
+                   help="the operating point: coordinates and velocities, e.g. q1=0,q2=pi/2 (others are 0); "
+                        "default: the first stable equilibrium")
+    p.add_argument("--t", type=float, default=0.0, help="the time, for models that contain t (default 0)")
+
+
+def _numbers(items, what: str) -> dict[str, float]:
+    return {k: number(v, f"--{what} {k}") for k, v in assignments(items, what).items()}
+
+
+def _load(args):
+    from .. import derive, load
+
+    return derive(load(args.model))
+
+
+def _cmd_equilibria(args: argparse.Namespace) -> int:
+    from ..analysis import equilibria
+
+    eqs = _load(args)
+    found = equilibria(eqs, params=_numbers(args.param, "param"), inputs=_numbers(args.input, "input"))
+    if args.json:
+        print(json.dumps([e.to_dict() for e in found], indent=2))
+        return 0
+    print(f"Equilibria of {eqs.model.name} ({len(found)}):")
+    for e in found:
+        print(f"  {e.text()}")
+    return 0
+
+
+def _operating_point(args, eqs):
+    """(linear model, description): about --at, or the first stable equilibrium."""
+    from ..analysis import equilibria, linearize
+
+    params, inputs = _numbers(args.param, "param"), _numbers(args.input, "input")
+    if args.at:
+        return linearize(eqs, _numbers(args.at, "at"), params=params, inputs=inputs, t=args.t), None
+    found = [e for e in equilibria(eqs, params=params, inputs=inputs, t=args.t) if e.linear_model is not None]
+    stable = [e for e in found if e.stable]
+    if not stable:
+        raise ModelError(f"{eqs.model.name} has no stable equilibrium to linearize about"
+                         + (f" (its equilibria: {'; '.join(e.text() for e in found)})" if found else "")
+                         + "; give the operating point with --at, e.g. --at "
+                         + ",".join(f"{c.name}=0" for c in eqs.coordinates))
+    e = stable[0]
+    return e.linear_model, "about the stable equilibrium " + ", ".join(f"{k} = {v:.6g}" for k, v in e.coordinates.items())
+
+
+def _cmd_linearize(args: argparse.Namespace) -> int:
+    eqs = _load(args)
+    lin, note = _operating_point(args, eqs)
+    if args.json:
+        print(json.dumps(lin.to_dict(), indent=2))
+    else:
+        print(lin.text())
+    return 0
+
+
+def _cmd_modes(args: argparse.Namespace) -> int:
+    from ..analysis import modes
+
+    eqs = _load(args)
+    lin, note = _operating_point(args, eqs)
+    result = modes(lin)
+    if args.json:
+        print(json.dumps({"operating_point": dict(lin.operating_point), **result.to_dict()}, indent=2))
+    else:
+        at = note or "at " + ", ".join(f"{k} = {v:.6g}" for k, v in lin.operating_point.items())
+        print(f"Modes of {eqs.model.name} {at}:")
+        print(result.text())
+    return 0
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ..analysis import continuation
+
+    swept = [p.strip() for item in args.param for p in item.split(",") if p.strip() and "=" not in p]
+    fixed = [item for item in args.param if "=" in item]
+    if len(swept) != 1:
+        raise ModelError("--param: name exactly one parameter to sweep (without a value), e.g. --param Omega; "
+                         f"got {', '.join(swept) or 'none'}")
+    if args.steps < 1:
+        raise ModelError(f"--steps {args.steps}: expected a whole number >= 1, e.g. --steps 200")
+    if args.plot:
+        ext = os.path.splitext(args.plot)[1].lower()
+        if ext not in (".png", ".pdf", ".svg"):
+            raise ModelError(f"--plot {args.plot}: expected a file ending in .png, .pdf or .svg")
+        check_writable(args.plot, "diagram.png")
+    eqs = _load(args)
+    result = continuation(eqs, swept[0], np.linspace(args.start, args.stop, args.steps + 1),
+                          params=_numbers(fixed, "param"), inputs=_numbers(args.input, "input"))
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        fig = result.plot(args.coordinate)
+        fig.savefig(args.plot, dpi=120, bbox_inches="tight")
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    else:
+        print(result.text())
+        if args.plot:
+            print(f"wrote the bifurcation diagram to {args.plot}")
+    return 0
