@@ -69,6 +69,9 @@ class LinearSystem:
         return (f"{sympy.latex(self.M)} \\ddot{{x}} + {sympy.latex(self.C)} \\dot{{x}} + "
                 f"{sympy.latex(self.K)} x = {sympy.latex(self.f)}")
 
+    def _repr_latex_(self) -> str:
+        return "$$" + self.latex() + "$$"
+
 
 def _vec(items) -> sympy.ImmutableMatrix:
     return sympy.ImmutableMatrix([to_sympy(e) for e in items])
@@ -339,6 +342,35 @@ class Equations:
         """True when the Jacobi integral is conserved: L free of t, D = 0 and Q = 0."""
         return (not self.explicit_time and self.core.D == 0 and all(Qi == 0 for Qi in self.core.Q))
 
+    @cached_property
+    def cyclic_coordinates(self) -> tuple[sympy.Symbol, ...]:
+        """Coordinates whose momentum p_i = dL/dq_dot_i is conserved: L does not contain q_i, and
+        the i-th generalized force and damping force vanish (Q_i - dD/dq_dot_i = 0)."""
+        core = self.core
+        out = []
+        for c, qi, qdi, Qi in zip(self.coordinates, core.q, core.qd, core.Q):
+            if qi in core.L.free_symbols and _depends_on(core.L, qi):
+                continue
+            if se.expand(Qi - core.D.diff(qdi)) != 0:
+                continue
+            out.append(c)
+        return tuple(out)
+
+    @cached_property
+    def conserved_quantities(self) -> dict[str, sympy.Expr]:
+        """The first integrals that Lagrange's equations give: ``energy`` (T* + V, when T* = T2 and the
+        system is conservative) or ``jacobi_integral`` (h = q_dot . dL/dq_dot - L, when L has no
+        explicit t, D = 0 and Q = 0), and ``p_<q>`` = dL/dq_dot for each cyclic coordinate."""
+        out: dict[str, sympy.Expr] = {}
+        if self.is_conservative:
+            h = self.jacobi_integral
+            energy = sympy.expand(self.T + self.V)
+            out["energy" if sympy.expand(h - energy) == 0 else "jacobi_integral"] = _nice(h, self.velocities)
+        names = [c.name for c in self.coordinates]
+        for c in self.cyclic_coordinates:
+            out[f"p_{c.name}"] = _nice(to_sympy(self.core.p[names.index(c.name)]))
+        return out
+
     # ------------------------------------------------------------- printing
     def equation(self, i: int) -> sympy.Eq:
         """The i-th equation as ``sympy.Eq(residual, 0)``."""
@@ -357,6 +389,9 @@ class Equations:
         lines.append("  f =")
         for x in self.forcing:
             lines.append(f"    {sympy.sstr(x)}")
+        if self.conserved_quantities:
+            lines += ["", "Conserved quantities:"]
+            lines += [f"  {k} = {sympy.sstr(v)}" for k, v in self.conserved_quantities.items()]
         if self.linear is not None:
             lin = self.linear
             lines += ["", "Linear: M x'' + C x' + K x = f with",
@@ -383,7 +418,8 @@ class Equations:
 
     def to_dict(self) -> dict:
         """The JSON contract: coordinates, velocities, accelerations, parameters, inputs,
-        mass_matrix, forcing, equations (SymPy syntax), and linear (M, C, K, f) or null."""
+        mass_matrix, forcing, equations (SymPy syntax), linear (M, C, K, f) or null, and
+        conserved_quantities ({name: expression})."""
         s = sympy.sstr
         out = {
             "name": self.model.name,
@@ -400,6 +436,7 @@ class Equations:
             "dissipation": s(self.D),
             "generalized_forces": [s(x) for x in self.generalized_forces],
             "linear": None,
+            "conserved_quantities": {k: s(v) for k, v in self.conserved_quantities.items()},
         }
         if self.linear is not None:
             lin = self.linear
