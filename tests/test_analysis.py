@@ -443,3 +443,37 @@ def test_cli_analysis_errors(capsys):
     m = "no stable equilibrium to linearize about"
     code, _, err = run(capsys, "linearize", "cart-pendulum-massless")
     assert code == 2 and m in err and "give the operating point with --at, e.g. --at q1=0,q2=0" in err
+
+
+# ----------------------------------------------------------------------------- the docs are current
+def _doc_blocks():
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "analysis.md").read_text()
+    return text, re.findall(r"```(\w*)\n(.*?)```", text, re.S)
+
+
+def test_analysis_doc_examples_run_and_print_what_the_doc_says(capsys, tmp_path, monkeypatch):
+    import contextlib
+    import io
+
+    _, blocks = _doc_blocks()
+    code = [body for lang, body in blocks if lang == "python"]
+    printed = blocks[[b for _, b in blocks].index(code[0]) + 1][1]
+    namespace = {}
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        for body in code:
+            exec(compile(body, "docs/analysis.md", "exec"), namespace)  # our own docs, not user input
+    assert out.getvalue() == printed
+    assert namespace["sweep"].critical_values == pytest.approx((4.4294469180700204,))
+    assert str(namespace["lin"].symbolic.A) == ("Matrix([[0, 0, 1, 0], [0, 0, 0, 1], [0, M2*g/M1, 0, 0], "
+                                                "[0, g*(M1 + M2)/(L*M1), 0, 0]])")
+    # the console sessions
+    monkeypatch.chdir(tmp_path)
+    for _, body in blocks:
+        if body.startswith("$ lagrangian"):
+            command, expected = body.split("\n", 1)
+            code_, got, _ = run(capsys, *command.split()[2:])
+            assert code_ == 0 and got == expected

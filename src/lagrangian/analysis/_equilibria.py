@@ -26,7 +26,6 @@ from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
-import scipy.optimize
 import sympy
 
 from ..equations import Equations
@@ -295,6 +294,8 @@ def _same(a: np.ndarray, b: np.ndarray, angles) -> bool:
 
 def solve_from(problem: EquilibriumProblem, setting: Setting, start: np.ndarray) -> np.ndarray | None:
     """Newton-type solve of f(q, 0) = 0 from `start` (full q); None when it does not converge."""
+    import scipy.optimize
+
     d = derivatives(problem.equations)
     idx = list(problem.unknowns)
     q = np.array(start, dtype=float)

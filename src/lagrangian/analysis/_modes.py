@@ -15,7 +15,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 
 from ._linearize import LinearModel
 from ._setting import read_only
@@ -116,6 +115,8 @@ def modes(linear_model: LinearModel) -> Modes:
     if not isinstance(linear_model, LinearModel):
         raise TypeError(f"modes() expects a LinearModel (lagrangian.linearize(...)), got "
                         f"{type(linear_model).__name__}")
+    import scipy.linalg
+
     lin = linear_model
     M, K, C = np.asarray(lin.M), np.asarray(lin.K), np.asarray(lin.C)
     n = lin.n

@@ -25,8 +25,8 @@ def register(sub, fmt) -> None:
 
     lin = sub.add_parser("linearize", help="linearize about an operating point", formatter_class=fmt,
                          description="Linearize about an operating point: M dq'' + (C + G) dq' + K dq = B0 du "
-                         "and the state space x' = A x + B u, x = [q, q_dot]. Without --at, about the first "
-                         "stable equilibrium.",
+                         "and the state space x' = A x + B u, x = [q, q_dot]. Without --at, about the "
+                         "stable equilibrium nearest q = 0.",
                          epilog="Examples:\n  lagrangian linearize cart-pendulum --at q1=0,q2=pi/2\n"
                                 "  lagrangian linearize cart-pendulum --at q2=pi/2 --input F=0 --json")
     lin.add_argument("model", help=MODEL_HELP)
@@ -38,8 +38,8 @@ def register(sub, fmt) -> None:
 
     m = sub.add_parser("modes", help="natural frequencies, mode shapes and damping ratios", formatter_class=fmt,
                        description="Natural frequencies (Hz and rad/s), mass-normalized mode shapes, modal "
-                       "masses and stiffnesses, damping ratios, about an operating point (default: the first "
-                       "stable equilibrium).",
+                       "masses and stiffnesses, damping ratios, about an operating point (default: the stable "
+                       "equilibrium nearest q = 0).",
                        epilog="Examples:\n  lagrangian modes mck\n  lagrangian modes sliding-mass-pendulum "
                               "--at q1=0.24525,q2=0 --json")
     m.add_argument("model", help=MODEL_HELP)
@@ -83,7 +83,7 @@ def _values(p: argparse.ArgumentParser) -> None:
 def _at(p: argparse.ArgumentParser) -> None:
     p.add_argument("--at", action="append", default=[], metavar="NAME=VALUE,...",
                    help="the operating point: coordinates and velocities, e.g. q1=0,q2=pi/2 (others are 0); "
-                        "default: the first stable equilibrium")
+                        "default: the stable equilibrium nearest q = 0")
     p.add_argument("--t", type=float, default=0.0, help="the time, for models that contain t (default 0)")
 
 
@@ -112,7 +112,7 @@ def _cmd_equilibria(args: argparse.Namespace) -> int:
 
 
 def _operating_point(args, eqs):
-    """(linear model, description): about --at, or the first stable equilibrium."""
+    """(linear model, description): about --at, or the stable equilibrium nearest q = 0."""
     from ..analysis import equilibria, linearize
 
     params, inputs = _numbers(args.param, "param"), _numbers(args.input, "input")
@@ -125,7 +125,7 @@ def _operating_point(args, eqs):
                          + (f" (its equilibria: {'; '.join(e.text() for e in found)})" if found else "")
                          + "; give the operating point with --at, e.g. --at "
                          + ",".join(f"{c.name}=0" for c in eqs.coordinates))
-    e = stable[0]
+    e = min(stable, key=lambda e: sum(abs(v) for v in e.coordinates.values()))  # the one nearest q = 0
     return e.linear_model, "about the stable equilibrium " + ", ".join(f"{k} = {v:.6g}" for k, v in e.coordinates.items())
 
 
