@@ -320,6 +320,23 @@ def test_rotating_pendulum_continuation_numeric_agrees(rotating):
             np.testing.assert_allclose(np.cos(theta), 9.81 / (0.5 * b.params**2), rtol=1e-9)
 
 
+def test_saddle_node_located_numerically():
+    """V = x^4/4 - a x^2/2 + x/5: two equilibria are born where 4 a^3 = 27 (1/5)^2."""
+    m = _model("saddle-node", ["x"], {"a": 1.0})
+    m.add_energy(T="x_dot**2/2", V="x**4/4 - a*x**2/2 + x/5")
+    result = continuation(lg.derive(m), "a", np.linspace(0, 2, 41), exact=False)
+    assert result.critical_values == pytest.approx(((27 * 0.04 / 4) ** (1 / 3),), rel=1e-8)
+    assert len(result.branches) == 3
+    born = [b for b in result.branches if b.params[0] > 0]
+    assert len(born) == 2 and sorted(b.stable.all() for b in born) == [False, True]
+
+
+def test_pendulum_chain_has_two_to_the_n_equilibria_one_stable():
+    found = equilibria(lg.derive(lg.load("pendulum-chain-4")))
+    assert len(found) == 16 and sum(e.stable for e in found) == 1
+    assert all(v in (0.0, pytest.approx(math.pi)) for e in found for v in e.coordinates.values())
+
+
 def test_continuation_errors(rotating):
     with pytest.raises(lg.ModelError, match=r"'omega' is not a parameter of rotating-pendulum \(did you mean "
                                             r"'Omega'\?\); the parameters are m, l, g, Omega"):

@@ -115,7 +115,7 @@ class Continuation:
                              f"{b.points[j].param:.4g}]" for s, i, j in runs)
             lines.append(f"  branch {k + 1}: {form}: {stab}")
         if self.critical_values:
-            crit = ", ".join(f"{sympy.sstr(e)} = {v:.6g}" if e is not None else f"{v:.6g}"
+            crit = ", ".join(f"{sympy.sstr(e)} = {v:.6g}" if e is not None and not e.is_Number else f"{v:.6g}"
                              for v, e in zip(self.critical_values, self.critical_exact))
             lines.append(f"  critical values of {self.parameter}: {crit}")
         else:
@@ -185,10 +185,10 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
         branches, crit = exact_branches
     else:
         branches, crit = _numeric_branches(problem, settings, parameter), []
-    crit_numeric = _numeric_critical(problem, settings, parameter, branches)
+    changes, ends = _numeric_critical(problem, settings, parameter, branches)
     critical: list[tuple[float, sympy.Expr | None]] = list(crit)
     span = abs(values[-1] - values[0])
-    for v in crit_numeric:
+    for v in changes + ends:  # exact values first, then changes of stability, then ends of branches
         if not any(abs(v - c) <= 1e-6 * (1 + abs(c)) + 2 * span / len(values) for c, _ in critical):
             critical.append((v, None))
     critical.sort(key=lambda item: item[0])
@@ -334,8 +334,8 @@ def _distance(a: np.ndarray, b: np.ndarray, angles) -> float:
 
 def _numeric_critical(problem: EquilibriumProblem, settings: list[Setting], parameter: str,
                       branches: list[Branch]) -> list[float]:
-    """Stability changes along each branch, located by bisection, and the ends of branches inside
-    the range."""
+    """(stability changes along each branch, ends of branches inside the range), each located by
+    bisection."""
     eqs = problem.equations
     values = [s.parameters[parameter] for s in settings]
     base = settings[0]
@@ -359,7 +359,36 @@ def _numeric_critical(problem: EquilibriumProblem, settings: list[Setting], para
                 if abs(hi - lo) <= 1e-12 * (1 + abs(mid)):
                     break
             out.append((lo + hi) / 2)
+    ends: list[float] = []
+    ordered = sorted(values)
+    for b in branches:
         for end in (b.points[0], b.points[-1]):
-            if end.param not in (values[0], values[-1]):
-                out.append(end.param)
-    return sorted(out)
+            # the neighbouring value of the grid beyond this end, where the branch was not found
+            k = int(np.searchsorted(ordered, end.param))
+            before = ordered[k - 1] if k > 0 else None
+            after = ordered[k + 1] if k + 1 < len(ordered) and ordered[k] == end.param else (
+                ordered[k] if k < len(ordered) and ordered[k] != end.param else None)
+            params = [p.param for p in b.points]
+            beyond = before if end.param == min(params) else after
+            if beyond is not None:
+                ends.append(_branch_end(problem, base, parameter, end, beyond))
+    return sorted(out), sorted(ends)
+
+
+def _branch_end(problem: EquilibriumProblem, base: Setting, parameter: str, end: BranchPoint,
+                beyond: float) -> float:
+    """Where a branch that exists at end.param and not at `beyond` ends, by bisection: the branch
+    exists at a value when the solve started from its last point converges nearby."""
+    eqs = problem.equations
+    inside, outside, q = end.param, beyond, _q(eqs, end)
+    reach = 0.5 * (1 + np.abs(q).max())
+    for _ in range(60):
+        mid = (inside + outside) / 2
+        qm = solve_from(problem, base.with_parameter(parameter, mid), q)
+        if qm is not None and _distance(qm, q, problem.angles) <= reach:
+            inside, q = mid, qm
+        else:
+            outside = mid
+        if abs(outside - inside) <= 1e-10 * (1 + abs(inside)):
+            break
+    return (inside + outside) / 2

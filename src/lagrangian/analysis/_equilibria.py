@@ -328,6 +328,13 @@ def _starts(problem: EquilibriumProblem, setting: Setting, count: int, seed: int
     p = np.abs(setting.p[np.isfinite(setting.p)])
     lengths = sorted({float(x) for x in p if x > 0} | {1.0})
     starts = [np.zeros(n)]
+    angles = [i for i in problem.unknowns if problem.angles[i]]
+    if 0 < len(angles) <= 8:  # every combination of 0 and pi: the equilibria of chains of pendulums
+        for bits in range(1, 2 ** len(angles)):
+            q = np.zeros(n)
+            for b, i in enumerate(angles):
+                q[i] = math.pi if bits >> b & 1 else 0.0
+            starts.append(q)
     angle_grid = [0.0, math.pi, math.pi / 2, -math.pi / 2, math.pi / 4, -3 * math.pi / 4]
     for k in range(count):
         q = np.zeros(n)
