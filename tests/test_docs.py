@@ -42,9 +42,9 @@ def test_getting_started_cart_from_elements_and_from_energies():
 
 def test_readme_python_example_runs(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (code,) = blocks("README.md", "python")
+    first, analysis = blocks("README.md", "python")
     namespace = {}
-    exec(compile(code, "README.md", "exec"), namespace)  # our own README, not user input
+    exec(compile(first, "README.md", "exec"), namespace)  # our own README, not user input
     eqs = namespace["eqs"]
     assert eqs.mass_matrix == sympy.Matrix([[M1 + M2, -L * M2 * sympy.sin(q2)], [-L * M2 * sympy.sin(q2), L**2 * M2]])
     assert (tmp_path / "out.csv").read_text().startswith("t,q1,q2,q1_dot,q2_dot,F")
@@ -64,3 +64,13 @@ def test_model_file_doc_error_example_is_current(tmp_path):
     except lg.ModelFileError as exc:
         message = f"lagrangian derive: error: {exc}".replace(str(path), "bad.toml")
     assert message.strip() == expected.strip()
+
+
+def test_readme_analysis_example_runs(capsys):
+    first, analysis = blocks("README.md", "python")
+    namespace = {}
+    exec(compile(first + analysis, "README.md", "exec"), namespace)  # our own README, not user input
+    out = capsys.readouterr().out
+    assert "theta = acos(g/(Omega**2*l)) = 0.994407 [exists when g <= Omega**2*l]: stable" in out
+    assert namespace["sweep"].critical_exact == (sympy.sqrt(g / S("l")),)
+    assert namespace["lin"].stability == "unstable"
