@@ -494,3 +494,13 @@ def test_analysis_doc_examples_run_and_print_what_the_doc_says(capsys, tmp_path,
             command, expected = body.split("\n", 1)
             code_, got, _ = run(capsys, *command.split()[2:])
             assert code_ == 0 and got == expected
+
+
+def test_rich_display_in_notebooks(rotating):
+    lin = linearize(lg.derive(lg.load("cart-pendulum")), at={"q2": sympy.pi / 2})
+    latex = lin._repr_latex_()
+    assert latex.startswith("$$") and r"\dot x = A x + B u" in latex and "14.715" in latex
+    assert modes(lin)._repr_html_().startswith("<pre>mode  kind")
+    (e, *_), sweep = equilibria(rotating), continuation(rotating, "Omega", [0.0, 1.0])
+    assert "theta = 0: stable" in e._repr_html_()
+    assert "no critical value of Omega in this range" in sweep._repr_html_()

@@ -101,6 +101,11 @@ class Continuation:
             "critical_values_exact": [None if e is None else sympy.sstr(e) for e in self.critical_exact],
         }
 
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.text())}</pre>"
+
     def text(self) -> str:
         lines = [f"Equilibria of {self.equations.model.name} for {self.parameter} from {self.values[0]:g} "
                  f"to {self.values[-1]:g}: {len(self.branches)} branch{'es' if len(self.branches) != 1 else ''}"]

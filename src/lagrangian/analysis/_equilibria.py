@@ -91,6 +91,11 @@ class Equilibrium:
             "family": list(self.family),
         }
 
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.text())}</pre>"
+
     def text(self) -> str:
         coords = ", ".join(f"{k} = {_value_text(v, None if self.exact is None else self.exact.get(k))}"
                            for k, v in self.coordinates.items())

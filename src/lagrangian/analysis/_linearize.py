@@ -27,6 +27,7 @@ import symengine as se
 import sympy
 
 from ..equations import Equations, singularities
+from ..equations._equations import _latex_name
 from ..equations._singular import inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
@@ -249,6 +250,17 @@ class LinearModel:
         lines.append(f"  {self.stability}" + (" (Lagrange-Dirichlet: K positive definite)"
                                                if self.stability == "stable" else ""))
         return "\n".join(lines)
+
+    def _repr_latex_(self) -> str:
+        def mat(a):
+            return sympy.latex(sympy.Matrix(np.atleast_2d(a)).applyfunc(lambda x: sympy.Float(x, 6))) if a.size else "0"
+
+        at = ", ".join(f"{_latex_name(k)} = {v:.6g}" for k, v in self.operating_point.items())
+        return ("$$\\begin{aligned}&\\text{at } " + at + "\\\\ "
+                f"&M\\,\\delta\\ddot q + (C + G)\\,\\delta\\dot q + K\\,\\delta q = B_0\\,\\delta u,\\quad "
+                f"M = {mat(self.M)},\\ C = {mat(self.C)},\\ G = {mat(self.G)},\\ K = {mat(self.K)}\\\\ "
+                f"&\\dot x = A x + B u,\\quad A = {mat(self.A)},\\ B = {mat(self.B)}"
+                "\\end{aligned}$$")
 
     def __repr__(self) -> str:
         at = ", ".join(f"{k}={v:.4g}" for k, v in self.operating_point.items())

@@ -85,6 +85,11 @@ class Modes:
             "proportional_damping": self.proportional_damping,
         }
 
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.text())}</pre>"
+
     def text(self) -> str:
         lines = [f"{'mode':>4}  {'kind':<8} {'f (Hz)':>12} {'omega (rad/s)':>14} {'zeta':>10}  shape ("
                  + ", ".join(self.coordinate_names) + "; largest component 1)"]
