@@ -338,6 +338,39 @@ def test_simulate_initial_accepts_pi_over_2(capsys, oscillator):
                                                       abs=1e-6)
 
 
+def test_simulate_backends_agree(capsys, oscillator):
+    from lagrangian.numeric._cbackend import c_compiler
+
+    outputs = {}
+    for backend in ("auto", "numba", "scipy") + (("c",) if c_compiler() else ()):
+        rc, out, err = run_cli(capsys, "simulate", oscillator, "--t-end", "2", "--dt", "0.5", "--initial", "x=1",
+                               "--input", "F=sin(t)", "--backend", backend, "--rtol", "1e-10", "--atol", "1e-10")
+        assert rc == 0, (backend, err)
+        outputs[backend] = read_csv(out)
+    header, body = outputs["scipy"]
+    for backend, (h, b) in outputs.items():
+        assert h == header
+        assert column(h, b, "x") == pytest.approx(column(header, body, "x"), abs=1e-11)
+
+
+def test_simulate_variational_method(capsys, oscillator):
+    rc, out, err = run_cli(capsys, "simulate", oscillator, "--t-end", "1", "--dt", "0.25", "--initial", "x=1",
+                           "--method", "variational", "--step", "0.001")
+    assert rc == 0, err
+    header, body = read_csv(out)
+    assert column(header, body, "x") == pytest.approx([math.cos(2 * t) for t in (0, .25, .5, .75, 1)], abs=1e-5)
+
+
+def test_simulate_bad_backend_is_refused(capsys, oscillator):
+    rc, out, err = run_cli(capsys, "simulate", oscillator, "--t-end", "1", "--backend", "fortran")
+    assert rc == 2
+    assert "invalid choice: 'fortran'" in err and "Traceback" not in err
+    rc, out, err = run_cli(capsys, "simulate", oscillator, "--t-end", "1", "--method", "variational",
+                           "--backend", "scipy")
+    assert rc == 2
+    assert "method 'variational' runs in compiled code only" in err
+
+
 def test_simulate_tolerances_and_method_are_accepted(capsys, oscillator):
     for extra in (["--rtol", "1e-11", "--atol", "1e-12"], ["--method", "Radau"], ["--method", "RK45"]):
         rc, out, err = run_cli(capsys, "simulate", oscillator, "--t-end", "1", "--dt", "0.25",

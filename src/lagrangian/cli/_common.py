@@ -97,7 +97,13 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
     s.add_argument("--dt", type=float, help="output interval (default: the model's, or 0.01)")
     s.add_argument("--rtol", type=float, help="relative tolerance (default 1e-9)")
     s.add_argument("--atol", type=float, help="absolute tolerance (default 1e-9)")
-    s.add_argument("--method", default="DOP853", help="integrator: DOP853 (default), RK45, RK23, Radau, BDF, LSODA")
+    s.add_argument("--method", default="DOP853",
+                   help="integrator: DOP853 (default, compiled), variational (compiled, fixed step, for long "
+                        "conservative runs), or SciPy's RK45, RK23, Radau, BDF, LSODA")
+    s.add_argument("--backend", default="auto", choices=("auto", "numba", "c", "scipy"),
+                   help="where the integrator runs: auto (default: numba when it can), numba, c (needs a C "
+                        "compiler), scipy (SciPy's solve_ivp)")
+    s.add_argument("--step", type=float, help="fixed step of --method variational (default: at most 1e-3, dividing dt)")
     s.add_argument("--show-equations", action="store_true", help="print the equations before simulating")
 
 
@@ -117,5 +123,6 @@ def run_simulation(args, *, equations_to=None):
     defaults = model.simulation
     traj = simulate(eqs, args.t_end, initial or None,
                     inputs={**defaults.get("inputs", {}), **inputs} or None, params=params,
-                    dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method)
+                    dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method,
+                    backend=getattr(args, "backend", "auto"), step=getattr(args, "step", None))
     return model, eqs, traj

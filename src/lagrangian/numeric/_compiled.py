@@ -14,6 +14,7 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
+from ..errors import ModelError
 from ..equations._singular import inertia_measure, scaled_cholesky
 
 __all__ = ["NumericModel", "compile_equations", "SINGULAR_RATIO"]
@@ -105,8 +106,27 @@ class NumericModel:
         return float(self._energy(np.concatenate(([t], np.asarray(x, float), u, p)))[0])
 
 
-def compile_equations(equations: Equations) -> NumericModel:
-    """The numerical state equations of `equations` (cached per Equations object)."""
+def compile_equations(equations: Equations, backend: str = "scipy"):
+    """The numerical state equations of `equations` (cached per Equations object).
+
+    Parameters
+    ----------
+    equations : Equations
+    backend : {"scipy", "numba", "c"}
+        "scipy" (default): a :class:`NumericModel` evaluated by SymEngine and NumPy (portable).
+        "numba": a :class:`~lagrangian.numeric.CompiledModel` of generated code compiled by
+        numba; "c": the same with the model's functions in C (cffi and a C compiler needed).
+        Every backend gives the same numbers; the compiled ones also run the compiled
+        integrators (see :func:`simulate`).
+    """
+    if backend != "scipy":
+        from ._fast import BACKENDS, compile_c, compile_numba
+
+        if backend == "numba" or backend == "auto":
+            return compile_numba(equations)
+        if backend == "c":
+            return compile_c(equations)
+        raise ModelError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS[1:])}")
     cached = _CACHE.get(equations)
     if cached is not None:
         return cached

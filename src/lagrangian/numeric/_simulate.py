@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import weakref
 from decimal import Decimal
 import math
 import numbers
@@ -15,12 +16,16 @@ from ..equations import Equations, derive, singularities
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError
 from ..model import Model
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations
+from ._fast import BACKENDS, CompiledModel
 from ._trajectory import Trajectory
 
 __all__ = ["simulate", "output_times", "METHODS"]
 
-#: Integrators accepted by ``method`` (SciPy's solve_ivp names).
-METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
+#: Integrators accepted by ``method``: DOP853 (compiled by default, or SciPy's), SciPy's other
+#: solve_ivp methods, and "variational" (the compiled midpoint variational integrator, fixed step).
+METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA", "variational")
+#: Methods that run in compiled code.
+COMPILED_METHODS = ("DOP853", "variational")
 #: Event threshold on the inertia measure of M (see inertia_measure): closer to singular than this stops the simulation.
 _EVENT_RATIO = 1e-9
 
@@ -35,13 +40,28 @@ def output_times(t_end: float, dt: float) -> np.ndarray:
     return times[times <= t_end * (1 + 1e-12)] if count else times
 
 
-def _as_numeric(system) -> NumericModel:
-    if isinstance(system, NumericModel):
+class _Names:
+    """The names and parameter values of a model, for checking the arguments before anything is
+    compiled."""
+
+    def __init__(self, equations: Equations):
+        self.equations = equations
+        self.state_names = equations.state_names
+        self.input_names = tuple(u.name for u in equations.inputs)
+        self.parameter_names = tuple(p.name for p in equations.parameters)
+        self.parameter_values = np.array([np.nan if v is None else v for v in equations.parameters.values()],
+                                         dtype=float)
+        self.n = equations.n
+
+
+def _as_numeric(system):
+    """A NumericModel or CompiledModel as given, or the names of a Model's or Equations'."""
+    if isinstance(system, (NumericModel, CompiledModel)):
         return system
     if isinstance(system, Model):
         system = derive(system)
     if isinstance(system, Equations):
-        return compile_equations(system)
+        return _Names(system)
     raise TypeError(f"simulate() expects a Model, Equations or NumericModel, got {type(system).__name__}")
 
 
@@ -98,10 +118,13 @@ def _initial_state(nm: NumericModel, initial, problems: list[Problem]) -> np.nda
     return x0
 
 
-def _input_function(nm: NumericModel, inputs, pvalues, problems: list[Problem]) -> Callable[[float], np.ndarray]:
+def _input_function(nm, inputs, pvalues, problems: list[Problem]):
+    """(u(t) as a Python function, the inputs as sympy expressions of t and the parameters for
+    compiled code, or None when one is a Python function)."""
     m = len(nm.input_names)
     constant = np.zeros(m)
     funcs: list[tuple[int, Callable]] = []
+    exprs: list | None = [sympy.Integer(0)] * m
     for name, spec in (inputs or {}).items():
         name = getattr(name, "name", name)
         if name not in nm.input_names:
@@ -111,18 +134,24 @@ def _input_function(nm: NumericModel, inputs, pvalues, problems: list[Problem]) 
         i = nm.input_names.index(name)
         if isinstance(spec, numbers.Real) and not isinstance(spec, bool):
             constant[i] = float(spec)
+            if exprs is not None:
+                exprs[i] = sympy.Float(float(spec))
         elif isinstance(spec, (str, sympy.Basic)):
             try:
-                funcs.append((i, _expression_of_t(nm, spec, pvalues)))
+                fun, expr = _expression_of_t(nm, spec, pvalues)
+                funcs.append((i, fun))
+                if exprs is not None:
+                    exprs[i] = expr
             except ModelError as exc:
                 problems.extend(Problem(p.message, key=f"inputs.{name}") for p in exc.problems)
         elif callable(spec):
             funcs.append((i, spec))
+            exprs = None
         else:
             problems.append(Problem(f"input '{name}' must be a number, an expression of t (a string) or a "
                                     f"function of t, got {spec!r}", key=f"inputs.{name}"))
     if not funcs:
-        return lambda t: constant
+        return (lambda t: constant), exprs
 
     def u(t: float) -> np.ndarray:
         out = constant.copy()
@@ -135,10 +164,10 @@ def _input_function(nm: NumericModel, inputs, pvalues, problems: list[Problem]) 
                                  "expected a number (a float) for each time") from None
         return out
 
-    return u
+    return u, exprs
 
 
-def _expression_of_t(nm: NumericModel, spec, pvalues) -> Callable[[float], float]:
+def _expression_of_t(nm, spec, pvalues) -> tuple[Callable[[float], float], sympy.Expr]:
     from ..io._expr import parse_expression
     from ..errors import ExpressionError
 
@@ -158,13 +187,14 @@ def _expression_of_t(nm: NumericModel, spec, pvalues) -> Callable[[float], float
     params = list(nm.equations.parameters)
     f = sympy.lambdify([t, params], expr, "math")
     pv = [float(v) for v in pvalues]
-    return lambda time: f(time, pv)
+    return (lambda time: f(time, pv)), expr
 
 
 def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mapping | None = None,
              params: Mapping | None = None, dt: float | None = None, t_eval=None,
              rtol: float | None = None, atol: float | None = None, method: str = "DOP853",
-             max_step: float = math.inf) -> Trajectory:
+             max_step: float = math.inf, backend: str = "auto", step: float | None = None,
+             events: Mapping[str, str] | None = None, stop_on=()) -> Trajectory:
     """Integrate x' = f(t, x, u, p) from t = 0 to `t_end`.
 
     Parameters
@@ -187,9 +217,31 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     rtol, atol : float
         Tolerances of the adaptive integrator (default 1e-9 both).
     method : str
-        One of METHODS (default DOP853, an explicit 8th-order Runge-Kutta method).
+        One of METHODS: DOP853 (default, an explicit Runge-Kutta method of order 8 with error
+        control and dense output), "variational" (the midpoint variational integrator: a fixed
+        step, an energy error that stays bounded over long runs of a conservative model), or
+        another of SciPy's solve_ivp methods (RK45, RK23, Radau, BDF, LSODA; these always run in
+        SciPy).
     max_step : float
         Largest step the integrator may take.
+    backend : {"auto", "numba", "c", "scipy"}
+        Where the integrator runs. "auto" (default): compiled by numba when the method is
+        DOP853 or variational and every input is a constant or an expression, else SciPy.
+        "numba": generated code compiled by numba (cached on disk: a model compiles once).
+        "c": the model's functions generated in C and compiled with cffi (needs a C compiler).
+        "scipy": SciPy's solve_ivp calling the portable NumPy functions (Python functions as
+        inputs need it; "auto" picks it for them).
+    step : float
+        The fixed step of method="variational" (default: dt divided into steps of at most
+        1e-3); made to divide dt exactly.
+    events : mapping of str to str, optional
+        Named event functions, expressions of t, the coordinates, velocities, inputs and
+        parameters (``{"bottom": "q2 + pi/2", "turn": "q1_dot"}``). Every zero crossing is located
+        on the interpolant and recorded in ``Trajectory.events[name]`` (times "t" and states "x").
+        Watched by the compiled DOP853 only.
+    stop_on : sequence of str
+        Names of `events` whose first crossing stops the simulation there (the trajectory ends
+        at the last output time before it; ``stats["stopped_by"]`` names the event).
 
     Returns
     -------
@@ -205,8 +257,6 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     SimulationError
         The integrator failed for another reason.
     """
-    from scipy.integrate import solve_ivp
-
     nm = _as_numeric(system)
     defaults = nm.equations.model.simulation
     problems: list[Problem] = []
@@ -230,9 +280,32 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     if method not in METHODS:
         problems.append(Problem(f"unknown method '{method}'{_closest(method, METHODS)}; "
                                 f"choose one of {', '.join(METHODS)}", key="method"))
+    if backend not in BACKENDS:
+        problems.append(Problem(f"unknown backend '{backend}'{_closest(backend, BACKENDS)}; "
+                                f"choose one of {', '.join(BACKENDS)}", key="backend"))
+    elif method == "variational" and backend == "scipy":
+        problems.append(Problem("method 'variational' runs in compiled code only: use backend='auto' or "
+                                "'numba' (--backend numba), or a SciPy method with backend='scipy'", key="backend"))
+    if step is not None and (not isinstance(step, numbers.Real) or not step > 0 or not math.isfinite(step)):
+        problems.append(Problem(f"step must be a positive number, got {step!r}", key="step"))
     p = _parameters(nm, params, problems)
     x0 = _initial_state(nm, defaults.get("initial") if initial is None else initial, problems)
-    u_of_t = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
+    u_of_t, u_exprs = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
+    if method == "variational":
+        if t_eval is not None:
+            problems.append(Problem("method 'variational' outputs every dt: pass dt=... (--dt) instead of "
+                                    "t_eval", key="t_eval"))
+        if u_exprs is None:
+            problems.append(Problem("method 'variational' runs in compiled code, which cannot call a Python "
+                                    "function: give each input as an expression string such as "
+                                    "'1.5*sin(3*t)'", key="inputs"))
+        if any(set(e.free_symbols) & set(nm.equations.core.qd) for e in nm.equations.core.M):
+            problems.append(Problem("method 'variational' needs T* quadratic in the velocities (M free of "
+                                    "q_dot); use method='DOP853'", key="method"))
+    event_exprs = _event_expressions(nm, events, stop_on, problems)
+    if event_exprs and method != "DOP853":
+        problems.append(Problem(f"events are watched by the compiled DOP853 only, not by method '{method}'",
+                                key="events"))
     if problems:
         raise ModelError(problems)
 
@@ -244,6 +317,16 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
             raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
                              f"got {t_eval!r}")
     eq = nm.equations
+    fast = _compiled_model(nm, backend, method, u_exprs)
+    if fast is not None:
+        return _simulate_compiled(fast, method, x0, times, p, u_exprs, float(rtol), float(atol), max_step,
+                                  float(dt), step, event_exprs, tuple(stop_on))
+    if event_exprs:
+        raise ModelError("events are watched by the compiled integrators: give inputs as expression strings "
+                         "and use backend='auto', 'numba' or 'c'")
+    if not isinstance(nm, NumericModel):
+        nm = compile_equations(eq)
+    from scipy.integrate import solve_ivp
     nfev = 0
 
     last = [None, None, 1.0]  # t, x and inertia measure of the latest right-hand side
@@ -298,7 +381,8 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(sol.t, sol.y.T, U)])
         name = "energy" if _is_natural(eq) else "jacobi_integral"
     return Trajectory(sol.t, sol.y.T, nm.state_names, U, nm.input_names, energy, name,
-                      eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message)
+                      eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message,
+                      stats={"backend": "scipy", "method": method, "nfev": nfev}, model=eq.model)
 
 
 class _Initial:
@@ -309,11 +393,16 @@ class _Initial:
         self.t_events = [np.zeros(0)]
 
 
+_NATURAL: "weakref.WeakKeyDictionary[Equations, bool]" = weakref.WeakKeyDictionary()
+
+
 def _is_natural(eq: Equations) -> bool:
     """T* = T2: no terms of degree 1 or 0 in the velocities."""
-    zero = {v: 0 for v in eq.core.qd}
-    T = eq.core.T
-    return T.subs(zero) == 0 and all(T.diff(v).subs(zero) == 0 for v in eq.core.qd)
+    if eq not in _NATURAL:
+        zero = {v: 0 for v in eq.core.qd}
+        T = eq.core.T
+        _NATURAL[eq] = T.subs(zero) == 0 and all(T.diff(v).subs(zero) == 0 for v in eq.core.qd)
+    return _NATURAL[eq]
 
 
 def _last_state(sol):
@@ -338,3 +427,132 @@ def _singular_error(nm: NumericModel, t, x, ratio) -> SingularMassMatrixError:
            f"in the state {_state_text(nm, x)}: q_ddot cannot be solved for there, so the simulation stops.\n"
            f"{diagnosis}")
     return SingularMassMatrixError(msg, time=float(t), state=state, diagnosis=diagnosis)
+
+
+def _compiled_model(nm, backend: str, method: str, u_exprs):
+    """The CompiledModel to integrate with, or None for the SciPy path."""
+    if isinstance(nm, NumericModel) or backend == "scipy":
+        return None
+    if method not in COMPILED_METHODS:
+        return None  # SciPy's other methods
+    if isinstance(nm, CompiledModel):
+        if backend in ("auto", nm.backend):
+            if u_exprs is None:
+                raise ModelError(_CALLABLE_INPUT)
+            return nm
+        nm = _Names(nm.equations)
+    from ._codegen import Unsupported
+    from ._inputs import NotCompilable, programs
+
+    try:
+        if u_exprs is None:
+            raise NotCompilable(_CALLABLE_INPUT)
+        programs(u_exprs, nm.equations.t, list(nm.equations.parameters))
+        return compile_equations(nm.equations, backend="numba" if backend == "auto" else backend)
+    except (Unsupported, NotCompilable) as exc:
+        if backend == "auto" and method != "variational":
+            return None
+        raise ModelError(f"backend '{backend}' cannot run this model: {exc}; use backend='scipy'") from None
+
+
+_CALLABLE_INPUT = ("an input is a Python function, which compiled code cannot call: give it as an expression "
+                   "string of t and the parameters (for example '1.5*sin(3*t)'), or use backend='scipy'")
+
+
+def _event_expressions(nm, events, stop_on, problems) -> dict:
+    """{name: sympy expression} of the event functions; problems for bad names or expressions."""
+    from ..errors import ExpressionError
+    from ..io._expr import parse_expression
+
+    events = dict(events or {})
+    eq = nm.equations
+    names = {"t": eq.t, **{s.name: s for s in (*eq.coordinates, *eq.velocities, *eq.inputs)},
+             **{s.name: s for s in eq.parameters}}
+    out = {}
+    for name, spec in events.items():
+        try:
+            out[str(name)] = parse_expression(str(spec), names)
+        except ExpressionError as exc:
+            problems.append(Problem(f"event '{name}': {exc} (an event is an expression of t, the coordinates, "
+                                    "velocities, inputs and parameters)", key=f"events.{name}"))
+    if isinstance(stop_on, str):
+        stop_on = (stop_on,)
+    for name in stop_on:
+        if name not in events:
+            problems.append(Problem(f"stop_on names '{name}', which is not one of the events"
+                                    f"{_closest(name, list(events))}; the events are {', '.join(events) or 'none'}",
+                                    key="stop_on"))
+    return out
+
+
+def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, atol, max_step, dt,
+                       step, event_exprs=None, stop_on=()) -> Trajectory:
+    from ._fast import inputs_and_energy, run_dop853, run_variational
+    from ._inputs import programs
+    from ._kernels import STATUS
+
+    eq = cm.equations
+    prog = programs(u_exprs, eq.t, list(eq.parameters))
+    if method == "variational":
+        every = max(1, math.ceil(dt / (step if step is not None else min(dt, 1e-3)) - 1e-9))
+        h = dt / every
+        raw = run_variational(cm, x0, h, every * (len(times) - 1), every, p, prog)
+    else:
+        eprog, terminal = None, ()
+        if event_exprs:
+            eprog = programs(list(event_exprs.values()), eq.t, list(eq.parameters),
+                             states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs)
+            terminal = [int(name in stop_on) for name in event_exprs]
+        raw = run_dop853(cm, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal)
+    if raw.status in (1, 2):
+        raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure)
+    if raw.status == 3:
+        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the state "
+                              f"{_state_text(cm, raw.stop_x)}: check the model's parameters and expressions "
+                              "(a division by zero, a log or sqrt of a negative number)", status=-1,
+                              time=raw.stop_t)
+    if raw.status == -3:
+        raise SimulationError(f"the variational integrator stopped at t = {raw.stop_t:.6g}: its implicit midpoint "
+                              f"step did not converge (state {_state_text(cm, raw.stop_x)}); try a smaller step",
+                              status=-1, time=raw.stop_t)
+    if raw.status not in (0, 4):
+        if raw.stop_measure < 1e-6:
+            raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure)
+        raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
+                              f"(state {_state_text(cm, raw.stop_x)}); try a smaller rtol/atol, a stiff method "
+                              "such as method='Radau', or check the model's parameters",
+                              status=raw.status, time=raw.stop_t)
+    stats = {"backend": cm.backend, "method": method, "nfev": raw.nfev, "nstep": raw.nstep,
+             "nreject": raw.nreject}
+    found = {}
+    if event_exprs:
+        names = list(event_exprs)
+        stop_t = raw.stop_t if raw.status == 4 else math.inf
+        keep = raw.event_t <= stop_t
+        for k, name in enumerate(names):
+            sel = keep & (raw.event_k == k)
+            found[name] = {"t": _readonly(raw.event_t[sel]), "x": _readonly(raw.event_x[sel])}
+        if raw.status == 4:
+            stats["stopped_by"] = names[int(raw.stop_measure)]
+            stats["stop_time"] = raw.stop_t
+            times = times[: len(raw.t)]
+    elif raw.status == 4:  # pragma: no cover - no events, no event stop
+        raise SimulationError("an event stopped the integration", status=4, time=raw.stop_t)
+    if not np.all(np.isfinite(raw.x)):
+        raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
+                              "and initial state", status=-1)
+    U, energy = inputs_and_energy(cm, times, raw.x, p, prog)
+    name = None
+    if eq.explicit_time:
+        energy = None
+    else:
+        name = "energy" if _is_natural(eq) else "jacobi_integral"
+    return Trajectory(times, raw.x, cm.state_names, U, cm.input_names, energy, name, eq.is_conservative,
+                      dict(zip(cm.parameter_names, map(float, p))), raw.nfev, STATUS[raw.status], stats=stats,
+                      model=eq.model, events=found)
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a

@@ -45,6 +45,15 @@ class Trajectory:
         Number of right-hand-side evaluations.
     message : str
         The integrator's message.
+    model : Model or None
+        The (frozen) model that was simulated, for drawing it (:meth:`animate`); None when unknown.
+    stats : dict
+        How it was computed: "backend" (numba, c or scipy), "method", "nfev", "nstep"
+        (accepted steps) and "nreject" (rejected steps); "stopped_by" and "stop_time" when an
+        event stopped it.
+    events : dict of str to dict
+        For each event of ``simulate(events=...)``, its zero crossings: {"t": times (k,),
+        "x": states (k, 2n)}.
     """
 
     t: np.ndarray
@@ -58,6 +67,9 @@ class Trajectory:
     parameters: dict = field(default_factory=dict)
     nfev: int = 0
     message: str = ""
+    stats: dict = field(default_factory=dict)
+    events: dict = field(default_factory=dict)
+    model: object = field(default=None, repr=False)
 
     def __post_init__(self):
         object.__setattr__(self, "t", _frozen(self.t))
@@ -99,6 +111,31 @@ class Trajectory:
             return self.energy
         raise KeyError(f"the trajectory has no column '{name}'; its columns are {', '.join(self.columns)}")
 
+    def conserved(self) -> dict[str, np.ndarray]:
+        """The model's conserved quantities (``Equations.conserved_quantities``: the energy or the
+        Jacobi integral, and the momentum ``p_<q>`` of each cyclic coordinate) along the trajectory;
+        {} when the model is unknown."""
+        if self.model is None or not len(self.t):
+            return {}
+        import sympy
+
+        from ..equations import derive
+
+        eqs = derive(self.model)
+        quantities = eqs.conserved_quantities
+        if not quantities:
+            return {}
+        symbols = [eqs.t, *eqs.coordinates, *eqs.velocities, *eqs.inputs, *eqs.parameters]
+        f = sympy.lambdify(symbols, list(quantities.values()), "numpy")
+        p = [np.full(len(self.t), float(self.parameters.get(s.name, np.nan))) for s in eqs.parameters]
+        u = [self.u[:, k] for k in range(self.u.shape[1])] if self.u.ndim == 2 else []
+        values = f(self.t, *self.x.T, *u, *p)
+        return {k: _frozen(np.broadcast_to(v, self.t.shape)) for k, v in zip(quantities, values)}
+
+    def conserved_drift(self) -> dict[str, float]:
+        """max |c(t) - c(0)| of each conserved quantity (see :meth:`conserved`)."""
+        return {k: float(np.max(np.abs(v - v[0]))) for k, v in self.conserved().items()}
+
     @property
     def energy_drift(self) -> float | None:
         """max |E(t) - E(0)| (None when the energy is not defined)."""
@@ -126,6 +163,49 @@ class Trajectory:
         with open(path, "w", newline="") as fh:
             fh.write(text)
         return None
+
+    # ------------------------------------------------------------ plotting
+    def plot(self, names=None, **kwargs):
+        """Time histories of the named columns (default: the coordinates); see
+        :func:`lagrangian.plot.time_history`. Returns the Matplotlib figure."""
+        from ..plot import time_history
+
+        return time_history(self, names, **kwargs)
+
+    def phase_portrait(self, q=None, **kwargs):
+        """Phase portraits (q, q_dot); see :func:`lagrangian.plot.phase_portrait`."""
+        from ..plot import phase_portrait
+
+        return phase_portrait(self, q, **kwargs)
+
+    def animate(self, **kwargs):
+        """An animation of the mechanism drawn from its model's geometry; see :func:`lagrangian.plot.animate`.
+        Shown inline in a notebook; ``.save("out.gif")`` writes it."""
+        from ..plot import animate
+
+        return animate(self, **kwargs)
+
+    def _repr_html_(self) -> str:
+        import html
+
+        name = html.escape(getattr(self.model, "name", "")) if self.model is not None else ""
+        rows = [("samples", f"{len(self.t)}"),
+                ("t", f"{self.t[0]:g} .. {self.t[-1]:g} s" if len(self.t) else "-"),
+                ("coordinates", ", ".join(self.state_names[: self.n])),
+                ("inputs", ", ".join(self.input_names) or "none"),
+                ("parameters", ", ".join(f"{k} = {v:g}" for k, v in self.parameters.items()) or "none")]
+        if self.energy is not None and len(self.t):
+            rows.append((self.energy_name.replace("_", " "),
+                         f"{self.energy[0]:.6g} at t = 0; max drift {self.energy_drift:.2e}"
+                         + (" (conserved)" if self.conservative else " (not conserved)")))
+        if len(self.t):
+            for i, c in enumerate(self.state_names):
+                rows.append((c, f"{self.x[0, i]:.6g} .. {self.x[-1, i]:.6g} (start .. end), "
+                                f"range [{self.x[:, i].min():.4g}, {self.x[:, i].max():.4g}]"))
+        body = "".join(f"<tr><th style='text-align:left'>{html.escape(k)}</th>"
+                       f"<td style='text-align:left'>{html.escape(v)}</td></tr>" for k, v in rows)
+        title = f"Trajectory of {name}" if name else "Trajectory"
+        return f"<div><b>{title}</b> ({html.escape(self.message)})<table>{body}</table></div>"
 
     def __repr__(self) -> str:
         return (f"<Trajectory: {len(self.t)} samples, t in [{self.t[0]:g}, {self.t[-1]:g}], "

@@ -1,0 +1,456 @@
+"""lagrangian against its peers, measured in one run: prints each section's numbers, the ratios,
+and a summary of the targets of issue 4 (fast numerics).
+
+Run:   python benchmarks/bench.py            (about 3 minutes on 2 cores)
+       python benchmarks/bench.py --quick    (fewer repeats, no 20-link KanesMethod)
+
+Sections
+  derivation   M and f of n-link pendulum chains (n = 5, 10, 20) against sympy.physics.mechanics
+               KanesMethod and LagrangesMethod (median CPU time)
+  simulation   a 20 s double pendulum and a 6-link chain, each tool at the loosest tolerance that
+               reaches a final error <= 2.5e-7 (equal accuracy): lagrangian's compiled DOP853
+               (the integrator call alone, and simulate() end to end), sympy.lambdify of
+               KanesMethod's full mass matrix and forcing, solved by numpy at each call, + scipy
+               solve_ivp(DOP853), and a plain C
+               DOP853 loop compiled with gcc -O2 (benchmarks/c_floor, the floor)
+  batch        double-pendulum trajectories of 10 s at rtol 1e-8 per second of wall time
+  new model    derive + generate + compile, cold and cached, in fresh processes; the CLI's first
+               and second `lagrangian simulate` of a new model file
+  40 links     derivation, code generation and compilation times, separately
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import lagrangian as lg  # noqa: E402
+from lagrangian.numeric import _codegen  # noqa: E402
+from lagrangian.numeric._fast import compile_numba, run_dop853  # noqa: E402
+from lagrangian.numeric._inputs import constant_programs  # noqa: E402
+
+TARGET_ERROR = 2.5e-7
+RESULTS: dict[str, object] = {}
+
+
+def cpu(fn, repeat: int) -> float:
+    """Median CPU time of fn() over `repeat` calls."""
+    times = []
+    for _ in range(repeat):
+        t0 = time.process_time()
+        fn()
+        times.append(time.process_time() - t0)
+    return statistics.median(times)
+
+
+def wall(fn, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def header(text: str) -> None:
+    print(f"\n## {text}\n", flush=True)
+
+
+# ------------------------------------------------------------------------------ derivation
+def derivation(quick: bool) -> None:
+    from derive_chain import ours, sympy_chain
+
+    header("Derivation of an n-link pendulum chain (M and f), median CPU time")
+    print("| links | lagrangian | KanesMethod | ratio | LagrangesMethod | ratio |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    for n in (5, 10, 20):
+        t_ours = cpu(ours(n), 5)
+        if quick and n == 20:
+            print(f"| {n} | {t_ours:.4f} s | (skipped) | | | |")
+            continue
+        t_kane = cpu(sympy_chain(n, "kane"), 1 if n > 10 else 3)
+        lag = "(not run) | "
+        if n <= 10:
+            t_lag = cpu(sympy_chain(n, "lagrange"), 1)
+            lag = f"{t_lag:.2f} s | {t_lag / t_ours:.0f}x"
+        print(f"| {n} | {t_ours:.4f} s | {t_kane:.3f} s | {t_kane / t_ours:.0f}x | {lag} |", flush=True)
+        RESULTS[f"derive{n}"] = (t_ours, t_kane)
+
+
+# ------------------------------------------------------------------------------ simulation
+def kane_rhs(n: int):
+    """A student's state equations from KanesMethod, lambdified (x = [q, u])."""
+    import sympy as sp
+    from sympy.physics import mechanics as me
+
+    q = me.dynamicsymbols(f"q1:{n + 1}")
+    u = me.dynamicsymbols(f"u1:{n + 1}")
+    m, l, g = sp.symbols("m l g")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O
+    particles, loads, kd = [], [], []
+    for i in range(n):
+        Ai = N.orientnew(f"A{i}", "Axis", [q[i], N.z])
+        Ai.set_ang_vel(N, u[i] * N.z)
+        Pi = P.locatenew(f"P{i}", l * Ai.y * -1)
+        Pi.v2pt_theory(P, N, Ai)
+        kd.append(q[i].diff() - u[i])
+        particles.append(me.Particle(f"Pa{i}", Pi, m))
+        loads.append((Pi, -m * g * N.y))
+        P = Pi
+    km = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
+    km.kanes_equations(particles, loads)
+    # the mass matrix and forcing of the full state equations, lambdified, and solved numerically
+    # at each call (as sympy's and PyDy's n-link pendulum examples do; lambdifying the symbolic
+    # LU solution km.rhs() instead is far slower for 6 links)
+    Mf = sp.lambdify([list(q) + list(u), (m, l, g)], km.mass_matrix_full, "numpy")
+    ff = sp.lambdify([list(q) + list(u), (m, l, g)], km.forcing_full, "numpy")
+    params = (1.0, 1.0, 9.81)
+    return lambda t, x: np.linalg.solve(Mf(x, params), ff(x, params)).ravel()
+
+
+def c_floor(eqs, folder: Path):
+    """Build the C floor for `eqs`; returns a function (tol) -> (seconds, nfev, final state) or None."""
+    gcc = shutil.which("gcc") or shutil.which("cc")
+    if gcc is None:
+        return None
+    from scipy.integrate._ivp import dop853_coefficients as c
+
+    def comb(row, var="K"):
+        terms = [f"{float(a)!r} * {var}[{j}][i]" for j, a in enumerate(row) if a != 0.0]
+        return " + ".join(terms) or "0.0"
+
+    lines = ["static int dop_stages(double t, double h, const double *y, double K[16][NX], double *xs, "
+             "double *ynew, const double *p, double *work, double *r) {"]
+    for s in range(1, 13):
+        lines.append(f"    for (int i = 0; i < NX; i++) xs[i] = y[i] + h * ({comb(c.A[s, :s])});")
+        lines.append(f"    *r = rhs(t + {float(c.C[s])!r} * h, xs, p, K[{s}], work);")
+        lines.append("    if (*r <= 1e-12) return 2;")
+    lines += ["    for (int i = 0; i < NX; i++) ynew[i] = xs[i];", "    return 0;", "}", "",
+              "static void dop_errors(double K[16][NX], const double *y, const double *ynew, double rtol, "
+              "double atol, double *e5, double *e3) {",
+              "    *e5 = 0.0; *e3 = 0.0;",
+              "    for (int i = 0; i < NX; i++) {",
+              "        double sc = atol + fmax(fabs(y[i]), fabs(ynew[i])) * rtol;",
+              f"        double d5 = ({comb(c.E5)}) / sc;",
+              f"        double d3 = ({comb(c.E3)}) / sc;",
+              "        *e5 += d5 * d5; *e3 += d3 * d3;", "    }", "}"]
+    (folder / "dop853_stages.h").write_text("\n".join(lines) + "\n")
+    (folder / "model.c").write_text(_codegen.c_source(eqs))
+    exe = folder / f"floor{eqs.n}"
+    cmd = [gcc, "-O2", f"-DN={eqs.n}", '-DMODEL="model.c"', f"-I{folder}", str(HERE / "c_floor" / "dop853.c"),
+           "-o", str(exe), "-lm"]
+    subprocess.run(cmd, check=True, cwd=folder)
+    p = lg.compile(eqs).parameter_values
+
+    def run(tol, x0, t_end, repeats):
+        out = subprocess.run([str(exe), repr(t_end), repr(tol), repr(tol), str(repeats),
+                              *map(repr, map(float, x0)), *map(repr, map(float, p))],
+                             capture_output=True, text=True, check=True).stdout.split()
+        return float(out[0]), int(out[1]), np.array(list(map(float, out[4:])))
+    return run
+
+
+def search(tols, error) -> dict[float, float]:
+    """Errors from the loosest tolerance on, until two in a row reach the target."""
+    out, hits = {}, 0
+    for tol in tols:
+        out[tol] = error(tol)
+        hits = hits + 1 if out[tol] <= TARGET_ERROR else 0
+        if hits == 2:
+            break
+    return out
+
+
+def loosest(errors: dict[float, float]) -> float:
+    ok = [tol for tol, e in errors.items() if e <= TARGET_ERROR]
+    return max(ok) if ok else min(errors)
+
+
+def simulation(quick: bool) -> None:
+    from scipy.integrate import solve_ivp
+
+    header(f"Simulation at equal accuracy (20 s, final error <= {TARGET_ERROR:g}), median CPU time")
+    tols = [10.0 ** (-k / 2) for k in range(10, 27)]  # 1e-5 .. 1e-13
+    rows = []
+    folder = Path(tempfile.mkdtemp(prefix="lagrangian-bench-"))
+    for label, n in (("double pendulum", 2), ("6-link chain", 6)):
+        model = lg.load(f"pendulum-chain-{n}")
+        eqs = lg.derive(model)
+        cm = compile_numba(eqs)
+        p = cm.parameter_values
+        x0 = np.zeros(2 * n)
+        x0[:n] = 0.5
+        t_end = 20.0
+        prog = constant_programs([])
+        ends = np.array([0.0, t_end])
+        ref = run_dop853(cm, x0, ends, p, prog, 1e-13, 1e-13).x[-1]
+        sref = solve_ivp(lambda t, x: cm.rhs(t, x, [], p), (0, t_end), x0, method="DOP853", rtol=1e-13,
+                         atol=1e-13).y[:, -1]
+        print(f"{label}: reference (DOP853 at 1e-13, ours vs SciPy's) agree to {np.max(np.abs(ref - sref)):.1e}")
+
+        def err(x):
+            return float(np.max(np.abs(x - ref)))
+
+        # ours: the compiled integrator call, and simulate() end to end
+        e_ours = search(tols, lambda tol: err(run_dop853(cm, x0, ends, p, prog, tol, tol).x[-1]))
+        tol_o = loosest(e_ours)
+        reps = 20 if quick else 100
+        t_kernel = cpu(lambda: run_dop853(cm, x0, ends, p, prog, tol_o, tol_o), reps)
+        nfev_o = run_dop853(cm, x0, ends, p, prog, tol_o, tol_o).nfev
+        t_api = cpu(lambda: lg.simulate(eqs, t_end, x0, t_eval=ends, rtol=tol_o, atol=tol_o), reps)
+        # the peer: lambdify + solve_ivp
+        t0 = time.process_time()
+        f = kane_rhs(n)
+        t_build = time.process_time() - t0
+        print(f"  KanesMethod + lambdify: {t_build:.1f} s", flush=True)
+        e_peer = search(tols, lambda tol: err(solve_ivp(f, (0, t_end), x0, method="DOP853", rtol=tol,
+                                                        atol=tol).y[:, -1]))
+        tol_p = loosest(e_peer)
+        t_peer = cpu(lambda: solve_ivp(f, (0, t_end), x0, method="DOP853", rtol=tol_p, atol=tol_p),
+                     1 if n > 2 else 3)
+        nfev_p = solve_ivp(f, (0, t_end), x0, method="DOP853", rtol=tol_p, atol=tol_p).nfev
+        # the C floor
+        floor = c_floor(eqs, folder)
+        if floor is not None:
+            e_c = search(tols, lambda tol: err(floor(tol, x0, t_end, 1)[2]))
+            tol_c = loosest(e_c)
+            t_c, nfev_c, _ = floor(tol_c, x0, t_end, 201 if not quick else 41)
+        else:
+            tol_c = t_c = nfev_c = float("nan")
+        print(f"  {label}: done (ours {tol_o:.0e}, peer {tol_p:.0e}, C {tol_c:.0e})", flush=True)
+        rows.append((label, tol_o, e_ours[tol_o], nfev_o, t_kernel, t_api, tol_p, e_peer[tol_p], nfev_p, t_peer,
+                     t_build, tol_c, nfev_c, t_c))
+        RESULTS[f"sim{n}"] = dict(kernel=t_kernel, api=t_api, peer=t_peer, floor=t_c)
+    shutil.rmtree(folder, ignore_errors=True)
+    print()
+    print("| system | tool | tolerance | final error | nfev | CPU time |")
+    print("|---|---|---:|---:|---:|---:|")
+    for (label, tol_o, e_o, nfev_o, t_kernel, t_api, tol_p, e_p, nfev_p, t_peer, t_build, tol_c, nfev_c,
+         t_c) in rows:
+        print(f"| {label} | lagrangian, compiled DOP853 (integrator call) | {tol_o:.0e} | {e_o:.1e} | {nfev_o} | "
+              f"{t_kernel * 1e3:.3f} ms |")
+        print(f"| {label} | lagrangian, `simulate()` end to end | {tol_o:.0e} | {e_o:.1e} | {nfev_o} | "
+              f"{t_api * 1e3:.3f} ms |")
+        print(f"| {label} | sympy.lambdify + solve_ivp(DOP853) | {tol_p:.0e} | {e_p:.1e} | {nfev_p} | "
+              f"{t_peer * 1e3:.1f} ms (lambdify: {t_build:.1f} s once) |")
+        print(f"| {label} | C DOP853 loop, gcc -O2 (floor) | {tol_c:.0e} | | {nfev_c} | {t_c * 1e3:.3f} ms |")
+    print()
+    print("| system | lambdify+solve_ivp / ours (integrator) | / ours (simulate) | ours (integrator) / C floor | "
+          "ours (simulate) / C floor |")
+    print("|---|---:|---:|---:|---:|")
+    for row in rows:
+        label, t_kernel, t_api, t_peer, t_c = row[0], row[4], row[5], row[9], row[13]
+        print(f"| {label} | {t_peer / t_kernel:.0f}x | {t_peer / t_api:.0f}x | {t_kernel / t_c:.2f} | "
+              f"{t_api / t_c:.2f} |")
+
+
+# ------------------------------------------------------------------------------------ batch
+def batch(quick: bool) -> None:
+    import numba
+
+    header("Batch: double-pendulum trajectories (10 s, rtol = atol = 1e-8) per second of wall time")
+    eqs = lg.derive(lg.load("double-pendulum"))
+    B = 2000 if quick else 10000
+    rng = np.random.default_rng(1)
+    X0 = np.zeros((B, 4))
+    X0[:, :2] = rng.uniform(-1.0, 1.0, (B, 2))
+    run = lambda: lg.simulate_batch(eqs, 10.0, X0, t_eval=[10.0], rtol=1e-8, atol=1e-8, progress=False)  # noqa
+    result = run()  # compiles (once per machine) and warms up
+    print(f"{B} trajectories, mean nfev {result.nfev.mean():.0f}, all reached the end: {bool(result.ok.all())}")
+    print("| threads | trajectories per second |")
+    print("|---:|---:|")
+    threads = numba.get_num_threads()
+    for k in sorted({1, threads}):
+        numba.set_num_threads(k)
+        rate = B / wall(run, 3)
+        print(f"| {k} | {rate:,.0f} |", flush=True)
+        RESULTS[f"batch{k}"] = rate
+    numba.set_num_threads(threads)
+    RESULTS["batch"] = RESULTS[f"batch{threads}"]
+    RESULTS["threads"] = threads
+
+
+# ------------------------------------------------------------------------------- new model
+_PROBE = textwrap.dedent("""
+    import time, sys
+    t0 = time.perf_counter()
+    import lagrangian as lg
+    from lagrangian.numeric import _codegen
+    from lagrangian.numeric._fast import compile_numba, kernels
+    t1 = time.perf_counter()
+    model = lg.load(sys.argv[1])
+    eqs = lg.derive(model)
+    t2 = time.perf_counter()
+    fresh = not (_codegen.cache_dir() / f"lagrangian_{_codegen.model_key(eqs, 'numba-main')}.py").exists()
+    if fresh:
+        text = _codegen.numba_source(eqs)
+    t3 = time.perf_counter()
+    cm = compile_numba(eqs)
+    kernels()
+    t4 = time.perf_counter()
+    tr = lg.simulate(eqs, 1.0)
+    t5 = time.perf_counter()
+    print(t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4)
+""")
+
+
+def new_model(quick: bool) -> None:
+    header("A new model: one-time cost (fresh processes, wall time)")
+    folder = Path(tempfile.mkdtemp(prefix="lagrangian-bench-model-"))
+    from lagrangian.examples import example_source
+
+    tag = f"{os.getpid()}{int(time.time()) % 100000}"
+    text = example_source("double-pendulum").replace("theta", f"phi{tag}_")
+    path = folder / "new-model.toml"
+    path.write_text(text)
+    env = dict(os.environ)
+
+    def probe():
+        out = subprocess.run([sys.executable, "-c", _PROBE, str(path)], capture_output=True, text=True, env=env,
+                             check=True).stdout.split()
+        return [float(v) for v in out]
+
+    print("| run | import | derive | generate | compile (or load) | simulate 1 s |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for label in ("new model (kernels already compiled)", "same model again (cached)"):
+        imp, der, gen, comp, sim = probe()
+        print(f"| {label} | {imp:.2f} s | {der:.3f} s | {gen:.3f} s | {comp:.2f} s | {sim:.3f} s |", flush=True)
+    cli = shutil.which("lagrangian")
+    text2 = text.replace(f"phi{tag}_", f"psi{tag}_")
+    path2 = folder / "new-model-cli.toml"
+    path2.write_text(text2)
+    times = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        subprocess.run([cli or sys.executable, *([] if cli else ["-m", "lagrangian"]), "simulate", str(path2),
+                        "--t-end", "10", "-o", str(folder / "out.csv")], check=True, capture_output=True, env=env)
+        times.append(time.perf_counter() - t0)
+    print(f"\n`lagrangian simulate` of a new model file (10 s, output every 0.01 s): first run {times[0]:.2f} s, "
+          f"second run {times[1]:.2f} s")
+    RESULTS["cli"] = times
+    if not quick:  # the very first use on a machine: an empty cache, the kernels compile too
+        env["LAGRANGIAN_CACHE_DIR"] = str(folder / "empty-cache")
+        imp, der, gen, comp, sim = probe()
+        print(f"first use on a machine (empty cache: the integrator kernels compile once, then are cached): "
+              f"compile {comp:.1f} s, first simulate {sim:.1f} s, total {imp + der + gen + comp + sim:.1f} s")
+        RESULTS["first_use"] = imp + der + gen + comp + sim
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+# -------------------------------------------------------------------------------- 40 links
+def forty(quick: bool) -> None:
+    header("A 40-link chain: derivation, code generation and compilation, separately (wall time)")
+    folder = Path(tempfile.mkdtemp(prefix="lagrangian-bench-40-"))
+    old = os.environ.get("LAGRANGIAN_CACHE_DIR")
+    os.environ["LAGRANGIAN_CACHE_DIR"] = str(folder)
+    try:
+        model = lg.load("pendulum-chain-40")
+        t0 = time.perf_counter()
+        eqs = lg.derive(model)
+        eqs.core.f
+        t1 = time.perf_counter()
+        text = _codegen.numba_source(eqs)
+        t2 = time.perf_counter()
+        path = folder / "chain40.py"
+        path.write_text(text)
+        _codegen.load_module(path, f"chain40_{os.getpid()}")
+        t3 = time.perf_counter()
+        csrc = _codegen.c_source(eqs)
+        t4 = time.perf_counter()
+        (folder / "chain40.c").write_text(csrc)
+        gcc = shutil.which("gcc") or shutil.which("cc")
+        t_gcc = float("nan")
+        if gcc:
+            t5 = time.perf_counter()
+            subprocess.run([gcc, "-O2", "-shared", "-fPIC", "-o", str(folder / "chain40.so"), str(folder / "chain40.c"),
+                            "-lm"], check=True)
+            t_gcc = time.perf_counter() - t5
+        print("| step | time |")
+        print("|---|---:|")
+        print(f"| derive (M and f) | {t1 - t0:.2f} s |")
+        print(f"| generate numba code (CSE, {len(text) / 1e6:.1f} MB of source) | {t2 - t1:.2f} s |")
+        print(f"| compile with numba (rhs and energy) | {t3 - t2:.2f} s |")
+        print(f"| generate C code | {t4 - t3:.2f} s |")
+        print(f"| compile C with gcc -O2 | {t_gcc:.2f} s |")
+        RESULTS["forty"] = (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t_gcc)
+    finally:
+        if old is None:
+            os.environ.pop("LAGRANGIAN_CACHE_DIR", None)
+        else:
+            os.environ["LAGRANGIAN_CACHE_DIR"] = old
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+# --------------------------------------------------------------------------------- summary
+def summary() -> None:
+    header("Targets")
+    R = RESULTS
+
+    def mark(ok):
+        return "holds" if ok else "MISSED"
+
+    print("| target | measured | |")
+    print("|---|---|---|")
+    for n, label in ((2, "double pendulum"), (6, "6-link chain")):
+        s = R.get(f"sim{n}")
+        if s:
+            r_peer = s["peer"] / s["kernel"]
+            r_floor = s["kernel"] / s["floor"]
+            print(f"| {label}: >= 300x faster than lambdify + solve_ivp | {r_peer:.0f}x (integrator call), "
+                  f"{s['peer'] / s['api']:.0f}x (simulate() end to end) | {mark(r_peer >= 300)} |")
+            print(f"| {label}: within 1.3x of the C floor | {r_floor:.2f}x (integrator call), "
+                  f"{s['api'] / s['floor']:.2f}x (simulate()) | {mark(r_floor <= 1.3)} |")
+    if "batch" in R:
+        print(f"| batch: >= 15,000 double pendulums per second on {R['threads']} cores (aim 59,000) | "
+              f"{R['batch']:,.0f}/s | {mark(R['batch'] >= 15000)} |")
+    if "cli" in R:
+        first, second = R["cli"]
+        print(f"| new model from the CLI: first run < 5 s | {first:.2f} s | {mark(first < 5)} |")
+        print(f"| new model from the CLI: second run < 1.5 s | {second:.2f} s | {mark(second < 1.5)} |")
+    if "derive10" in R:
+        ours, kane = R["derive10"]
+        print(f"| derivation: >= 50x faster than KanesMethod at 10 links | {kane / ours:.0f}x | "
+              f"{mark(kane / ours >= 50)} |")
+    if "forty" in R:
+        d, g, c, _, _ = R["forty"]
+        print(f"| 40-link chain derived in a few seconds | derive {d:.2f} s, generate {g:.1f} s, compile {c:.1f} s "
+              f"| {mark(d < 5)} |")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repeats; skip the slowest peers")
+    ap.add_argument("--only", nargs="*", choices=["derivation", "simulation", "batch", "new-model", "forty"],
+                    help="run only these sections")
+    args = ap.parse_args(argv)
+    sections = {"derivation": derivation, "simulation": simulation, "batch": batch, "new-model": new_model,
+                "forty": forty}
+    import platform
+
+    print(f"# lagrangian benchmarks ({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()})")
+    for name, fn in sections.items():
+        if args.only and name not in args.only:
+            continue
+        fn(args.quick)
+    summary()
+
+
+if __name__ == "__main__":
+    main()

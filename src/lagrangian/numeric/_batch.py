@@ -1,0 +1,321 @@
+"""simulate_batch(...) -> BatchResult: many initial states and/or parameter sets in one call,
+integrated by the compiled DOP853 in parallel on all cores (numba prange), or on a Dask cluster
+when a client is given."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import numbers
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import ModelError, Problem
+from ._kernels import STATUS
+from ._trajectory import Trajectory
+
+__all__ = ["simulate_batch", "BatchResult", "grid"]
+
+
+def _frozen(a, dtype=float) -> np.ndarray:
+    a = np.array(a, dtype=dtype)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResult:
+    """The trajectories of a batch run (returned by :func:`simulate_batch`).
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Output times, shared by every run.
+    x : ndarray, shape (B, N, 2n)
+        States: run, time, state (columns in `state_names` order). NaN after a run stopped.
+    state_names : tuple of str
+    parameters : ndarray, shape (B, k)
+        The parameter values of each run, columns in `parameter_names` order.
+    parameter_names : tuple of str
+    initial : ndarray, shape (B, 2n)
+        The initial states.
+    status : ndarray of int, shape (B,)
+        0 when the run reached the end; otherwise see `messages` (1 or 2: the mass matrix
+        became singular, 3: the forcing was not finite, -1: the step size became too small).
+    stop_time : ndarray, shape (B,)
+        Where each run stopped (t_end when it did not).
+    nfev : ndarray of int, shape (B,)
+        Right-hand-side evaluations per run.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    state_names: tuple[str, ...]
+    parameters: np.ndarray
+    parameter_names: tuple[str, ...]
+    initial: np.ndarray
+    status: np.ndarray
+    stop_time: np.ndarray
+    nfev: np.ndarray
+    backend: str = "numba"
+    _model: object = field(default=None, repr=False)
+
+    def __len__(self) -> int:
+        return self.x.shape[0]
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Whether each run reached the end, shape (B,)."""
+        return self.status == 0
+
+    @property
+    def final(self) -> np.ndarray:
+        """The states at the last output time, shape (B, 2n)."""
+        return self.x[:, -1, :]
+
+    @property
+    def messages(self) -> list[str]:
+        """The integrator's message for each run."""
+        return [STATUS.get(int(s), f"status {int(s)}") for s in self.status]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """A state column of every run by name, shape (B, N); "t" gives the times."""
+        if name == "t":
+            return self.t
+        if name in self.state_names:
+            return self.x[:, :, self.state_names.index(name)]
+        raise KeyError(f"the batch has no column '{name}'; its columns are t, {', '.join(self.state_names)}")
+
+    def trajectory(self, i: int) -> Trajectory:
+        """Run `i` as a :class:`Trajectory` (states only: no inputs or energy column)."""
+        return Trajectory(self.t, self.x[i], self.state_names,
+                          parameters=dict(zip(self.parameter_names, map(float, self.parameters[i]))),
+                          nfev=int(self.nfev[i]), message=self.messages[i],
+                          stats={"backend": self.backend, "method": "DOP853", "nfev": int(self.nfev[i])},
+                          model=self._model)
+
+    def __repr__(self) -> str:
+        return (f"<BatchResult: {len(self)} runs ({int(np.sum(self.ok))} reached the end), {len(self.t)} "
+                f"output times, states {', '.join(self.state_names)}>")
+
+
+def grid(axes: Mapping[str, object]) -> dict[str, np.ndarray]:
+    """Every combination of the values on each axis, as flat arrays for :func:`simulate_batch`.
+
+    ``grid({"k": [1, 2, 3], "c": [0.1, 0.2]})`` gives k = [1, 1, 2, 2, 3, 3], c = [0.1, 0.2, ...].
+    """
+    names = list(axes)
+    values = [np.atleast_1d(np.asarray(axes[k], dtype=float)) for k in names]
+    combos = list(itertools.product(*values))
+    return {k: np.array([c[i] for c in combos]) for i, k in enumerate(names)}
+
+
+def _size(value) -> int | None:
+    if isinstance(value, numbers.Real):
+        return None
+    return int(np.asarray(value).shape[0]) if np.ndim(value) == 1 else -1
+
+
+def simulate_batch(system, t_end: float | None = None, initial=None, *, params: Mapping | None = None,
+                   inputs: Mapping | None = None, dt: float | None = None, t_eval=None,
+                   rtol: float | None = None, atol: float | None = None, max_step: float = math.inf,
+                   backend: str = "auto", client=None, progress: bool | None = None,
+                   chunk_size: int | None = None) -> BatchResult:
+    """Integrate many runs of one model: initial states and/or parameter sets, in parallel.
+
+    Parameters
+    ----------
+    system : Model, Equations or CompiledModel
+    t_end : float
+        Final time (default: the model's [simulation] t_end).
+    initial : array_like, shape (B, 2n) or (2n,), or mapping of str to float or array (B,)
+        Initial states: one row per run, or by name with a number (shared by every run) or an
+        array (one value per run); names not given are 0. Default: the model's initial values.
+    params : mapping of str to float or array_like, shape (B,)
+        Parameter values that override the model's: a number for every run, or one per run
+        (see :func:`grid` for every combination of several parameters).
+    inputs : mapping of str to float or str
+        Each input as a constant or an expression of t and the parameters (per run's values).
+    dt, t_eval
+        Output times, as in :func:`simulate`; ``t_eval=[t_end]`` keeps only the final states.
+    rtol, atol : float
+        Tolerances of DOP853 (default 1e-9 both).
+    max_step : float
+        Largest step.
+    backend : {"auto", "numba", "c"}
+        The compiled backend (both run the same compiled DOP853).
+    client : dask.distributed.Client, optional
+        Run the chunks of the batch on this Dask cluster instead of this machine's cores.
+    progress : bool, optional
+        Show a progress bar on stderr (default: when stderr is a terminal and the run takes more
+        than a second).
+    chunk_size : int, optional
+        Runs per parallel chunk (and per Dask task); default: about 1/50 of the batch.
+
+    Returns
+    -------
+    BatchResult
+        Arrays: ``x[run, time, state]``; a run that fails does not stop the others: its
+        `status` says why and its states are NaN from then on.
+    """
+    from ._simulate import (_Names, _as_numeric, _closest, _input_function, _parameters, output_times)
+    from ._fast import BACKENDS, CompiledModel
+
+    nm = _as_numeric(system)
+    eq = nm.equations
+    names = nm if isinstance(nm, (_Names, CompiledModel)) else _Names(eq)
+    defaults = eq.model.simulation
+    problems: list[Problem] = []
+    t_end = defaults.get("t_end") if t_end is None else t_end
+    if t_end is None or not isinstance(t_end, numbers.Real) or not t_end > 0 or not math.isfinite(t_end):
+        problems.append(Problem(f"t_end must be a positive number, got {t_end!r}", key="t_end"))
+    dt = defaults.get("dt", 0.01) if dt is None else dt
+    rtol = defaults.get("rtol", 1e-9) if rtol is None else rtol
+    atol = defaults.get("atol", 1e-9) if atol is None else atol
+    for key, v in (("dt", dt), ("rtol", rtol), ("atol", atol)):
+        if not isinstance(v, numbers.Real) or not v > 0 or not math.isfinite(v):
+            problems.append(Problem(f"{key} must be a positive number, got {v!r}", key=key))
+    if backend not in BACKENDS or backend == "scipy":
+        problems.append(Problem(f"simulate_batch runs in compiled code: backend must be one of auto, numba, c, "
+                                f"got '{backend}'{_closest(backend, BACKENDS)}", key="backend"))
+    initial = defaults.get("initial") if initial is None else initial
+    params = dict(params or {})
+
+    # sizes: every per-run array must have the same length B
+    sizes = {}
+    if initial is not None and not isinstance(initial, Mapping):
+        arr = np.asarray(initial, dtype=float)
+        if arr.ndim == 2:
+            sizes["initial"] = arr.shape[0]
+        if arr.shape[-1:] != (2 * names.n,) or arr.ndim > 2:
+            problems.append(Problem(f"the initial states must have shape (B, {2 * names.n}) "
+                                    f"({', '.join(names.state_names)}), got shape {arr.shape}", key="initial"))
+    for what, mapping in (("initial", initial if isinstance(initial, Mapping) else {}), ("params", params)):
+        for k, v in mapping.items():
+            s = _size(v)
+            if s == -1:
+                problems.append(Problem(f"{what}.{getattr(k, 'name', k)} must be a number or a 1-d array, "
+                                        f"got shape {np.shape(v)}", key=f"{what}.{getattr(k, 'name', k)}"))
+            elif s is not None:
+                sizes[f"{what}.{getattr(k, 'name', k)}"] = s
+    if len(set(sizes.values())) > 1:
+        problems.append(Problem("the per-run arrays have different lengths: "
+                                + ", ".join(f"{k}: {v}" for k, v in sizes.items()), key="batch"))
+    B = next(iter(sizes.values())) if sizes else 1
+    if B == 0:
+        problems.append(Problem("the batch is empty (arrays of length 0)", key="batch"))
+
+    def first(v):
+        return float(np.asarray(v, dtype=float).ravel()[0]) if _size(v) not in (None, -1) and np.size(v) else v
+
+    p0 = _parameters(names, {k: first(v) for k, v in params.items()}, problems)
+    if isinstance(initial, Mapping):
+        from ._simulate import _named_values
+
+        _named_values({k: first(v) for k, v in initial.items()}, names.state_names, "a coordinate or velocity",
+                      "initial", problems)
+    _, u_exprs = _input_function(names, defaults.get("inputs") if inputs is None else inputs, p0, problems)
+    if u_exprs is None:
+        problems.append(Problem("simulate_batch runs in compiled code, which cannot call a Python function: give "
+                                "each input as an expression string such as '1.5*sin(3*t)'", key="inputs"))
+    if problems:
+        raise ModelError(problems)
+
+    # the arrays
+    k = len(names.parameter_names)
+    P = np.tile(p0, (B, 1))
+    for name, v in params.items():
+        P[:, names.parameter_names.index(getattr(name, "name", name))] = np.asarray(v, dtype=float)
+    X0 = np.zeros((B, 2 * names.n))
+    if isinstance(initial, Mapping):
+        for name, v in initial.items():
+            X0[:, names.state_names.index(getattr(name, "name", name))] = np.asarray(v, dtype=float)
+    elif initial is not None:
+        X0[:] = np.asarray(initial, dtype=float)
+    bad = [f"{what} row {i}" for what, A in (("initial", X0), ("params", P))
+           for i in np.nonzero(~np.all(np.isfinite(A), axis=1))[0][:3]]
+    if bad:
+        raise ModelError(f"every initial value and parameter must be a finite number: not so in {', '.join(bad)}")
+
+    if t_eval is None:
+        times = output_times(float(t_end), float(dt))
+    else:
+        times = np.asarray(t_eval, dtype=float).ravel()
+        if times.size == 0 or times[0] < 0 or np.any(np.diff(times) <= 0) or times[-1] > t_end * (1 + 1e-12):
+            raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
+                             f"got {t_eval!r}")
+
+    from ._compiled import compile_equations
+    from ._inputs import programs
+
+    cm = nm if isinstance(nm, CompiledModel) else compile_equations(eq, "numba" if backend == "auto" else backend)
+    prog = programs(u_exprs, eq.t, list(eq.parameters))
+    rtol = max(float(rtol), 100 * np.finfo(float).eps)
+    X = np.full((B, len(times), 2 * names.n), np.nan)
+    INFO = np.zeros((B, 2 + 2 * names.n))
+    STATS = np.zeros((B, 4), dtype=np.int64)
+    STATUS_ = np.zeros(B, dtype=np.int64)
+    if chunk_size is None:
+        chunk_size = max(64, -(-B // 50))
+    chunks = [(a, min(B, a + chunk_size)) for a in range(0, B, chunk_size)]
+    from .._progress import Progress
+
+    with Progress(B, "simulating", enabled=progress) as bar:
+        if client is None:
+            from ._fast import kernels, stage_table
+
+            K = kernels()
+            for a, b in chunks:
+                K.dop853_batch(cm.rhs_c, names.n, X0[a:b], 0.0, times, _nonempty_rows(P[a:b]), prog.ops, prog.args,
+                               prog.starts, prog.nstack, rtol, float(atol), float(max_step), X[a:b], INFO[a:b],
+                               STATS[a:b], STATUS_[a:b], *stage_table())
+                bar.update(b - a)
+        else:
+            _run_on_dask(client, cm, names.n, chunks, X0, P, times, prog, rtol, float(atol), float(max_step),
+                         X, INFO, STATS, STATUS_, bar)
+    for i in np.nonzero(STATUS_ != 0)[0]:
+        X[i, STATS[i, 3]:] = np.nan
+    stop = np.where(STATUS_ == 0, times[-1], INFO[:, 0])
+    return BatchResult(_frozen(times), _frozen(X), names.state_names, _frozen(P[:, :k]), names.parameter_names,
+                       _frozen(X0), _frozen(STATUS_, np.int64), _frozen(stop), _frozen(STATS[:, 0], np.int64),
+                       cm.backend, eq.model)
+
+
+def _nonempty_rows(P: np.ndarray) -> np.ndarray:
+    return P if P.shape[1] else np.zeros((P.shape[0], 1))
+
+
+def _run_on_dask(client, cm, n, chunks, X0, P, times, prog, rtol, atol, max_step, X, INFO, STATS, STATUS_, bar):
+    from dask.distributed import as_completed
+
+    source = cm.source
+    futures = {}
+    for a, b in chunks:
+        fut = client.submit(run_chunk, source, cm.key, n, X0[a:b], times, _nonempty_rows(P[a:b]), prog.ops,
+                            prog.args, prog.starts, prog.nstack, rtol, atol, max_step, pure=False)
+        futures[fut] = (a, b)
+    for fut in as_completed(list(futures)):
+        a, b = futures[fut]
+        X[a:b], INFO[a:b], STATS[a:b], STATUS_[a:b] = fut.result()
+        bar.update(b - a)
+
+
+def run_chunk(source: str, key: str, n: int, X0, times, P, ops, args, starts, nstack, rtol, atol, max_step):
+    """One chunk of a batch, on a Dask worker: loads (or writes and compiles) the model's module
+    from its source, then runs the parallel DOP853. Returns (X, INFO, STATS, STATUS)."""
+    from ._codegen import cache_dir, load_module, write_once
+    from ._fast import kernels, stage_table
+
+    path = cache_dir() / f"lagrangian_{key}.py"
+    write_once(path, source)
+    module = load_module(path, f"lagrangian_generated_{key}")
+    B = X0.shape[0]
+    X = np.full((B, len(times), 2 * n), np.nan)
+    INFO = np.zeros((B, 2 + 2 * n))
+    STATS = np.zeros((B, 4), dtype=np.int64)
+    STATUS_ = np.zeros(B, dtype=np.int64)
+    kernels().dop853_batch(module.rhs, n, np.ascontiguousarray(X0), 0.0, times, np.ascontiguousarray(P), ops, args,
+                           starts, nstack, rtol, atol, max_step, X, INFO, STATS, STATUS_, *stage_table())
+    return X, INFO, STATS, STATUS_

@@ -1,0 +1,74 @@
+"""The C backend: the model's functions generated in C (see _codegen.c_source), compiled by the
+system's C compiler into a shared library in the cache directory, and loaded with cffi. The
+compiled integrators (the same numba kernels as the numba backend) call them through their
+addresses, so no Python runs per step either way.
+
+Needs cffi (``pip install lagrangian[c]``) and a C compiler (``$CC``, ``cc`` or ``gcc``).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import tempfile
+import types
+
+import numpy as np
+
+from ..equations import Equations
+from ..errors import ModelError
+from ._codegen import C_DECLARATIONS, c_source, cache_dir, model_key, write_once
+
+__all__ = ["compile_c", "c_compiler"]
+
+
+def c_compiler() -> str | None:
+    """The C compiler to use ($CC, cc or gcc on PATH), or None."""
+    for name in (os.environ.get("CC"), "cc", "gcc"):
+        if name and shutil.which(name.split()[0]):
+            return name
+    return None
+
+
+def compile_c(equations: Equations):
+    """The CompiledModel of `equations` with its functions in C (cached per content hash)."""
+    from ._fast import _CACHE, _LOCK, CompiledModel
+
+    with _LOCK:
+        per = _CACHE.setdefault(equations, {})
+        if "c" in per:
+            return per["c"]
+    try:
+        import cffi
+    except ImportError:
+        raise ModelError("backend 'c' needs cffi: pip install 'lagrangian[c]' (or use backend='numba')") from None
+    key = model_key(equations, "c")
+    folder = cache_dir()
+    src = folder / f"lagrangian_c_{key}.c"
+    lib_path = folder / f"lagrangian_c_{key}.so"
+    if not lib_path.exists():
+        cc = c_compiler()
+        if cc is None:
+            raise ModelError("backend 'c' needs a C compiler: install gcc (or set $CC), or use backend='numba'")
+        write_once(src, c_source(equations))
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".so", dir=folder)
+        os.close(fd)
+        cmd = [*cc.split(), "-O2", "-shared", "-fPIC", "-o", tmp, str(src), "-lm"]
+        run = subprocess.run(cmd, capture_output=True, text=True)
+        if run.returncode != 0:
+            os.unlink(tmp)
+            raise ModelError(f"backend 'c': the C compiler failed on {src}:\n{run.stderr.strip()[:2000]}\n"
+                             "use backend='numba'")
+        os.replace(tmp, lib_path)
+    ffi = cffi.FFI()
+    ffi.cdef(C_DECLARATIONS)
+    lib = ffi.dlopen(str(lib_path))
+    values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
+    cm = CompiledModel(equations, "c", equations.state_names, tuple(u.name for u in equations.inputs),
+                       tuple(p.name for p in equations.parameters), values, str(src), key,
+                       lib.lg_rhs, lib.lg_energy)
+    per["c-second"] = types.SimpleNamespace(mass_forcing=lib.lg_mass_forcing,
+                                            lagrange_parts=lib.lg_lagrange_parts, _keep=(ffi, lib))
+    with _LOCK:
+        return per.setdefault("c", cm)

@@ -1,0 +1,295 @@
+"""The compiled backends: numba (default) and C (cffi, when a compiler is present).
+
+``compile_equations(equations, backend="numba")`` returns a :class:`CompiledModel`: the same
+functions as the portable :class:`NumericModel` (rhs, mass_matrix, forcing, accelerations,
+energy), evaluated by generated code, plus the integrators that run entirely in compiled code
+(DOP853 with dense output and the singular-mass-matrix event, the batch driver and the midpoint
+variational integrator).
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..equations import Equations
+from ._codegen import cache_dir, load_module, model_key, numba_source, write_once
+from ._inputs import constant_programs
+
+__all__ = ["CompiledModel", "compile_numba", "BACKENDS"]
+
+#: Backends accepted by ``backend``: "auto" picks numba when it can, else "scipy".
+BACKENDS = ("auto", "numba", "c", "scipy")
+
+_CACHE: "weakref.WeakKeyDictionary[Equations, dict]" = weakref.WeakKeyDictionary()
+_LOCK = threading.Lock()
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledModel:
+    """The numerical state equations of `equations`, generated and compiled by numba.
+
+    Every function takes ``(t, x, u, p)`` as :class:`NumericModel` does: the generated module's
+    docstring (``source``) lists the state, input and parameter names in argument order.
+
+    Attributes
+    ----------
+    backend : str
+        "numba" or "c".
+    path : str
+        The generated module's file (in the cache directory).
+    key : str
+        The hash of the equations' content that names the module.
+    """
+
+    equations: Equations = field(repr=False)
+    backend: str
+    state_names: tuple[str, ...]
+    input_names: tuple[str, ...]
+    parameter_names: tuple[str, ...]
+    parameter_values: np.ndarray = field(repr=False)
+    path: str
+    key: str
+    rhs_c: object = field(repr=False)
+    energy_c: object = field(repr=False)
+
+    @property
+    def n(self) -> int:
+        return len(self.state_names) // 2
+
+    @property
+    def source(self) -> str:
+        """The generated source (its docstring documents the argument order)."""
+        with open(self.path) as fh:
+            return fh.read()
+
+    def _second(self):
+        """The module with mass_forcing and lagrange_parts (generated on first use)."""
+        per = _CACHE.setdefault(self.equations, {})
+        if self.backend == "c":
+            return per["c-second"]
+        if "variational" not in per:
+            per["variational"] = _module(self.equations, "variational")[2]
+        return per["variational"]
+
+    @property
+    def mass_forcing_c(self):
+        """The cfunc of M and f."""
+        return self._second().mass_forcing
+
+    @property
+    def lagrange_parts_c(self):
+        """The cfunc of dL/dq_dot and dL/dq - dD/dq_dot + Q."""
+        return self._second().lagrange_parts
+
+    def _args(self, t, x, u, p):
+        x = np.ascontiguousarray(x, dtype=float)
+        if x.shape != (2 * self.n,):
+            raise ValueError(f"x must have shape ({2 * self.n},), got {x.shape}")
+        u = np.ascontiguousarray(u, dtype=float)
+        if u.shape != (len(self.input_names),):
+            raise ValueError(f"u must have shape ({len(self.input_names)},), got {u.shape}")
+        p = np.ascontiguousarray(p, dtype=float)
+        if p.shape != (len(self.parameter_names),):
+            raise ValueError(f"p must have shape ({len(self.parameter_names)},), got {p.shape}")
+        return float(t), x, _nonempty(u), _nonempty(p)
+
+    def rhs(self, t, x, u, p) -> np.ndarray:
+        """x' = [q_dot, q_ddot], shape (2n,) (NaN where M is singular or f not finite)."""
+        return kernels().rhs(self.rhs_c, self.n, *self._args(t, x, u, p))[0]
+
+    def solve(self, t, x, u, p) -> tuple[np.ndarray, float]:
+        """(q_ddot, inertia measure of M); the measure is -1.0 when f is not finite."""
+        dx, r = kernels().rhs(self.rhs_c, self.n, *self._args(t, x, u, p))
+        return dx[self.n:], float(r)
+
+    def mass_matrix(self, t, x, u, p) -> np.ndarray:
+        """M at the state, shape (n, n)."""
+        return kernels().mass_forcing(self.mass_forcing_c, self.n, *self._args(t, x, u, p))[0]
+
+    def forcing(self, t, x, u, p) -> np.ndarray:
+        """f at the state, shape (n,)."""
+        return kernels().mass_forcing(self.mass_forcing_c, self.n, *self._args(t, x, u, p))[1]
+
+    def accelerations(self, t, x, u, p) -> np.ndarray:
+        """q_ddot solving M q_ddot = f, shape (n,)."""
+        return self.rhs(t, x, u, p)[self.n:]
+
+    def singular_ratio(self, t, x, u, p) -> float:
+        """inertia_measure(M) at the state: 1 for a diagonal M, 0 for a singular one."""
+        from ..equations._singular import inertia_measure
+
+        return inertia_measure(self.mass_matrix(t, x, u, p))
+
+    def energy(self, t, x, u, p) -> float:
+        """The Jacobi integral h = q_dot . dL/dq_dot - L."""
+        t, x, u, p = self._args(t, x, u, p)
+        m = len(self.input_names)
+        prog = constant_programs(u[:m])
+        out, U = np.empty(1), np.empty((1, m))
+        kernels().energies(self.energy_c, np.array([t]), x[None, :], p, prog.ops, prog.args, prog.starts,
+                           prog.nstack, out, U)
+        return float(out[0])
+
+
+def _nonempty(a: np.ndarray) -> np.ndarray:
+    """A length-1 array for an empty one (the compiled functions take a pointer)."""
+    return a if a.size else np.zeros(1)
+
+
+def kernels():
+    """The compiled kernels module (generated once per machine and version, see _kernels.py)."""
+    global _KERNELS
+    if _KERNELS is None:
+        with _LOCK:
+            if _KERNELS is None:
+                import hashlib
+
+                import numba
+
+                import scipy
+
+                from . import _kernels
+
+                # keyed by the generator's own source, not by its output: finding the module
+                # costs no generation (and no import of scipy.integrate)
+                with open(_kernels.__file__, "rb") as fh:
+                    own = fh.read()
+                key = hashlib.sha256(own + f"|{numba.__version__}|{scipy.__version__}".encode()).hexdigest()[:24]
+                path = cache_dir() / f"lagrangian_kernels_{key}.py"
+                if not path.exists():
+                    write_once(path, _kernels.kernel_source())
+                _KERNELS = load_module(path, f"lagrangian_kernels_{key}")
+    return _KERNELS
+
+
+_KERNELS = None
+
+
+def _module(equations: Equations, part: str):
+    key = model_key(equations, "numba-" + part)
+    path = cache_dir() / f"lagrangian_{key}.py"
+    if not path.exists():
+        write_once(path, numba_source(equations, part))
+    return path, key, load_module(path, f"lagrangian_generated_{key}")
+
+
+def compile_numba(equations: Equations) -> "CompiledModel":
+    """The numba-compiled model of `equations` (generated once per content hash and cached on
+    disk, with numba's compiled code beside it)."""
+    with _LOCK:
+        per = _CACHE.setdefault(equations, {})
+        if "numba" in per:
+            return per["numba"]
+    path, key, module = _module(equations, "main")
+    values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
+    cm = CompiledModel(equations, "numba", equations.state_names, tuple(u.name for u in equations.inputs),
+                       tuple(p.name for p in equations.parameters), values, str(path), key,
+                       module.rhs, module.energy)
+    with _LOCK:
+        return per.setdefault("numba", cm)
+
+
+@dataclass(frozen=True)
+class RawRun:
+    """What a compiled integrator returns (internal)."""
+
+    status: int
+    t: np.ndarray  # output times reached
+    x: np.ndarray  # states at those times
+    stop_t: float  # where it stopped (status != 0)
+    stop_measure: float
+    stop_x: np.ndarray
+    nfev: int
+    nstep: int
+    nreject: int
+    event_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # event crossings: times,
+    event_k: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # which event,
+    event_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # states
+
+
+_TABLE = None
+
+
+def stage_table():
+    """The coefficient table the kernels loop over (placeholders when they write the stages out)."""
+    global _TABLE
+    if _TABLE is None:
+        from ._kernels import UNROLL_STAGES, stage_table as table
+
+        if UNROLL_STAGES:
+            _TABLE = (np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
+        else:
+            _TABLE = table()
+    return _TABLE
+
+
+#: Most event crossings recorded in one run.
+MAX_EVENTS = 100_000
+
+
+def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
+               first_step: float = 0.0, events=None, terminal=()) -> RawRun:
+    """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `events`:
+    the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it."""
+    from ._inputs import Programs
+
+    n = cm.n
+    if events is None:
+        events = Programs([], [], [0], 1)
+    nev = len(events.starts) - 1
+    cap = MAX_EVENTS if nev else 1
+    ev_t, ev_k, ev_x, ev_n = np.zeros(cap), np.zeros(cap, np.int64), np.zeros((cap, 2 * n)), np.zeros(1, np.int64)
+    eterm = np.zeros(max(1, nev), np.int64)
+    eterm[:len(terminal)] = terminal
+    times = np.ascontiguousarray(times, dtype=float)
+    X = np.empty((len(times), 2 * n))
+    info = np.zeros(2 + 2 * n)
+    stats = np.zeros(4, dtype=np.int64)
+    rtol = max(float(rtol), 100 * np.finfo(float).eps)
+    status = kernels().dop853(cm.rhs_c, n, np.array(x0, dtype=float), 0.0, times,
+                              _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts,
+                              max(prog.nstack, events.nstack), rtol, float(atol), float(max_step), float(first_step),
+                              X, info, stats, *stage_table(), events.ops, events.args, events.starts, eterm, ev_t,
+                              ev_k, ev_x, ev_n)
+    k = int(stats[3])
+    m = int(ev_n[0])
+    order = np.argsort(ev_t[:m], kind="stable")
+    return RawRun(int(status), times[:k], X[:k], float(info[0]), float(info[1]), info[2:].copy(),
+                  int(stats[0]), int(stats[1]), int(stats[2]), ev_t[:m][order], ev_k[:m][order], ev_x[:m][order])
+
+
+def run_variational(cm: CompiledModel, x0, h: float, nsteps: int, every: int, p, prog) -> RawRun:
+    """The midpoint variational integrator from (0, x0): `nsteps` steps of size h, output every
+    `every` steps."""
+    n = cm.n
+    nout = nsteps // every + 1
+    X = np.empty((nout, 2 * n))
+    info = np.zeros(2 + 2 * n)
+    stats = np.zeros(4, dtype=np.int64)
+    status = kernels().variational(cm.mass_forcing_c, cm.lagrange_parts_c, n, np.array(x0, dtype=float), 0.0,
+                                   float(h), int(nsteps), int(every), _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops,
+                                   prog.args, prog.starts, prog.nstack, X, info, stats)
+    k = int(stats[3])
+    return RawRun(int(status), np.arange(k) * (every * h), X[:k], float(info[0]), float(info[1]),
+                  info[2:].copy(), int(stats[0]), int(stats[1]), 0)
+
+
+def inputs_and_energy(cm: CompiledModel, times, X, p, prog) -> tuple[np.ndarray, np.ndarray]:
+    """(U, energy) at the rows of (times, X), computed in compiled code."""
+    times = np.ascontiguousarray(times, dtype=float)
+    U = np.empty((len(times), len(cm.input_names)))
+    energy = np.empty(len(times))
+    kernels().energies(cm.energy_c, times, np.ascontiguousarray(X, dtype=float), _nonempty(np.ascontiguousarray(p, dtype=float)),
+                       prog.ops, prog.args, prog.starts, prog.nstack, energy, U)
+    return U, energy
+
+
+def compile_c(equations: Equations) -> CompiledModel:
+    """The model's functions generated in C and compiled with cffi (see _cbackend.py)."""
+    from ._cbackend import compile_c as build
+
+    return build(equations)

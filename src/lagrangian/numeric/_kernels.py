@@ -1,0 +1,788 @@
+"""The model-independent compiled kernels: input programs, the scaled Cholesky solve of
+M q_ddot = f, DOP853 with dense output and the singular-mass-matrix event, the batch driver, and
+the midpoint variational integrator.
+
+:func:`kernel_source` returns them as Python source for numba. They are written once to the cache
+directory (see _fast.kernels) and compiled once per machine (``@njit(cache=True)``): a model's
+functions are passed to them as compiled C callbacks (numba ``cfunc``, or the C backend's
+functions) of fixed signatures,
+
+    rhs(t, x*, u*, p*, dx*, work*) -> double  dx = [q_dot, q_ddot]; returns the inertia measure
+                                              of M (-1.0 when f is not finite)
+    energy(t, x*, u*, p*) -> double           the Jacobi integral
+    mass_forcing(t, x*, u*, p*, M*, f*)      M row-major (n x n), f (n)
+    lagrange_parts(t, x*, u*, p*, pm*, F*)   pm = dL/dq_dot, F = dL/dq - dD/dq_dot + Q
+
+so that a new model compiles only its own functions (a fraction of a second) and no integrator.
+
+The Runge-Kutta stages are written out with their coefficients as literals and the zero ones
+left out. The coefficients of DOP853 (Hairer, Norsett and Wanner's 8(5,3) pair with its order-7
+dense output) are read from SciPy's table at generation time, so that this integrator and SciPy's
+``solve_ivp(method="DOP853")`` take the same steps; the step-size control follows SciPy's too.
+"""
+
+from __future__ import annotations
+
+__all__ = ["kernel_source", "STATUS", "OPCODES", "SINGULAR_RATIO", "EVENT_RATIO"]
+
+#: inertia measure of M at or below which the mass matrix counts as singular (stops at once).
+SINGULAR_RATIO = 1e-12
+#: the singular-mass-matrix event: the inertia measure crossing this value downwards.
+EVENT_RATIO = 1e-9
+
+#: Status codes returned by the compiled integrators.
+STATUS = {
+    0: "The solver successfully reached the end of the integration interval.",
+    1: "A termination event occurred.",
+    2: "The mass matrix is singular at a stage of a step.",
+    3: "The forcing f is not finite.",
+    -1: "Required step size is less than spacing between numbers.",
+    -3: "The implicit midpoint step of the variational integrator did not converge.",
+    4: "An event stopped the integration.",
+}
+
+#: Opcodes of the input programs (postfix; see _inputs.py).
+OPCODES = {
+    "const": 0, "t": 1, "param": 2, "add": 3, "mul": 4, "pow": 5, "atan2": 6, "max": 7, "min": 8,
+    "sin": 10, "cos": 11, "tan": 12, "exp": 13, "log": 14, "sqrt": 15, "abs": 16, "sign": 17,
+    "asin": 18, "acos": 19, "atan": 20, "sinh": 21, "cosh": 22, "tanh": 23, "heaviside": 24,
+    "floor": 25, "ceiling": 26, "x": 27, "u": 28,
+}
+
+
+def _coefficients():
+    from scipy.integrate._ivp import dop853_coefficients as c
+
+    return c.A, c.C, c.E3, c.E5, c.D
+
+
+def _lincomb(terms, var: str) -> str:
+    """'a * K[j, i] + ...' for the non-zero coefficients."""
+    parts = [f"{float(a)!r} * {var}[{j}, i]" for j, a in terms if a != 0.0]
+    return " + ".join(parts) if parts else "0.0"
+
+
+def stage_table() -> tuple:
+    """(aptr, aidx, aval, c): the non-zero coefficients of the stages (rows 1..15 of A, row 12
+    being the solution's weights, C[12] = 1) in compressed rows, and the nodes c."""
+    import numpy as np
+
+    A, C, _, _, _ = _coefficients()
+    ptr, idx, val = [0], [], []
+    for s in range(16):
+        for j in range(s):
+            if A[s, j] != 0.0:
+                idx.append(j)
+                val.append(float(A[s, j]))
+        ptr.append(len(idx))
+    return (np.array(ptr, dtype=np.int64), np.array(idx, dtype=np.int64), np.array(val),
+            np.array(C, dtype=float))
+
+
+_STAGE_LOOP = """{i}for st in range({first}, {last}):
+{i}    for i in range(nx):
+{i}        acc = 0.0
+{i}        for jj in range(aptr[st], aptr[st + 1]):
+{i}            acc += aval[jj] * K[aidx[jj], i]
+{i}        xs[i] = y[i] + h * acc
+{i}    ts = t + cc[st] * h
+{i}    if nin:
+{i}        eval_inputs(ts, p, ops, args, starts, stack, u)
+{i}    r = rc(ts, pxs, pu, pp, _ptr(K, st * nx), pw)"""
+
+
+def _unrolled(first: int, last: int, indent: str) -> list[str]:
+    A, C, _, _, _ = _coefficients()
+    lines = []
+    for s in range(first, last):
+        lines += [
+            f"{indent}for i in range(nx):",
+            f"{indent}    xs[i] = y[i] + h * ({_lincomb(enumerate(A[s, :s]), 'K')})",
+            f"{indent}ts = t + {float(C[s])!r} * h",
+            f"{indent}if nin:",
+            f"{indent}    eval_inputs(ts, p, ops, args, starts, stack, u)",
+            f"{indent}r = rc(ts, pxs, pu, pp, _ptr(K, {s} * nx), pw)",
+        ]
+        if s < 13:
+            lines += [
+                f"{indent}nfev += 1",
+                f"{indent}if r < 0.0 or r <= SINGULAR_RATIO:",
+                f"{indent}    return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)",
+            ]
+    return lines
+
+
+#: Write the stages out (faster steps, longer one-time compilation of the kernels) or loop over
+#: a table of coefficients.
+UNROLL_STAGES = True
+
+
+def _generated_parts() -> dict[str, str]:
+    _, _, E3, E5, D = _coefficients()
+    if UNROLL_STAGES:
+        steps = _unrolled(1, 13, " " * 12)
+    else:
+        steps = _STAGE_LOOP.format(i=" " * 12, first=1, last=13).splitlines()
+        steps += [
+            "                nfev += 1",
+            "                if r < 0.0 or r <= SINGULAR_RATIO:",
+            "                    return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)",
+        ]
+    steps += [
+        "            rnew = r",
+        "            for i in range(nx):",
+        "                ynew[i] = xs[i]",
+        "            e5 = 0.0",
+        "            e3 = 0.0",
+        "            for i in range(nx):",
+        "                scl = atol + max(abs(y[i]), abs(ynew[i])) * rtol",
+        f"                d5 = ({_lincomb(enumerate(E5), 'K')}) / scl",
+        f"                d3 = ({_lincomb(enumerate(E3), 'K')}) / scl",
+        "                e5 += d5 * d5",
+        "                e3 += d3 * d3",
+    ]
+    extra = (_unrolled(13, 16, "    ") if UNROLL_STAGES
+             else _STAGE_LOOP.format(i="    ", first=13, last=16).splitlines())
+    extra += [
+        "    for i in range(nx):",
+        "        dy = ynew[i] - y[i]",
+        "        F[0, i] = dy",
+        "        F[1, i] = h * K[0, i] - dy",
+        "        F[2, i] = 2.0 * dy - h * (K[12, i] + K[0, i])",
+    ]
+    for r in range(D.shape[0]):
+        extra.append(f"        F[{r + 3}, i] = h * ({_lincomb(enumerate(D[r]), 'K')})")
+    return {"@STEP@": "\n".join(steps), "@EXTRA@": "\n".join(extra)}
+
+
+_TEMPLATE = '''"""Compiled kernels of lagrangian (generated by lagrangian.numeric._kernels; do not edit).
+
+Model functions are passed as numba cfuncs of fixed signatures (see that module)."""
+
+import math
+
+import numpy as np
+from numba import njit, prange, types
+from numba.extending import intrinsic
+
+
+@intrinsic
+def _ptr(typingctx, arr, offset):
+    """The address of arr.flat[offset] as a double* (no reference counting, unlike arr.ctypes)."""
+    sig = types.CPointer(types.float64)(arr, offset)
+
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, value=args[0]).data
+        return builder.gep(data, [args[1]])
+
+    return sig, codegen
+
+SINGULAR_RATIO = @SINGULAR@
+EVENT_RATIO = @EVENT@
+
+
+@njit(cache=True)
+def _sign(a):
+    return 1.0 if a > 0.0 else (-1.0 if a < 0.0 else 0.0)
+
+
+@njit(cache=True)
+def _heaviside(a):
+    return 1.0 if a > 0.0 else (0.5 if a == 0.0 else 0.0)
+
+
+@njit(cache=True)
+def _run(ops, args, lo, hi, t, x, u, p, stack):
+    """The value of the postfix program ops[lo:hi] (see lagrangian.numeric._inputs)."""
+    top = 0
+    for c in range(lo, hi):
+        op = ops[c]
+        if op == 0:
+            stack[top] = args[c]
+            top += 1
+        elif op == 1:
+            stack[top] = t
+            top += 1
+        elif op == 2:
+            stack[top] = p[int(args[c])]
+            top += 1
+        elif op == 27:
+            stack[top] = x[int(args[c])]
+            top += 1
+        elif op == 28:
+            stack[top] = u[int(args[c])]
+            top += 1
+        elif op < 10:
+            b = stack[top - 1]
+            a = stack[top - 2]
+            top -= 1
+            if op == 3:
+                stack[top - 1] = a + b
+            elif op == 4:
+                stack[top - 1] = a * b
+            elif op == 5:
+                stack[top - 1] = a ** b
+            elif op == 6:
+                stack[top - 1] = math.atan2(a, b)
+            elif op == 7:
+                stack[top - 1] = max(a, b)
+            else:
+                stack[top - 1] = min(a, b)
+        else:
+            a = stack[top - 1]
+            if op == 10:
+                a = math.sin(a)
+            elif op == 11:
+                a = math.cos(a)
+            elif op == 12:
+                a = math.tan(a)
+            elif op == 13:
+                a = math.exp(a)
+            elif op == 14:
+                a = math.log(a) if a > 0.0 else (-math.inf if a == 0.0 else math.nan)
+            elif op == 15:
+                a = math.sqrt(a) if a >= 0.0 else math.nan
+            elif op == 16:
+                a = abs(a)
+            elif op == 17:
+                a = _sign(a)
+            elif op == 18:
+                a = math.asin(a) if abs(a) <= 1.0 else math.nan
+            elif op == 19:
+                a = math.acos(a) if abs(a) <= 1.0 else math.nan
+            elif op == 20:
+                a = math.atan(a)
+            elif op == 21:
+                a = math.sinh(a)
+            elif op == 22:
+                a = math.cosh(a)
+            elif op == 23:
+                a = math.tanh(a)
+            elif op == 24:
+                a = _heaviside(a)
+            elif op == 25:
+                a = math.floor(a)
+            else:
+                a = math.ceil(a)
+            stack[top - 1] = a
+    return stack[0]
+
+
+@njit(cache=True)
+def eval_inputs(t, p, ops, args, starts, stack, u):
+    """u[i] = program i (postfix, see lagrangian.numeric._inputs) at t with parameters p."""
+    for k in range(starts.shape[0] - 1):
+        u[k] = _run(ops, args, starts[k], starts[k + 1], t, p, p, p, stack)
+
+
+@njit(cache=True)
+def eval_events(t, x, u, p, ops, args, starts, stack, out):
+    """out[k] = event function k at (t, x, u, p)."""
+    for k in range(starts.shape[0] - 1):
+        out[k] = _run(ops, args, starts[k], starts[k + 1], t, x, u, p, stack)
+
+
+@njit(cache=True)
+def cholesky_solve(n, M, f, w, out, offset):
+    """Solve M q_ddot = f by the LDL^T factorization of M (M: n x n row-major in a flat array,
+    overwritten by L below the diagonal and 1/D on it; w receives D); q_ddot goes to
+    out[offset:offset + n].
+
+    Returns the inertia measure of M: the smallest pivot of the factorization of M scaled to a
+    unit diagonal, min_j D_j / M_jj (1 for a diagonal M, 0 for a singular one, the squared
+    smallest diagonal entry of the scaled Cholesky factor), or -1.0 when f is not finite."""
+    num = 1.0  # the smallest D_j / M_jj as the fraction num / den
+    den = 1.0
+    for j in range(n):
+        mjj = M[j * n + j]
+        d = mjj
+        for k in range(j):
+            d -= M[j * n + k] * M[j * n + k] * w[k]
+        if not (d > 0.0) or not (mjj > 0.0) or not math.isfinite(d):
+            return 0.0
+        if d * den < num * mjj:
+            num = d
+            den = mjj
+        w[j] = d
+        inv = 1.0 / d
+        for i in range(j + 1, n):  # L_ij = (M_ij - sum_k L_ik L_jk D_k) / D_j
+            s = M[i * n + j]
+            for k in range(j):
+                s -= M[i * n + k] * M[j * n + k] * w[k]
+            M[i * n + j] = s * inv
+        M[j * n + j] = inv
+    measure = num / den
+    if measure <= SINGULAR_RATIO:
+        return measure
+    for i in range(n):
+        if not math.isfinite(f[i]):
+            return -1.0
+    for i in range(n):  # L z = f
+        s = f[i]
+        for k in range(i):
+            s -= M[i * n + k] * out[offset + k]
+        out[offset + i] = s
+    for i in range(n):  # D y = z
+        out[offset + i] *= M[i * n + i]
+    for i in range(n - 1, -1, -1):  # L^T q_ddot = y
+        s = out[offset + i]
+        for k in range(i + 1, n):
+            s -= M[k * n + i] * out[offset + k]
+        out[offset + i] = s
+    return measure
+
+
+@njit(cache=True)
+def _eval(rc, t, x, p, ops, args, starts, stack, u, dx, work):
+    """dx = [q_dot, q_ddot] at (t, x); returns the inertia measure of M (-1.0: f not finite)."""
+    eval_inputs(t, p, ops, args, starts, stack, u)
+    return rc(t, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(dx, 0), _ptr(work, 0))
+
+
+@njit(cache=True)
+def rhs(rc, n, t, x, u, p):
+    """(x' = [q_dot, q_ddot], shape (2n,), the inertia measure of M); x' is NaN where M is
+    singular or f not finite (measure -1.0)."""
+    work = np.empty(n * n + 2 * n)
+    dx = np.empty(2 * n)
+    r = rc(t, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(dx, 0), _ptr(work, 0))
+    if r < 0.0 or r <= SINGULAR_RATIO:
+        dx[n:] = np.nan
+    return dx, r
+
+
+@njit(cache=True)
+def mass_forcing(mf, n, t, x, u, p):
+    """(M (n, n), f (n,))."""
+    M = np.empty(n * n)
+    f = np.empty(n)
+    mf(t, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(M, 0), _ptr(f, 0))
+    return M.reshape((n, n)), f
+
+
+@njit(cache=True)
+def energies(en, times, X, p, ops, args, starts, nstack, out, U):
+    """The Jacobi integral and the inputs at each row of (times, X)."""
+    stack = np.empty(nstack)
+    u = np.empty(max(1, starts.shape[0] - 1))
+    for k in range(times.shape[0]):
+        eval_inputs(times[k], p, ops, args, starts, stack, u)
+        for i in range(starts.shape[0] - 1):
+            U[k, i] = u[i]
+        xk = np.ascontiguousarray(X[k])
+        out[k] = en(times[k], _ptr(xk, 0), _ptr(u, 0), _ptr(p, 0))
+
+
+@njit(cache=True)
+def _fail(r, t, x, info, stats, nfev, nstep, nrej, j):
+    info[0] = t
+    info[1] = r
+    for i in range(x.shape[0]):
+        info[2 + i] = x[i]
+    stats[0] = nfev
+    stats[1] = nstep
+    stats[2] = nrej
+    stats[3] = j
+    return 3 if r < 0.0 else 2
+
+
+@njit(cache=True)
+def _dense(t, h, y, F, tq, out):
+    """The order-7 interpolant of the step from (t, y) of size h, at tq."""
+    s = (tq - t) / h
+    for i in range(y.shape[0]):
+        v = 0.0
+        for r in range(6, -1, -1):
+            v += F[r, i]
+            if (6 - r) % 2 == 0:
+                v *= s
+            else:
+                v *= 1.0 - s
+        out[i] = y[i] + v
+
+
+@njit(cache=True)
+def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, aptr,
+                        aidx, aval, cc):
+    """The three extra stages and the coefficients F of the order-7 interpolant."""
+    nx = 2 * n
+    nin = starts.shape[0] - 1
+    pxs = _ptr(xs, 0)
+    pu = _ptr(u, 0)
+    pp = _ptr(p, 0)
+    pw = _ptr(work, 0)
+@EXTRA@
+
+
+@njit(cache=True)
+def _measure(rc, t, x, p, ops, args, starts, stack, u, work, scratch):
+    eval_inputs(t, p, ops, args, starts, stack, u)
+    return rc(t, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(scratch, 0), _ptr(work, 0))
+
+
+@njit(cache=True)
+def _rms(a, b):
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += (a[i] / b[i]) ** 2
+    return math.sqrt(s / a.shape[0])
+
+
+@njit(cache=True)
+def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_step, first_step,
+           X_out, info, stats, aptr, aidx, aval, cc, eops, eargs, estarts, eterm, ev_t, ev_k, ev_x, ev_n):
+    """Integrate x' = f(t, x, u, p) from (t0, x0) with DOP853; X_out[j] = x(t_out[j]).
+
+    Returns the status (see lagrangian.numeric._kernels.STATUS); unless 0, info = [t, inertia
+    measure (or, status 4, the event's index), x...] where it stopped; stats = [nfev, accepted
+    steps, rejected steps, outputs]. Event functions (programs eops/eargs/estarts of t, x, u, p)
+    are watched at each step: each zero crossing is located on the interpolant and recorded in
+    ev_t, ev_k (which event), ev_x (the state), ev_n[0] counting them (at most len(ev_t)); a
+    crossing of an event with eterm[k] = 1 stops the integration there (status 4)."""
+    nx = 2 * n
+    nout = t_out.shape[0]
+    K = np.empty((16, nx))
+    F = np.empty((7, nx))
+    y = x0.copy()
+    ynew = np.empty(nx)
+    xs = np.empty(nx)
+    sc = np.empty(nx)
+    u = np.empty(max(1, starts.shape[0] - 1))
+    stack = np.empty(nstack)
+    work = np.empty(n * n + 2 * n)
+    nin = starts.shape[0] - 1
+    pxs = _ptr(xs, 0)
+    pu = _ptr(u, 0)
+    pp = _ptr(p, 0)
+    pw = _ptr(work, 0)
+    nfev = 0
+    nstep = 0
+    nrej = 0
+    j = 0
+    t = t0
+    t_end = t_out[nout - 1]
+    while j < nout and t_out[j] <= t0:
+        for i in range(nx):
+            X_out[j, i] = x0[i]
+        j += 1
+    r = _eval(rc, t, y, p, ops, args, starts, stack, u, K[0], work)
+    nfev += 1
+    if r < 0.0 or r <= SINGULAR_RATIO:
+        return _fail(r, t, y, info, stats, nfev, nstep, nrej, j)
+    g_old = r - EVENT_RATIO
+    nev = estarts.shape[0] - 1
+    eg_old = np.zeros(max(1, nev))
+    eg_new = np.zeros(max(1, nev))
+    if nev:
+        eval_events(t, y, u, p, eops, eargs, estarts, stack, eg_old)
+    if t_end <= t0:
+        stats[0] = nfev
+        stats[3] = j
+        return 0
+    interval = t_end - t0
+    if first_step > 0.0:
+        h_abs = min(first_step, interval, max_step)
+    else:  # Hairer, Norsett and Wanner, II.4, as SciPy
+        for i in range(nx):
+            sc[i] = atol + abs(y[i]) * rtol
+        d0 = _rms(y, sc)
+        d1 = _rms(K[0], sc)
+        h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+        h0 = min(h0, interval)
+        for i in range(nx):
+            xs[i] = y[i] + h0 * K[0, i]
+        r = _eval(rc, t + h0, xs, p, ops, args, starts, stack, u, K[1], work)
+        nfev += 1
+        if r < 0.0 or r <= SINGULAR_RATIO:
+            return _fail(r, t + h0, xs, info, stats, nfev, nstep, nrej, j)
+        for i in range(nx):
+            ynew[i] = K[1, i] - K[0, i]
+        d2 = _rms(ynew, sc) / h0
+        if d1 <= 1e-15 and d2 <= 1e-15:
+            h1 = max(1e-6, h0 * 1e-3)
+        else:
+            h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+        h_abs = min(100.0 * h0, h1, interval, max_step)
+    while True:
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        if h_abs > max_step:
+            h_abs = max_step
+        elif h_abs < min_step:
+            h_abs = min_step
+        rejected = False
+        while True:
+            if h_abs < min_step:
+                info[0] = t
+                info[1] = g_old + EVENT_RATIO
+                for i in range(nx):
+                    info[2 + i] = y[i]
+                stats[0] = nfev
+                stats[1] = nstep
+                stats[2] = nrej
+                stats[3] = j
+                return -1
+            tnew = t + h_abs
+            if tnew > t_end:
+                tnew = t_end
+            h = tnew - t
+            h_abs = abs(h)
+@STEP@
+            if e5 == 0.0 and e3 == 0.0:
+                err = 0.0
+            else:
+                err = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * nx)
+            if err < 1.0:
+                if err == 0.0:
+                    factor = 10.0
+                else:
+                    factor = min(10.0, 0.9 * err ** (-1.0 / 8.0))
+                if rejected:
+                    factor = min(1.0, factor)
+                h_next = h_abs * factor
+                break
+            h_abs *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
+            rejected = True
+            nrej += 1
+        nstep += 1
+        g_new = rnew - EVENT_RATIO
+        event = g_old >= 0.0 and g_new <= 0.0 and g_old != g_new
+        dense = event or (j < nout and t_out[j] < tnew)
+        if dense:
+            _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, aptr,
+                                aidx, aval, cc)
+            nfev += 3
+        t_stop = np.inf
+        k_stop = -1
+        if nev:
+            if nin:
+                eval_inputs(tnew, p, ops, args, starts, stack, u)
+            eval_events(tnew, ynew, u, p, eops, eargs, estarts, stack, eg_new)
+            for k in range(nev):
+                ga = eg_old[k]
+                gb = eg_new[k]
+                if not ((ga < 0.0 and gb >= 0.0) or (ga > 0.0 and gb <= 0.0)):
+                    continue
+                if not dense:
+                    _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work,
+                                        aptr, aidx, aval, cc)
+                    nfev += 3
+                    dense = True
+                a = t
+                b = tnew
+                for _ in range(200):  # bisection on the interpolant
+                    if b - a <= 4.0 * 2.220446049250313e-16 * max(1.0, abs(b)):
+                        break
+                    c = 0.5 * (a + b)
+                    _dense(t, h, y, F, c, xs)
+                    if nin:
+                        eval_inputs(c, p, ops, args, starts, stack, u)
+                    gc = _run(eops, eargs, estarts[k], estarts[k + 1], c, xs, u, p, stack)
+                    if (gc < 0.0) == (ga < 0.0) and gc != 0.0:
+                        a = c
+                    else:
+                        b = c
+                m = ev_n[0]
+                if m < ev_t.shape[0]:
+                    ev_t[m] = b
+                    ev_k[m] = k
+                    _dense(t, h, y, F, b, ev_x[m])
+                    ev_n[0] = m + 1
+                if eterm[k] and b < t_stop:
+                    t_stop = b
+                    k_stop = k
+            for k in range(nev):
+                eg_old[k] = eg_new[k]
+        if event:  # bisection on the interpolant for the crossing of the inertia measure
+            a = t
+            b = tnew
+            for _ in range(200):
+                if b - a <= 4.0 * 2.220446049250313e-16 * max(1.0, abs(b)):
+                    break
+                c = 0.5 * (a + b)
+                _dense(t, h, y, F, c, xs)
+                gc = _measure(rc, c, xs, p, ops, args, starts, stack, u, work, sc) - EVENT_RATIO
+                nfev += 1
+                if gc <= 0.0:
+                    b = c
+                else:
+                    a = c
+            while j < nout and t_out[j] <= b:
+                _dense(t, h, y, F, t_out[j], X_out[j])
+                j += 1
+            _dense(t, h, y, F, b, xs)
+            info[0] = b
+            info[1] = _measure(rc, b, xs, p, ops, args, starts, stack, u, work, sc)
+            for i in range(nx):
+                info[2 + i] = xs[i]
+            stats[0] = nfev
+            stats[1] = nstep
+            stats[2] = nrej
+            stats[3] = j
+            return 1
+        if k_stop >= 0:
+            while j < nout and t_out[j] <= t_stop:
+                _dense(t, h, y, F, t_out[j], X_out[j])
+                j += 1
+            _dense(t, h, y, F, t_stop, xs)
+            info[0] = t_stop
+            info[1] = k_stop
+            for i in range(nx):
+                info[2 + i] = xs[i]
+            stats[0] = nfev
+            stats[1] = nstep
+            stats[2] = nrej
+            stats[3] = j
+            return 4
+        while j < nout and t_out[j] <= tnew:
+            if t_out[j] == tnew:
+                for i in range(nx):
+                    X_out[j, i] = ynew[i]
+            else:
+                _dense(t, h, y, F, t_out[j], X_out[j])
+            j += 1
+        t = tnew
+        for i in range(nx):
+            y[i] = ynew[i]
+            K[0, i] = K[12, i]
+        g_old = g_new
+        h_abs = h_next
+        if t >= t_end:
+            break
+    stats[0] = nfev
+    stats[1] = nstep
+    stats[2] = nrej
+    stats[3] = j
+    return 0
+
+
+@njit(cache=True, parallel=True)
+def dop853_batch(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol, max_step, X_out,
+                 INFO, STATS, STATUS, aptr, aidx, aval, cc):
+    """dop853 for each row of X0 (initial states) and P (parameters), in parallel."""
+    for b in prange(X0.shape[0]):
+        ei = np.zeros(1, np.int64)
+        ef = np.zeros(1)
+        STATUS[b] = dop853(rc, n, X0[b], t0, t_out, P[b], ops, args, starts, nstack, rtol, atol,
+                           max_step, 0.0, X_out[b], INFO[b], STATS[b], aptr, aidx, aval, cc, ei, ef, ei, ei,
+                           ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64))
+
+
+@njit(cache=True)
+def variational(mf, lp, n, x0, t0, h, nsteps, every, p, ops, args, starts, nstack, X_out, info,
+                stats):
+    """The midpoint variational integrator: the discrete Lagrangian
+    L_d(q0, q1) = h L(t + h/2, (q0 + q1)/2, (q1 - q0)/h), with the non-conservative forces
+    -dD/dq_dot + Q at the midpoint (discrete Lagrange-d'Alembert principle). In position-momentum
+    form, with v = (q1 - q0)/h and the midpoint qm = q0 + h v / 2, F = dL/dq - dD/dq_dot + Q:
+
+        p0 = dL/dq_dot(qm, v) - h/2 F(qm, v)     (solved for v by Newton's method, with the
+        p1 = dL/dq_dot(qm, v) + h/2 F(qm, v)      Jacobian approximated by M(qm))
+
+    X_out[k] = x at t0 + k * every * h, k = 0 .. nsteps // every; velocities from
+    M q_dot = p - dL/dq_dot(q, 0) (T quadratic in the velocities)."""
+    nx = 2 * n
+    xm = np.empty(nx)
+    pk = np.empty(n)
+    pm = np.empty(n)
+    Fq = np.empty(n)
+    R = np.empty(n)
+    dv = np.empty(n)
+    v = np.empty(n)
+    q = np.empty(n)
+    u = np.empty(max(1, starts.shape[0] - 1))
+    stack = np.empty(nstack)
+    M = np.empty(n * n)
+    f = np.empty(n)
+    w = np.empty(n)
+    nfev = 0
+    r = 1.0
+    for i in range(n):
+        q[i] = x0[i]
+        v[i] = x0[n + i]
+    eval_inputs(t0, p, ops, args, starts, stack, u)
+    lp(t0, _ptr(x0, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pk, 0), _ptr(Fq, 0))
+    for i in range(nx):
+        X_out[0, i] = x0[i]
+    j = 1
+    vprev = np.empty(n)
+    for i in range(n):
+        vprev[i] = v[i]
+    for k in range(nsteps):
+        t = t0 + k * h
+        tm = t + 0.5 * h
+        eval_inputs(tm, p, ops, args, starts, stack, u)
+        if k > 0:  # first guess: extrapolate the last two mean velocities
+            for i in range(n):
+                g = 2.0 * v[i] - vprev[i]
+                vprev[i] = v[i]
+                v[i] = g
+        converged = False
+        for it in range(100):
+            for i in range(n):
+                xm[i] = q[i] + 0.5 * h * v[i]
+                xm[n + i] = v[i]
+            lp(tm, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pm, 0), _ptr(Fq, 0))
+            nfev += 1
+            for i in range(n):
+                R[i] = pm[i] - 0.5 * h * Fq[i] - pk[i]
+            mf(tm, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(M, 0), _ptr(f, 0))
+            r = cholesky_solve(n, M, R, w, dv, 0)
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                return _fail(r, tm, xm, info, stats, nfev, k, 0, j)
+            big = 0.0
+            size = 0.0
+            for i in range(n):
+                v[i] -= dv[i]
+                big = max(big, abs(dv[i]))
+                size = max(size, abs(v[i]))
+            if big <= 4e-16 * (1.0 + size) or (big <= 1e-13 * (1.0 + size) and it > 8):
+                converged = True
+                break
+        if not converged:
+            info[0] = t
+            info[1] = r
+            for i in range(n):
+                info[2 + i] = q[i]
+                info[2 + n + i] = v[i]
+            stats[0] = nfev
+            stats[1] = k
+            stats[3] = j
+            return -3
+        for i in range(n):
+            xm[i] = q[i] + 0.5 * h * v[i]
+            xm[n + i] = v[i]
+        lp(tm, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pm, 0), _ptr(Fq, 0))
+        nfev += 1
+        for i in range(n):
+            q[i] += h * v[i]
+            pk[i] = pm[i] + 0.5 * h * Fq[i]
+        if (k + 1) % every == 0:
+            t1 = t0 + (k + 1) * h
+            eval_inputs(t1, p, ops, args, starts, stack, u)
+            for i in range(n):
+                xm[i] = q[i]
+                xm[n + i] = 0.0
+            lp(t1, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pm, 0), _ptr(Fq, 0))
+            mf(t1, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(M, 0), _ptr(f, 0))
+            for i in range(n):
+                R[i] = pk[i] - pm[i]
+            r = cholesky_solve(n, M, R, w, dv, 0)
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                return _fail(r, t1, xm, info, stats, nfev, k, 0, j)
+            for i in range(n):
+                X_out[j, i] = q[i]
+                X_out[j, n + i] = dv[i]
+            j += 1
+    stats[0] = nfev
+    stats[1] = nsteps
+    stats[3] = j
+    return 0
+'''
+
+
+def kernel_source() -> str:
+    """The kernels as Python source (see the module docstring)."""
+    text = _TEMPLATE.replace("@SINGULAR@", repr(SINGULAR_RATIO)).replace("@EVENT@", repr(EVENT_RATIO))
+    for key, value in _generated_parts().items():
+        text = text.replace(key, value)
+    return text
