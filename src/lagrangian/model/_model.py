@@ -499,6 +499,39 @@ class Model:
         self.simulation = copy.deepcopy(self.simulation)
         return self
 
+    def _repr_html_(self) -> str:
+        """A table for notebooks: coordinates, parameters, inputs, elements and explicit energies (LaTeX)."""
+        import html
+
+        def tex(e) -> str:
+            return f"${sympy.latex(e)}$"
+
+        rows = [("coordinates", ", ".join(tex(c) for c in self._coordinates) or "none"),
+                ("parameters", ", ".join(f"{tex(p)} = {v:g}" if v is not None else f"{tex(p)} (no value)"
+                                         for p, v in self._parameters.items()) or "none"),
+                ("inputs", ", ".join(tex(u) for u in self._inputs) or "none")]
+        for e in self._elements:
+            parts = []
+            for key, value in e.__dict__.items():
+                if key in ("name", "ends") or value is None:
+                    continue
+                if isinstance(value, tuple) and value and all(isinstance(v, sympy.Basic) for v in value):
+                    parts.append(f"{key} ${sympy.latex(sympy.Matrix(value).T)}$")
+                elif isinstance(value, sympy.Basic):
+                    parts.append(f"{key} {tex(value)}")
+                elif isinstance(value, tuple):
+                    parts.append(f"{key} {html.escape(', '.join(map(str, value)))}")
+            rows.append((f"{e.kind} {html.escape(e.name)}", "; ".join(parts)))
+        for label, value in (("T*", self._T), ("V", self._V), ("D", self._D)):
+            if value != 0:
+                rows.append((label, tex(value)))
+        for c, value in self._Q.items():
+            rows.append((f"Q[{c.name}]", tex(value)))
+        body = "".join(f"<tr><th style='text-align:left'>{k}</th><td style='text-align:left'>{v}</td></tr>"
+                       for k, v in rows)
+        desc = f"<br><i>{html.escape(self.description)}</i>" if self.description else ""
+        return f"<div><b>Model {html.escape(self.name)}</b>{desc}<table>{body}</table></div>"
+
     def __repr__(self) -> str:
         return (f"Model({self.name!r}, coordinates={[c.name for c in self._coordinates]}, "
                 f"elements={len(self._elements)})")

@@ -1,0 +1,68 @@
+"""The visual commands: animate."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+
+from ..errors import ModelError
+from ._common import MODEL_HELP, add_simulation_options, check_writable, run_simulation
+
+
+def register(sub, fmt) -> None:
+    a = sub.add_parser("animate", help="simulate a model and write an animation of the mechanism (GIF, MP4, HTML)",
+                       formatter_class=fmt, description="Simulate a model (the same options as `simulate`) and "
+                       "draw the mechanism from its own geometry: particles, rigid bodies, rods, springs, dampers "
+                       "and the ground. The format comes from the suffix of --output: .gif, .mp4 (needs ffmpeg) "
+                       "or .html (a page with an HTML/JavaScript player). Models given by their energies only "
+                       "have no geometry and cannot be drawn.",
+                       epilog="Examples:\n  lagrangian animate cart-pendulum -o cart.gif\n"
+                              "  lagrangian animate double-pendulum --t-end 10 --trace bob2 --fps 20 -o double.html\n"
+                              "  lagrangian animate cart-pendulum --input \"F=1.5*sin(3*t)\" --speed 0.5 -o cart.mp4")
+    a.add_argument("model", help=MODEL_HELP)
+    add_simulation_options(a)
+    a.add_argument("--output", "-o", required=True, metavar="FILE",
+                   help="the animation to write: FILE.gif, FILE.mp4 or FILE.html")
+    a.add_argument("--fps", type=float, default=25.0, help="frames per second (default 25)")
+    a.add_argument("--speed", type=float, default=1.0,
+                   help="simulated seconds per second of animation (default 1; 0.5 plays at half speed)")
+    a.add_argument("--trace", action="append", default=[], metavar="NAME",
+                   help="draw the path of this point, particle or body (repeatable)")
+    a.add_argument("--dpi", type=float, default=80.0, help="resolution in dots per inch (default 80)")
+    a.set_defaults(handler=_cmd_animate)
+
+
+def _cmd_animate(args: argparse.Namespace) -> int:
+    from ..io import load
+    from ..plot._animation import animate, format_of
+    from ..plot._geometry import check_drawable
+
+    try:
+        format_of(args.output)
+    except ValueError as exc:
+        raise ModelError(str(exc)) from None
+    for name, value in (("--fps", args.fps), ("--speed", args.speed), ("--dpi", args.dpi)):
+        if not value > 0:
+            raise ModelError(f"{name} must be a positive number, got {value:g}")
+    check_writable(args.output, "out.gif")
+    check_drawable(load(args.model), args.trace)  # before the simulation, not after it
+    _, _, traj = run_simulation(args)
+    anim = animate(traj, fps=args.fps, speed=args.speed, trace=args.trace, dpi=args.dpi)
+    folder = os.path.dirname(os.path.abspath(args.output))
+    suffix = os.path.splitext(args.output)[1]
+    fd, tmp = tempfile.mkstemp(prefix=".lagrangian-", suffix=suffix, dir=folder)
+    os.close(fd)
+    try:
+        anim.save(tmp)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; an output file follows the umask
+        os.replace(tmp, args.output)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    print(f"wrote {len(anim)} frames (t = {anim.times[0]:g} .. {anim.times[-1]:g} s, {args.fps:g} fps) "
+          f"to {args.output}")
+    return 0
