@@ -12,14 +12,28 @@ from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileErro
                      SingularMassMatrixError, UnknownNameError)
 from .io import load
 from .model import Model, ddot, dot, t
-from .numeric import NumericModel, Trajectory, simulate
+from .numeric import BatchResult, CompiledModel, NumericModel, Trajectory, grid, simulate, simulate_batch
 from .numeric import compile_equations as compile
+from .analysis import (Continuation, Equilibrium, LinearModel, Modes, continuation, equilibria, linearize,
+                       modes)
+from .reporting import Report, report
 
 __version__ = "0.1.0"
 
+_LAZY = ("plot",)  # subpackages imported on first use (plot needs Matplotlib)
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'lagrangian' has no attribute '{name}'")
+
 __all__ = [
     "Model", "load", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
-    "SingularConfiguration", "compile", "NumericModel", "simulate", "Trajectory", "dot", "ddot", "t",
+    "SingularConfiguration", "equilibria", "Equilibrium", "linearize", "LinearModel", "modes", "Modes",
+    "continuation", "Continuation", "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate", "simulate_batch", "BatchResult", "grid", "Trajectory", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
     "SingularMassMatrixError", "SimulationError",
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp", "log",

@@ -21,6 +21,7 @@ import numpy as np
 import sympy
 
 from ..equations import Equations
+from .._progress import progress
 from ..errors import ModelError
 from ._equilibria import (EquilibriumProblem, _same, equilibrium_problem, evaluate_exact, make_equilibrium,
                           normalized_exact, numeric_equilibria, solve_from)
@@ -218,10 +219,12 @@ def _exact_branches(problem: EquilibriumProblem, settings: list[Setting], parame
     grid = sorted(set(values) | {v for v, _ in critical}, reverse=values[0] > values[-1])
     settings = [base.with_parameter(parameter, v) for v in grid]
     branches: list[Branch] = []
+    bar = progress(len(problem.exact) * len(settings), f"following {parameter}")
     for sol, conds in problem.exact:
         exact = None
         run: list[BranchPoint] = []
         for s in settings:
+            bar.update()
             q = evaluate_exact(problem, s, sol)
             if q is None:
                 if run:
@@ -233,6 +236,7 @@ def _exact_branches(problem: EquilibriumProblem, settings: list[Setting], parame
             run.append(_point(problem, s, q, parameter))
         if run:
             branches.append(Branch(tuple(run), exact))
+    bar.close()
     # drop branches that duplicate another one (the same points, e.g. 2 pi apart)
     unique: list[Branch] = []
     for b in branches:
@@ -301,7 +305,9 @@ def _numeric_branches(problem: EquilibriumProblem, settings: list[Setting], para
     open_runs: list[list[BranchPoint]] = []
     closed: list[list[BranchPoint]] = []
     previous: list[np.ndarray] = []
+    bar = progress(len(settings), f"following {parameter}")
     for s in settings:
+        bar.update()
         found = numeric_equilibria(problem, s, starts=8 + 8 * len(problem.unknowns), guesses=previous)
         points = [_point(problem, s, q, parameter) for q in found]
         still_open: list[list[BranchPoint]] = []
@@ -326,6 +332,7 @@ def _numeric_branches(problem: EquilibriumProblem, settings: list[Setting], para
                 still_open.append([p])
         open_runs = still_open
         previous = found
+    bar.close()
     return [Branch(tuple(r)) for r in closed + open_runs]
 
 

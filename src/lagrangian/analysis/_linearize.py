@@ -289,21 +289,13 @@ def _point(equations: Equations, at, problems: list[Problem]) -> tuple[dict[str,
                                     f"{2 * equations.n} state values ({', '.join(names)}), got {at!r}", key="at"))
             return values, exact
         return dict(zip(names, map(float, arr))), exact
-    from ._setting import _closest, _number
+    from ._setting import _named
 
+    values.update(_named(at, names, "a coordinate or velocity", "at", problems))
     for name, value in at.items():
         name = str(getattr(name, "name", name))
-        number = _number(value)
-        if name not in names:
-            problems.append(Problem(f"'{name}' is not a coordinate or velocity{_closest(name, names)}; the "
-                                    f"choices are {', '.join(names)}", key=f"at.{name}"))
-        elif number is None:
-            problems.append(Problem(f"the value of '{name}' must be a finite number, got {value!r}",
-                                    key=f"at.{name}"))
-        else:
-            values[name] = number
-            if isinstance(value, sympy.Basic):
-                exact[name] = value
+        if isinstance(value, sympy.Basic) and name in values:
+            exact[name] = value
     return values, exact
 
 

@@ -36,9 +36,9 @@ def _parser() -> argparse.ArgumentParser:
 
 def _command_modules():
     """Each module adds its commands with `register(sub, fmt)`, each command setting `handler`."""
-    from . import _core
+    from . import _analysis, _core, _report, _visual
 
-    return [_core]
+    return [_core, _analysis, _visual, _report]
 
 
 def _version() -> str:

@@ -1,0 +1,498 @@
+"""report(equations) -> Report: the derivation, step by step, as the seed's slides teach it.
+
+The steps (Bona's recipe): the bodies and the frame; the generalized coordinates; the position
+and velocity of every element; the kinetic co-energy T* and the potential energy V; the
+dissipation D; the generalized forces Q from virtual work; the Lagrangian L = T* - V; each
+Lagrange equation; the matrix form; the state equations; then the diagnosis of the mass matrix
+and, when the analysis layer provides them, the equilibria and their stability.
+"""
+
+from __future__ import annotations
+
+import os
+
+import symengine as se
+import sympy
+
+from ..equations import Equations, derive, singularities
+from ..equations._equations import _nice
+from ..errors import LagrangianError
+from ..model import Model
+from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBody, Spring, Torque)
+from ..model._kinematics import Kinematics, to_sympy
+from ._document import Math, Paragraph, Report, Section, Table
+from ._printing import Partial, TimeDerivative
+
+__all__ = ["report"]
+
+S = sympy.Symbol
+_ZERO = sympy.Integer(0)
+
+
+def report(source, *, title: str | None = None, equilibria: bool = True) -> Report:
+    """The derivation report of a model, step by step.
+
+    Parameters
+    ----------
+    source : Equations, Model, str or os.PathLike
+        Derived equations, a model (derived here), or a built-in example name or model-file
+        path (loaded and derived here).
+    title : str, optional
+        The report's title (default: ``"Lagrange's equations of NAME"``, NAME the model's name).
+    equilibria : bool, optional
+        Include the equilibria and their stability when :mod:`lagrangian.analysis` provides
+        them (default True).
+
+    Returns
+    -------
+    Report
+        An immutable document: ``.to_html()`` (MathML, no network needed), ``.to_markdown()``,
+        ``.to_latex()``, ``.save(path)``.
+
+    Examples
+    --------
+    >>> import lagrangian as lg
+    >>> rep = lg.report("cart-pendulum")
+    >>> rep.math("equation[q2]").lhs
+    L**2*M2*q2_ddot - L*M2*q1_ddot*sin(q2) + L*M2*g*cos(q2)
+    """
+    if isinstance(source, Equations):
+        eqs = source
+    elif isinstance(source, Model):
+        eqs = derive(source)
+    elif isinstance(source, (str, os.PathLike)):
+        from ..io import load
+
+        eqs = derive(load(source))
+    else:
+        raise TypeError(f"report() expects Equations, a Model, or a model name or path, "
+                        f"got {type(source).__name__}")
+    b = _Builder(eqs)
+    sections = [b.bodies(), b.coordinates(), b.kinematics(), b.energies(), b.dissipation(),
+                b.forces(), b.lagrangian(), b.equations(), b.matrix_form(), b.state_form(),
+                b.singularities()]
+    if equilibria:
+        sections.append(b.equilibria())
+    model = eqs.model
+    return Report(title or f"Lagrange's equations of {model.name}", model.name,
+                  model.description, tuple(sections))
+
+
+def _col(items) -> sympy.ImmutableMatrix:
+    return sympy.ImmutableMatrix([[x] for x in items])
+
+
+def _readable(e) -> sympy.Expr:
+    return _nice(to_sympy(e))
+
+
+def _velocity_symbol(q: sympy.Symbol) -> sympy.Symbol:
+    return S(f"{q.name}_dot")
+
+
+class _Builder:
+    def __init__(self, eqs: Equations):
+        self.eqs = eqs
+        self.model = eqs.model
+        massive = [e for e in self.model.elements if isinstance(e, (Particle, RigidBody))]
+        self.kin = Kinematics(self.model.q, massive)
+        self.massive = massive
+
+    # ----------------------------------------------------------- 1. bodies
+    def bodies(self) -> Section:
+        blocks = []
+        elements = self.model.elements
+        if not elements:
+            blocks.append(Paragraph.of(
+                "The model is given by its energies (T*, V, D and Q written directly), without "
+                "elements: there are no bodies or frames to list."))
+            return Section("bodies", "1. Bodies and frame", tuple(blocks))
+        n = len(self.massive)
+        blocks.append(Paragraph.of(
+            f"{n} {'body' if n == 1 else 'bodies'} with mass "
+            f"({', '.join(f'{e.kind} {e.name}' for e in self.massive) or 'none'}). "
+            f"With the inertial frame, {n + 1} reference frame{'s' if n else ''} (the seed's N + 1)."))
+        dims = {len(e.position) for e in elements if hasattr(e, "position")}
+        axes = "x, y, z" if 3 in dims else "x, y"
+        blocks.append(Paragraph.of(f"Positions are written in one inertial frame with axes {axes}"
+                                   + (", each body's rotation by an angle about z." if any(
+                                       isinstance(e, RigidBody) for e in elements) else ".")))
+        rows = []
+        for e in elements:
+            if isinstance(e, Particle):
+                rows.append((e.name, e.kind, e.mass, "point mass"))
+            elif isinstance(e, RigidBody):
+                rows.append((e.name, e.kind, e.mass, sympy.Eq(S("I"), e.inertia, evaluate=False)))
+            else:
+                rows.append((e.name, e.kind, "", ""))
+        blocks.append(Table(("element", "kind", "mass", "inertia"), tuple(rows)))
+        return Section("bodies", "1. Bodies and frame", tuple(blocks))
+
+    # ------------------------------------------------------ 2. coordinates
+    def coordinates(self) -> Section:
+        eqs = self.eqs
+        n = eqs.n
+        blocks = [Paragraph.of(f"{n} generalized coordinate{'s' if n != 1 else ''}, complete and "
+                               "independent; the state is x = [q, q_dot]."),
+                  Math(_col(eqs.coordinates), S("q"), key="q"),
+                  Math(_col(eqs.velocities), S("q_dot"), key="q_dot")]
+        if eqs.parameters:
+            rows = tuple((p, "(no value)" if v is None else f"{v:g}") for p, v in eqs.parameters.items())
+            blocks += [Paragraph.of("Parameters (SI units, angles in radians):"),
+                       Table(("parameter", "value"), rows)]
+        if eqs.inputs:
+            blocks.append(Paragraph.of("Inputs (given as functions of time when simulating): ",
+                                       *_join_math(eqs.inputs), "."))
+        return Section("coordinates", "2. Generalized coordinates", tuple(blocks))
+
+    # ----------------------------------------------- 3. positions, velocities
+    def kinematics(self) -> Section:
+        kin = self.kin
+        blocks = []
+        if not self.model.elements:
+            blocks.append(Paragraph.of(
+                "This model is written with its energies only, so there are no element positions or "
+                "velocities to list: T*, V and D are given directly (next sections)."))
+            return Section("kinematics", "3. Positions and velocities", tuple(blocks))
+        j = S("j")
+        chain = sympy.Sum(Partial(S("r"), S("q_j")) * S("q_j_dot"), (j, 1, S("n"))) + Partial(S("r"), S("t"))
+        blocks.append(Paragraph.of("Velocities are total time derivatives, by the chain rule: ",
+                                   sympy.Eq(S("v"), chain, evaluate=False), "."))
+        for e in self.model.elements:
+            name = e.name
+            if isinstance(e, (Particle, RigidBody, Point)):
+                what = {"particle": f"Particle {name}, mass ", "rigid body": f"Rigid body {name}, mass ",
+                        "point": f"Point {name} (massless)"}[e.kind]
+                head = [what] + ([e.mass] if not isinstance(e, Point) else [])
+                if isinstance(e, RigidBody):
+                    head += [", centroidal inertia ", e.inertia]
+                blocks.append(Paragraph.of(*head, ":"))
+                r = tuple(e.position)
+                v = tuple(_readable(x) for x in kin.velocity(r))
+                blocks.append(Math(_col(r), S("r"), key=f"position[{name}]"))
+                blocks.append(Math(_col(v), S("v"), key=f"velocity[{name}]"))
+                if isinstance(e, Point):
+                    continue
+                v2 = _readable(sum((kin.se(x) ** 2 for x in v), se.Integer(0)))
+                blocks.append(Math(v2, S("|v|^2"), key=f"speed2[{name}]"))
+                if isinstance(e, RigidBody):
+                    blocks.append(Math(e.angle, S("theta"), key=f"angle[{name}]"))
+                    blocks.append(Math(_readable(kin.rate(e.angle)), S("omega"), key=f"rate[{name}]"))
+                    blocks.append(Paragraph.of("Its kinetic co-energy, translation and rotation, ", Math(
+                        (S("m") * S("|v|^2") / 2, S("I") * S("omega") ** 2 / 2), S("T^*")), ":"))
+                else:
+                    blocks.append(Paragraph.of("Its kinetic co-energy, ",
+                                               Math(S("m") * S("|v|^2") / 2, S("T^*")), ":"))
+                blocks.append(Math(_readable(e.contribute(kin).T), S("T^*"), key=f"T[{name}]"))
+            elif isinstance(e, Spring):
+                blocks.append(Paragraph.of(f"Spring {name}, stiffness ", e.stiffness,
+                                           f", between {e.between[0]} and {e.between[1]}" if e.between else "",
+                                           ", length and potential energy:"))
+                blocks.append(Math(_readable(e.length), S("ell"), key=f"length[{name}]"))
+                blocks.append(Math(_readable(e.contribute(kin).V), S("V"), key=f"V[{name}]"))
+            elif isinstance(e, Damper):
+                blocks.append(Paragraph.of(f"Damper {name}, coefficient ", e.coefficient,
+                                           f", between {e.between[0]} and {e.between[1]}" if e.between else "",
+                                           ", length, its rate and the dissipation function:"))
+                blocks.append(Math(_readable(e.length), S("ell"), key=f"length[{name}]"))
+                blocks.append(Math(_readable(kin.rate(e.length)), S("ell_dot"), key=f"rate[{name}]"))
+                blocks.append(Math(_readable(e.contribute(kin).D), S("D"), key=f"D[{name}]"))
+            elif isinstance(e, Gravity):
+                direction = e.direction or "(0, -1) in a plane, (0, 0, -1) in space"
+                blocks.append(Paragraph.of("Gravity, of magnitude ", e.g, ", along ",
+                                           _col(e.direction) if e.direction else direction,
+                                           ", on every body with mass: the sum of ",
+                                           Math(-S("m") * S("g") * S("e^T") * S("r"), S("V")),
+                                           " over the bodies, e the unit vector of gravity:"))
+                blocks.append(Math(_readable(e.contribute(kin).V), S("V"), key=f"V[{name}]"))
+            elif isinstance(e, Force):
+                blocks.append(Paragraph.of(f"Force {name}" + (f" at {e.at}" if e.at else "")
+                                           + ", its point of application and its generalized forces by "
+                                           "virtual work, ",
+                                           Math(sympy.Mul(S("F^T"), Partial(S("r"), S("q_k")), evaluate=False),
+                                                S("Q_k")), ":"))
+                blocks.append(Math(_col(e.force), S("F"), key=f"force[{name}]"))
+                blocks.append(Math(_col(e.position), S("r"), key=f"position[{name}]"))
+                blocks.append(Math(_col(_readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
+            elif isinstance(e, Torque):
+                blocks.append(Paragraph.of(f"Torque {name}" + (f" on body {e.body}" if e.body else "")
+                                           + ", acting on the angle ", Math(e.angle, S("alpha")),
+                                           "; its generalized forces, ",
+                                           Math(sympy.Mul(S("tau"), Partial(S("alpha"), S("q_k")), evaluate=False),
+                                                S("Q_k")), ":"))
+                blocks.append(Math(e.torque, S("tau"), key=f"torque[{name}]"))
+                blocks.append(Math(_col(_readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
+        return Section("kinematics", "3. Positions and velocities", tuple(blocks))
+
+    # ------------------------------------------------------- 4. energies
+    def energies(self) -> Section:
+        eqs, model = self.eqs, self.model
+        blocks = []
+        src = "the elements above" if model.elements else "the model"
+        if model.elements and model.T != 0:
+            src += " and the terms given directly"
+        blocks.append(Paragraph.of(f"The kinetic co-energy T*, summed over {src}:"))
+        blocks.append(Math(_readable(eqs.T), S("T^*"), key="T"))
+        try:
+            split = self._kinetic_split()
+        except LagrangianError:
+            split = None
+        if split is not None:
+            T1, T0 = split
+            if T1 != 0 or T0 != 0:
+                blocks.append(Paragraph.of(
+                    "T* = T2 + T1 + T0 by degree in the velocities; T1 gives gyroscopic forces and "
+                    "T0 is the potential of the centrifugal forces (Preumont):"))
+                if T1 != 0:
+                    blocks.append(Math(T1, S("T_1"), key="T1"))
+                if T0 != 0:
+                    blocks.append(Math(T0, S("T_0"), key="T0"))
+        blocks.append(Paragraph.of("The potential energy V:"))
+        blocks.append(Math(_readable(eqs.V), S("V"), key="V"))
+        return Section("energies", "4. Kinetic co-energy and potential energy", tuple(blocks))
+
+    def _kinetic_split(self):
+        core = self.eqs.core
+        for e in core.M:
+            if set(e.free_symbols) & set(core.qd):
+                raise LagrangianError("T* is not quadratic in the velocities")
+        zero = {v: 0 for v in core.qd}
+        T1 = sum((core.T.diff(v).subs(zero) * v for v in core.qd), se.Integer(0))
+        T0 = core.T.subs(zero)
+        return _readable(T1), _readable(T0)
+
+    # ---------------------------------------------------- 5. dissipation
+    def dissipation(self) -> Section:
+        D = self.eqs.D
+        if D == 0:
+            blocks = (Paragraph.of("No dissipative elements: the Rayleigh dissipation function is zero."),
+                      Math(_ZERO, S("D"), key="D"))
+        else:
+            blocks = (Paragraph.of("The Rayleigh dissipation function D (its velocity gradient gives "
+                                   "the damping forces -dD/dq_dot):"),
+                      Math(_readable(D), S("D"), key="D"))
+        return Section("dissipation", "5. Dissipation", blocks)
+
+    # --------------------------------------------------------- 6. forces
+    def forces(self) -> Section:
+        eqs = self.eqs
+        Q = sympy.ImmutableMatrix([_nice(x) for x in eqs.generalized_forces])
+        if all(x == 0 for x in Q):
+            blocks = [Paragraph.of("No external forces or torques: the generalized forces are zero.")]
+        else:
+            blocks = [Paragraph.of("The generalized forces, one for each coordinate, from the virtual work "
+                                   "of the forces and torques (and the [forces] table of a model file):")]
+        blocks.append(Math(Q, S("Q"), key="Q"))
+        if eqs.inputs:
+            blocks.append(Paragraph.of("Their input matrix ", sympy.Eq(S("B"), Partial(S("Q"), S("u")), evaluate=False),
+                                       ", with u = ", _col(eqs.inputs), ":"))
+            blocks.append(Math(eqs.input_matrix, S("B"), key="B"))
+        return Section("forces", "6. Generalized forces", tuple(blocks))
+
+    # ----------------------------------------------------- 7. Lagrangian
+    def lagrangian(self) -> Section:
+        eqs = self.eqs
+        blocks = [Math((S("T^*"), -S("V")), S("L"), key="L-definition"),
+                  Math(_readable(eqs.L), S("L"), key="L")]
+        h = _nice(eqs.jacobi_integral)
+        if eqs.is_conservative:
+            conserved = "It is conserved: L does not depend on t explicitly, D = 0 and Q = 0."
+        else:
+            why = [w for w, c in (("L depends on t explicitly", eqs.explicit_time), ("D is not zero", eqs.D != 0),
+                                  ("Q is not zero", any(x != 0 for x in eqs.generalized_forces))) if c]
+            conserved = f"It is not conserved here: {', '.join(why)}."
+        blocks.append(Paragraph.of("The Jacobi integral ",
+                                   Math((sympy.Sum(S("q_i_dot") * Partial(S("L"), S("q_i_dot")), (S("i"), 1, S("n"))),
+                                         -S("L")), S("h")),
+                                   " (the energy T* + V when T* is quadratic in the velocities). " + conserved))
+        blocks.append(Math(h, S("h"), key="h"))
+        return Section("lagrangian", "7. Lagrangian", tuple(blocks))
+
+    # ------------------------------------------------------- 8. equations
+    def equations(self) -> Section:
+        eqs, kin = self.eqs, self.kin
+        core = eqs.core
+        has_D = core.D != 0
+        generic = Math(S("Q_i"), (TimeDerivative(Partial(S("L"), S("q_i_dot"))), -Partial(S("L"), S("q_i")),
+                                  Partial(S("D"), S("q_i_dot"))))
+        blocks = [Paragraph.of("One equation for each coordinate, ", generic,
+                               ", with d/dt by the chain rule (q, q_dot and q_ddot are independent "
+                               "symbols):")]
+        Lsym, Dsym = S("L"), S("D")
+        qdd = [se.Symbol(a.name) for a in eqs.accelerations]
+        for i, (q, qd) in enumerate(zip(eqs.coordinates, eqs.velocities)):
+            Qi = S(f"Q_{i + 1}")
+            lhs = [TimeDerivative(Partial(Lsym, qd)), -Partial(Lsym, q)]
+            if has_D:
+                lhs.append(Partial(Dsym, qd))
+            blocks.append(Paragraph.of(f"Equation {i + 1}, for coordinate ", q, ":"))
+            blocks.append(Math(Qi, tuple(lhs), key=f"lagrange[{q.name}]", label=f"({i + 1})"))
+            p = core.p[i]
+            dpdt = kin.rate(p) + sum((p.diff(core.qd[j]) * qdd[j] for j in range(eqs.n)), se.Integer(0))
+            blocks.append(Math(_readable(p), Partial(Lsym, qd), key=f"dL/d{qd.name}"))
+            blocks.append(Math(_readable(dpdt), TimeDerivative(Partial(Lsym, qd)), key=f"d/dt dL/d{qd.name}"))
+            blocks.append(Math(_readable(core.L.diff(core.q[i])), Partial(Lsym, q), key=f"dL/d{q.name}"))
+            if has_D:
+                blocks.append(Math(_readable(core.D.diff(core.qd[i])), Partial(Dsym, qd), key=f"dD/d{qd.name}"))
+            blocks.append(Math(_readable(core.Q[i]), Qi, key=f"Q_{i + 1}"))
+            blocks.append(Paragraph.of("so that"))
+            blocks.append(Math(_ZERO, eqs.equations[i], key=f"equation[{q.name}]", label=f"({i + 1})"))
+        return Section("equations", "8. Lagrange's equations", tuple(blocks))
+
+    # ----------------------------------------------------- 9. matrix form
+    def matrix_form(self) -> Section:
+        eqs = self.eqs
+        blocks = []
+        try:
+            C = eqs.coriolis_matrix
+        except LagrangianError as exc:
+            C = None
+            blocks.append(Paragraph.of(f"{exc}."))
+        lhs = [S("M") * S("q_ddot")]
+        rhs = [S("Q")]
+        parts = []
+        if C is not None:
+            lhs += [S("C") * S("q_dot"), S("G")]
+            if any(x != 0 for x in eqs.gyroscopic_matrix):
+                rhs.append(-S("Gamma") * S("q_dot"))
+                parts.append(Math(eqs.gyroscopic_matrix, S("Gamma"), key="Gamma"))
+            if any(x != 0 for x in eqs.centrifugal_forces):
+                rhs.append(Partial(S("T_0"), S("q")))
+                parts.append(Math(eqs.centrifugal_forces.applyfunc(_nice), Partial(S("T_0"), S("q")),
+                                  key="centrifugal"))
+            if any(x != 0 for x in eqs.rheonomic_forces):
+                rhs.append(S("f_t"))
+                parts.append(Math(eqs.rheonomic_forces.applyfunc(_nice), S("f_t"), key="rheonomic"))
+        if eqs.D != 0:
+            rhs.append(-Partial(S("D"), S("q_dot")))
+            parts.append(Math(eqs.damping_forces.applyfunc(_nice), -Partial(S("D"), S("q_dot")),
+                              key="damping"))
+        blocks.append(Paragraph.of("The equations in matrix form (the seed's H(q) is M(q)):"))
+        blocks.append(Math(tuple(rhs), tuple(lhs), key="matrix-form"))
+        blocks.append(Paragraph.of("with the mass matrix M = d2T*/dq_dot2 (symmetric)"
+                                   + (", the Coriolis and centrifugal matrix C from the Christoffel symbols "
+                                      "of M, the gradient G = dV/dq" if C is not None else "") + ":"))
+        blocks.append(Math(eqs.mass_matrix, S("M"), key="M"))
+        if C is not None:
+            blocks.append(Math(C.applyfunc(_nice), S("C"), key="C"))
+            blocks.append(Math(eqs.potential_gradient.applyfunc(_nice), S("G"), key="G"))
+        blocks += parts
+        blocks.append(Paragraph.of("Equivalently M q_ddot = f, the form the simulation solves, with the forcing"))
+        blocks.append(Math(eqs.forcing, S("f"), key="f"))
+        lin = eqs.linear
+        if lin is not None:
+            blocks.append(Paragraph.of("The system is linear: ",
+                                       "M x'' + C x' + K x = f with constant matrices"))
+            for k in ("M", "C", "K", "f"):
+                blocks.append(Math(getattr(lin, k), S(k), key=f"linear.{k}"))
+        return Section("matrix-form", "9. Matrix form", tuple(blocks))
+
+    # ------------------------------------------------------ 10. state form
+    def state_form(self) -> Section:
+        eqs = self.eqs
+        x = _col((*eqs.coordinates, *eqs.velocities))
+        blocks = [Paragraph.of("With the state x = [q, q_dot], the state equations x' = f(t, x, u, p) are"),
+                  Math(x, S("x"), key="x"),
+                  Math(sympy.ImmutableMatrix([[S("q_dot")], [S("M^-1") * S("f")]]), S("x_dot"), key="x_dot")]
+        explicit = self._accelerations()
+        if explicit is not None:
+            blocks.append(Paragraph.of("Solved for the accelerations (shown because the system is small; "
+                                       "the numerical layer solves M q_ddot = f at each step instead):"))
+            blocks.append(Math(explicit, _col(eqs.accelerations), key="q_ddot"))
+        else:
+            blocks.append(Paragraph.of("The accelerations are not solved for symbolically (the expressions "
+                                       "grow fast with the number of coordinates): the numerical layer "
+                                       "solves M q_ddot = f at each step."))
+        names = ", ".join(eqs.state_names)
+        inputs = ", ".join(u.name for u in eqs.inputs) or "none"
+        params = ", ".join(p.name for p in eqs.parameters) or "none"
+        blocks.append(Paragraph.of(f"Order of the state: {names}; inputs: {inputs}; parameters: {params}."))
+        return Section("state-form", "10. State equations", tuple(blocks))
+
+    def _accelerations(self):
+        eqs = self.eqs
+        if eqs.n > 2:
+            return None
+        M = sympy.Matrix(eqs.mass_matrix)
+        f = sympy.Matrix(eqs.forcing)
+        if any(x.count_ops() > 60 for x in (*M, *f)):
+            return None
+        det = sympy.factor(sympy.trigsimp(sympy.expand(M.det())))
+        if det == 0:
+            return None
+        numerators = (M.adjugate() * f).applyfunc(sympy.expand)
+        return sympy.ImmutableMatrix([sympy.factor_terms(sympy.cancel(x / det)) for x in numerators])
+
+    # ----------------------------------------------------- 11. singularities
+    def singularities(self) -> Section:
+        rep = singularities(self.eqs)
+        blocks = []
+        detM = sympy.Function("det")(S("M"))
+        if isinstance(rep.det_mass_matrix, sympy.Determinant):
+            blocks.append(Paragraph.of(f"det M is not expanded for {self.eqs.n} coordinates; its zeros are "
+                                       "searched for numerically."))
+        elif rep.det_mass_matrix is not None:
+            blocks.append(Math(rep.det_mass_matrix, detM, key="det M"))
+            if rep.det_with_values is not None and rep.det_with_values != rep.det_mass_matrix:
+                blocks.append(Paragraph.of("with the parameter values:"))
+                blocks.append(Math(rep.det_with_values, detM, key="det M values"))
+        lines = rep.text().splitlines()
+        if lines and lines[0].startswith("det M"):
+            lines = lines[1:]
+        blocks += [Paragraph.of(line) for line in lines]
+        return Section("singularities", "11. Mass matrix diagnosis", tuple(blocks))
+
+    # ------------------------------------------------------- 12. equilibria
+    def equilibria(self) -> Section:
+        title = "12. Equilibria and stability"
+        try:
+            from ..analysis import equilibria
+        except ImportError:
+            return Section("equilibria", title, (Paragraph.of(
+                "Equilibria are not available in this version of lagrangian (no analysis module)."),))
+        try:
+            found = equilibria(self.eqs)
+        except (LagrangianError, ValueError, NotImplementedError) as exc:
+            return Section("equilibria", title, (Paragraph.of(f"Equilibria could not be computed: {exc}"),))
+        if not found:
+            return Section("equilibria", title, (Paragraph.of(
+                "No equilibrium was found (with the inputs at zero and the parameter values)."),))
+        blocks = [Paragraph.of("Equilibria with the inputs at zero and the parameter values, and their "
+                               "stability from the linearized equations:")]
+        rows = []
+        for i, e in enumerate(found):
+            exact = getattr(e, "exact", None) or {}
+            coords = []
+            for name, value in e.coordinates.items():
+                ex = exact.get(name)
+                val = ex if ex is not None else sympy.Float(value, 6)
+                coords.append(sympy.Eq(S(name), val, evaluate=False))
+            eig = getattr(e, "eigenvalues", None)
+            eig_text = ""
+            if eig is not None:
+                eig_text = ", ".join(_complex_text(z) for z in list(eig)[:8])
+            rows.append((str(i + 1), *([_join_inline(coords)] if coords else [""]),
+                         getattr(e, "stability", "stable" if e.stable else "unstable"), eig_text))
+        blocks.append(Table(("", "configuration", "stability", "eigenvalues"), tuple(rows)))
+        return Section("equilibria", title, tuple(blocks))
+
+
+def _complex_text(z) -> str:
+    z = complex(z)
+    if abs(z.imag) < 1e-12:
+        return f"{z.real:.4g}"
+    return f"{z.real:.4g}{z.imag:+.4g}i"
+
+
+def _join_math(items) -> list:
+    out = []
+    for i, x in enumerate(items):
+        if i:
+            out.append(", ")
+        out.append(x)
+    return out
+
+
+def _join_inline(eqs_list):
+    """Several relations shown as one inline tuple of relations."""
+    return sympy.Tuple(*eqs_list) if len(eqs_list) > 1 else eqs_list[0]

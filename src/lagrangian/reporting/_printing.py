@@ -1,0 +1,205 @@
+"""Printing for reports: LaTeX and presentation MathML with the project's symbol names
+(``q1_dot`` as q with a dot and subscript 1, ``theta`` as the Greek letter), two unevaluated
+operators (partial and total time derivatives) and a size guard for large expressions."""
+
+from __future__ import annotations
+
+import html.entities
+import re
+
+import sympy
+from sympy.printing.conventions import split_super_sub
+from sympy.printing.latex import LatexPrinter
+from sympy.printing.mathml import MathMLPresentationPrinter
+from sympy.printing.pretty.pretty_symbology import greek_unicode
+
+__all__ = ["Partial", "TimeDerivative", "latex", "mathml", "too_large", "MAX_NODES"]
+
+#: Expressions with more nodes than this are not printed (the report says so instead).
+MAX_NODES = 2500
+
+_ACCENTS = (("_ddot", "ddot", "\u00a8"), ("_dot", "dot", "\u02d9"))
+_SPECIAL = {"ell": "\u2113"}
+_MATHML_NS = "http://www.w3.org/1998/Math/MathML"
+
+
+class Partial(sympy.Expr):
+    """The unevaluated partial derivative d`f`/d`x` of a named function (printing only)."""
+
+    def __new__(cls, f, x):
+        return sympy.Expr.__new__(cls, sympy.sympify(f), sympy.sympify(x))
+
+    def _latex(self, printer):
+        f, x = self.args
+        return f"\\frac{{\\partial {printer._print(f)}}}{{\\partial {printer._print(x)}}}"
+
+    def _mathml_presentation(self, printer):
+        f, x = self.args
+        dom = printer.dom
+        frac = dom.createElement("mfrac")
+        for var in (f, x):
+            row = dom.createElement("mrow")
+            mo = dom.createElement("mo")
+            mo.appendChild(dom.createTextNode("\u2202"))
+            row.appendChild(mo)
+            row.appendChild(printer._print(var))
+            frac.appendChild(row)
+        return frac
+
+    def _sympystr(self, printer):
+        return f"d{printer._print(self.args[0])}/d{printer._print(self.args[1])}"
+
+
+class TimeDerivative(sympy.Expr):
+    """The unevaluated total time derivative d/dt(`f`) (printing only)."""
+
+    def __new__(cls, f):
+        return sympy.Expr.__new__(cls, sympy.sympify(f))
+
+    def _latex(self, printer):
+        return f"\\frac{{d}}{{dt}}\\left({printer._print(self.args[0])}\\right)"
+
+    def _mathml_presentation(self, printer):
+        dom = printer.dom
+        row = dom.createElement("mrow")
+        frac = dom.createElement("mfrac")
+        for text in ("d", "dt"):
+            mi = dom.createElement("mi")
+            mi.setAttribute("mathvariant", "normal")
+            mi.appendChild(dom.createTextNode(text))
+            frac.appendChild(mi)
+        row.appendChild(frac)
+        for piece in ("(", None, ")"):
+            if piece is None:
+                row.appendChild(printer._print(self.args[0]))
+            else:
+                mo = dom.createElement("mo")
+                mo.appendChild(dom.createTextNode(piece))
+                row.appendChild(mo)
+        return row
+
+    def _sympystr(self, printer):
+        return f"d/dt({printer._print(self.args[0])})"
+
+
+def _split_name(name: str) -> tuple[str, str | None]:
+    """(base name, accent) for ``q1_dot`` -> ("q1", "dot")."""
+    for suffix, accent, _ in _ACCENTS:
+        if name.endswith(suffix) and len(name) > len(suffix):
+            return name[: -len(suffix)], accent
+    return name, None
+
+
+class _Latex(LatexPrinter):
+    def _print_Symbol(self, expr, style="plain"):
+        base, accent = _split_name(expr.name)
+        if accent is None:
+            return super()._print_Symbol(expr, style)
+        name, supers, subs = split_super_sub(base)
+        main = f"\\{accent}{{{super()._print_Symbol(sympy.Symbol(name), style)}}}"
+        if subs:
+            main += "_{" + " ".join(subs) + "}"
+        if supers:
+            main += "^{" + " ".join(supers) + "}"
+        return main
+
+
+class _MathML(MathMLPresentationPrinter):
+    def _print_Symbol(self, sym, style="plain"):
+        base, accent = _split_name(sym.name)
+        name, supers, subs = split_super_sub(base)
+        dom = self.dom
+
+        def token(text):
+            text = _SPECIAL.get(text) or greek_unicode.get(text, text)
+            number = re.fullmatch(r"-?[0-9]+", text) is not None
+            el = dom.createElement("mn" if number else "mi")
+            text = text.replace("-", "\u2212") if number else text
+            el.appendChild(dom.createTextNode(text))
+            return el
+
+        def group(items):
+            if len(items) == 1:
+                return token(items[0])
+            row = dom.createElement("mrow")
+            for i, item in enumerate(items):
+                if i:
+                    mo = dom.createElement("mo")
+                    mo.setAttribute("separator", "true")
+                    mo.appendChild(dom.createTextNode(","))
+                    row.appendChild(mo)
+                row.appendChild(token(item))
+            return row
+
+        x = token(name)
+        if accent is not None:
+            over = dom.createElement("mover")
+            over.setAttribute("accent", "true")
+            over.appendChild(x)
+            mo = dom.createElement("mo")
+            mo.appendChild(dom.createTextNode(dict((a, c) for _, a, c in _ACCENTS)[accent]))
+            over.appendChild(mo)
+            x = over
+        if subs and supers:
+            out = dom.createElement("msubsup")
+            for part in (x, group(subs), group(supers)):
+                out.appendChild(part)
+            x = out
+        elif subs or supers:
+            out = dom.createElement("msub" if subs else "msup")
+            out.appendChild(x)
+            out.appendChild(group(subs or supers))
+            x = out
+        if style == "bold":
+            x.setAttribute("mathvariant", "bold")
+        return x
+
+
+_ENTITY = re.compile(r"&([A-Za-z][A-Za-z0-9]*);")
+
+
+def _numeric_entities(text: str) -> str:
+    """Named character references (``&InvisibleTimes;``) as numeric ones, so that the MathML is
+    well-formed XML as well as valid HTML."""
+
+    def repl(m):
+        name = m.group(1)
+        if name in ("lt", "gt", "amp", "quot", "apos"):
+            return m.group(0)
+        chars = html.entities.html5.get(name + ";")
+        if chars is None:
+            return m.group(0)
+        return "".join(f"&#x{ord(c):X};" for c in chars)
+
+    return _ENTITY.sub(repl, text)
+
+
+def latex(expr) -> str:
+    """LaTeX of a SymPy object with the report's symbol names."""
+    return _Latex().doprint(expr)
+
+
+def mathml(expr) -> str:
+    """Presentation MathML of a SymPy object (the content of a ``<math>`` element)."""
+    return _numeric_entities(_MathML().doprint(expr)).replace("<mo>-</mo>", "<mo>&#x2212;</mo>")
+
+
+def math_element(inner: str, *, block: bool) -> str:
+    """Wrap presentation MathML into a ``<math>`` element."""
+    display = ' display="block"' if block else ""
+    return f'<math xmlns="{_MATHML_NS}"{display}>{inner}</math>'
+
+
+def too_large(obj, limit: int = MAX_NODES) -> int | None:
+    """None when `obj` (an expression, matrix or tuple of them) has at most `limit` nodes,
+    else the number of nodes counted so far (more than `limit`). Stops counting early."""
+    count = 0
+    items = obj if isinstance(obj, tuple) else (obj,)
+    for item in items:
+        if not isinstance(item, sympy.Basic):
+            continue
+        for _ in sympy.preorder_traversal(item):
+            count += 1
+            if count > limit:
+                return count
+    return None
