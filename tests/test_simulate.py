@@ -425,3 +425,29 @@ def test_non_finite_forcing_is_a_simulation_error_not_a_singular_mass_matrix():
     with pytest.raises(lg.SimulationError, match=r"the forcing f is not finite \(NaN or infinity\) at t = 0 "
                                                  r"in the state x = -1, x_dot = 0: check the model's parameters"):
         lg.simulate(model, 1.0, {"x": -1.0})
+
+
+def test_progress_bar_on_a_terminal_and_the_same_results(monkeypatch):
+    import io
+
+    import lagrangian._progress as P
+
+    stream = io.StringIO()
+
+    class Immediate(P.Progress):  # no 1 s delay, drawn into `stream`
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **{**kwargs, "delay": 0.0, "stream": stream})
+
+    monkeypatch.setattr(P, "Progress", Immediate)
+    eqs = lg.derive(lg.load("double-pendulum"))
+    for backend in ("numba", "scipy"):
+        stream.seek(0)
+        stream.truncate()
+        shown = lg.simulate(eqs, 2.0, {"theta1": 1.0}, backend=backend, progress=True)
+        assert stream.getvalue().startswith("\rsimulating [") and stream.getvalue().endswith("\n")
+        assert ("201/201" if backend == "numba" else "1000/1000") in stream.getvalue()
+        stream.seek(0)
+        stream.truncate()
+        quiet = lg.simulate(eqs, 2.0, {"theta1": 1.0}, backend=backend, progress=False)
+        assert stream.getvalue() == ""
+        np.testing.assert_array_equal(shown.x, quiet.x)

@@ -231,10 +231,41 @@ def stage_table():
 MAX_EVENTS = 100_000
 
 
+def _with_progress(call, stats, total: int, enabled: bool | None):
+    """Run the compiled integrator; on a terminal, in a thread (the kernel releases the GIL) while
+    this one draws a progress bar from the outputs done so far (stats[3]). The results are the
+    same either way."""
+    from .._progress import Progress
+
+    bar = Progress(total, "simulating", enabled=enabled)
+    if not bar.enabled:
+        return call()
+    import threading
+
+    result: dict = {}
+
+    def target():
+        try:
+            result["status"] = call()
+        except BaseException as exc:  # pragma: no cover - re-raised below
+            result["error"] = exc
+
+    worker = threading.Thread(target=target, daemon=True)
+    worker.start()
+    with bar:
+        while worker.is_alive():
+            worker.join(0.1)
+            bar.set(int(stats[3]))
+    if "error" in result:  # pragma: no cover
+        raise result["error"]
+    return result["status"]
+
+
 def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
-               first_step: float = 0.0, events=None, terminal=()) -> RawRun:
+               first_step: float = 0.0, events=None, terminal=(), progress: bool | None = None) -> RawRun:
     """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `events`:
-    the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it."""
+    the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it.
+    `progress`: draw a progress bar (default: when stderr is a terminal and it takes over 1 s)."""
     from ._inputs import Programs
 
     n = cm.n
@@ -250,11 +281,14 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     info = np.zeros(2 + 2 * n)
     stats = np.zeros(4, dtype=np.int64)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)
-    status = kernels().dop853(cm.rhs_c, n, np.array(x0, dtype=float), 0.0, times,
-                              _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts,
-                              max(prog.nstack, events.nstack), rtol, float(atol), float(max_step), float(first_step),
-                              X, info, stats, *stage_table(), events.ops, events.args, events.starts, eterm, ev_t,
-                              ev_k, ev_x, ev_n)
+    def call():
+        return kernels().dop853(cm.rhs_c, n, np.array(x0, dtype=float), 0.0, times,
+                                _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts,
+                                max(prog.nstack, events.nstack), rtol, float(atol), float(max_step),
+                                float(first_step), X, info, stats, *stage_table(), events.ops, events.args,
+                                events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
+
+    status = _with_progress(call, stats, len(times), progress)
     k = int(stats[3])
     m = int(ev_n[0])
     order = np.argsort(ev_t[:m], kind="stable")

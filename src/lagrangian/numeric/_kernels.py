@@ -428,7 +428,7 @@ def _rms(a, b):
     return math.sqrt(s / a.shape[0])
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_step, first_step,
            X_out, info, stats, aptr, aidx, aval, cc, eops, eargs, estarts, eterm, ev_t, ev_k, ev_x, ev_n):
     """Integrate x' = f(t, x, u, p) from (t0, x0) with DOP853; X_out[j] = x(t_out[j]).
@@ -640,6 +640,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
             else:
                 _dense(t, h, y, F, t_out[j], X_out[j])
             j += 1
+        stats[3] = j  # outputs done so far: read by a progress bar while this runs without the GIL
         t = tnew
         for i in range(nx):
             y[i] = ynew[i]

@@ -194,7 +194,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
              params: Mapping | None = None, dt: float | None = None, t_eval=None,
              rtol: float | None = None, atol: float | None = None, method: str = "DOP853",
              max_step: float = math.inf, backend: str = "auto", step: float | None = None,
-             events: Mapping[str, str] | None = None, stop_on=()) -> Trajectory:
+             events: Mapping[str, str] | None = None, stop_on=(), progress: bool | None = None) -> Trajectory:
     """Integrate x' = f(t, x, u, p) from t = 0 to `t_end`.
 
     Parameters
@@ -242,6 +242,9 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     stop_on : sequence of str
         Names of `events` whose first crossing stops the simulation there (the trajectory ends
         at the last output time before it; ``stats["stopped_by"]`` names the event).
+    progress : bool, optional
+        Draw a progress bar on stderr; by default only when stderr is a terminal and the run
+        takes more than a second (the results do not depend on it).
 
     Returns
     -------
@@ -320,7 +323,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     fast = _compiled_model(nm, backend, method, u_exprs)
     if fast is not None:
         return _simulate_compiled(fast, method, x0, times, p, u_exprs, float(rtol), float(atol), max_step,
-                                  float(dt), step, event_exprs, tuple(stop_on))
+                                  float(dt), step, event_exprs, tuple(stop_on), progress)
     if event_exprs:
         raise ModelError("events are watched by the compiled integrators: give inputs as expression strings "
                          "and use backend='auto', 'numba' or 'c'")
@@ -330,10 +333,16 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     nfev = 0
 
     last = [None, None, 1.0]  # t, x and inertia measure of the latest right-hand side
+    from .._progress import Progress
+
+    bar = Progress(1000, "simulating", enabled=progress)
+    per_time = 1000 / float(times[-1]) if times[-1] > 0 else 0.0
 
     def rhs(t, x):
         nonlocal nfev
         nfev += 1
+        if bar.enabled:
+            bar.set(int(t * per_time))
         qdd, last[2] = nm.solve(t, x, u_of_t(t), p)
         last[0], last[1] = t, x
         return np.concatenate((x[nm.n:], qdd))
@@ -360,6 +369,8 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
                               f"{_state_text(nm, s.x)}: check the model's parameters and expressions "
                               "(a division by zero, a log or sqrt of a negative number)", status=-1,
                               time=float(s.t)) from None
+    finally:
+        bar.close()
     if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_of_t, p) < 1e-6):
         if sol.status == 1 and len(sol.t_events[0]):
             te, xe = sol.t_events[0][0], sol.y_events[0][0]
@@ -486,7 +497,7 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
 
 
 def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, atol, max_step, dt,
-                       step, event_exprs=None, stop_on=()) -> Trajectory:
+                       step, event_exprs=None, stop_on=(), progress=None) -> Trajectory:
     from ._fast import inputs_and_energy, run_dop853, run_variational
     from ._inputs import programs
     from ._kernels import STATUS
@@ -503,7 +514,8 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
             eprog = programs(list(event_exprs.values()), eq.t, list(eq.parameters),
                              states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs)
             terminal = [int(name in stop_on) for name in event_exprs]
-        raw = run_dop853(cm, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal)
+        raw = run_dop853(cm, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal,
+                         progress=progress)
     if raw.status in (1, 2):
         raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure)
     if raw.status == 3:
