@@ -95,27 +95,9 @@ def kane_rhs(n: int, explicit: bool = False):
     """A student's state equations from KanesMethod, lambdified (x = [q, u]): M and f solved by
     numpy at each call, or (`explicit`) the symbolically solved x' = km.rhs() lambdified."""
     import sympy as sp
-    from sympy.physics import mechanics as me
+    from derive_chain import kane_chain
 
-    q = me.dynamicsymbols(f"q1:{n + 1}")
-    u = me.dynamicsymbols(f"u1:{n + 1}")
-    m, l, g = sp.symbols("m l g")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O
-    particles, loads, kd = [], [], []
-    for i in range(n):
-        Ai = N.orientnew(f"A{i}", "Axis", [q[i], N.z])
-        Ai.set_ang_vel(N, u[i] * N.z)
-        Pi = P.locatenew(f"P{i}", l * Ai.y * -1)
-        Pi.v2pt_theory(P, N, Ai)
-        kd.append(q[i].diff() - u[i])
-        particles.append(me.Particle(f"Pa{i}", Pi, m))
-        loads.append((Pi, -m * g * N.y))
-        P = Pi
-    km = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
-    km.kanes_equations(particles, loads)
+    km, q, u, (m, l, g) = kane_chain(n)
     # the mass matrix and forcing of the full state equations, lambdified, and solved numerically
     # at each call (as sympy's and PyDy's n-link pendulum examples do; lambdifying the symbolic
     # LU solution km.rhs() instead is far slower for 6 links)

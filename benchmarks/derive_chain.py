@@ -32,31 +32,43 @@ def ours(n):
     return lambda: lg.derive(model).core.f  # M and f: what a simulation needs
 
 
+def kane_chain(n):
+    """sympy.physics.mechanics KanesMethod of the n-link chain, with its equations formed, and its
+    symbols (q, u, (m, l, g))."""
+    q, u, (m, l, g), N, particles, loads, kd = _chain(n, "kane")
+    km = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
+    km.kanes_equations(particles, loads)
+    return km, q, u, (m, l, g)
+
+
+def _chain(n, method):
+    q = me.dynamicsymbols(f"q1:{n + 1}")
+    u = me.dynamicsymbols(f"u1:{n + 1}")
+    m, l, g = sp.symbols("m l g")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O
+    particles, loads, kd = [], [], []
+    for i in range(n):
+        Ai = N.orientnew(f"A{i}", "Axis", [q[i], N.z])
+        Pi = P.locatenew(f"P{i}", l * Ai.y * -1)
+        if method == "kane":
+            Ai.set_ang_vel(N, u[i] * N.z)
+            kd.append(q[i].diff() - u[i])
+        Pi.v2pt_theory(P, N, Ai)
+        particles.append(me.Particle(f"Pa{i}", Pi, m))
+        loads.append((Pi, -m * g * N.y))
+        P = Pi
+    return q, u, (m, l, g), N, particles, loads, kd
+
+
 def sympy_chain(n, method):
     def run():
-        q = me.dynamicsymbols(f"q1:{n + 1}")
-        u = me.dynamicsymbols(f"u1:{n + 1}")
-        m, l, g = sp.symbols("m l g")
-        N = me.ReferenceFrame("N")
-        O = me.Point("O")
-        O.set_vel(N, 0)
-        P = O
-        particles, loads, kd = [], [], []
-        for i in range(n):
-            Ai = N.orientnew(f"A{i}", "Axis", [q[i], N.z])
-            Pi = P.locatenew(f"P{i}", l * Ai.y * -1)
-            Pi.v2pt_theory(P, N, Ai) if method == "lagrange" else None
-            if method == "kane":
-                Ai.set_ang_vel(N, u[i] * N.z)
-                Pi.v2pt_theory(P, N, Ai)
-                kd.append(q[i].diff() - u[i])
-            particles.append(me.Particle(f"Pa{i}", Pi, m))
-            loads.append((Pi, -m * g * N.y))
-            P = Pi
         if method == "kane":
-            km = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
-            km.kanes_equations(particles, loads)
+            km = kane_chain(n)[0]
             return km.mass_matrix, km.forcing
+        q, _, _, N, particles, loads, _ = _chain(n, "lagrange")
         L = me.Lagrangian(N, *particles)
         lm = me.LagrangesMethod(L, q, forcelist=loads, frame=N)
         lm.form_lagranges_equations()

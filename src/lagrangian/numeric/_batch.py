@@ -160,7 +160,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         Arrays: ``x[run, time, state]``; a run that fails does not stop the others: its
         `status` says why and its states are NaN from then on.
     """
-    from ._simulate import (_Names, _as_numeric, _closest, _input_function, _parameters, output_times)
+    from ._simulate import (_Names, _as_numeric, _closest, _input_function, _parameters, requested_times)
     from ._fast import BACKENDS, CompiledModel
 
     nm = _as_numeric(system)
@@ -239,13 +239,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     if bad:
         raise ModelError(f"every initial value and parameter must be a finite number: not so in {', '.join(bad)}")
 
-    if t_eval is None:
-        times = output_times(float(t_end), float(dt))
-    else:
-        times = np.asarray(t_eval, dtype=float).ravel()
-        if times.size == 0 or times[0] < 0 or np.any(np.diff(times) <= 0) or times[-1] > t_end * (1 + 1e-12):
-            raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
-                             f"got {t_eval!r}")
+    times = requested_times(t_end, dt, t_eval)
 
     from ._compiled import compile_equations
     from ._inputs import programs

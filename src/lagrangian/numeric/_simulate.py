@@ -54,6 +54,17 @@ class _Names:
         self.n = equations.n
 
 
+def requested_times(t_end: float, dt: float, t_eval=None) -> np.ndarray:
+    """The output times: `t_eval` checked, or 0, dt, 2 dt, ... <= t_end."""
+    if t_eval is None:
+        return output_times(float(t_end), float(dt))
+    times = np.asarray(t_eval, dtype=float).ravel()
+    if times.size == 0 or times[0] < 0 or np.any(np.diff(times) <= 0) or times[-1] > t_end * (1 + 1e-12):
+        raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
+                         f"got {t_eval!r}")
+    return times
+
+
 def _as_numeric(system):
     """A NumericModel or CompiledModel as given, or the names of a Model's or Equations'."""
     if isinstance(system, (NumericModel, CompiledModel)):
@@ -312,13 +323,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     if problems:
         raise ModelError(problems)
 
-    if t_eval is None:
-        times = output_times(float(t_end), float(dt))
-    else:
-        times = np.asarray(t_eval, dtype=float).ravel()
-        if times.size == 0 or times[0] < 0 or np.any(np.diff(times) <= 0) or times[-1] > t_end * (1 + 1e-12):
-            raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
-                             f"got {t_eval!r}")
+    times = requested_times(t_end, dt, t_eval)
     eq = nm.equations
     fast = _compiled_model(nm, backend, method, u_exprs)
     if fast is not None:
