@@ -374,13 +374,7 @@ def numba_source(equations: Equations, part: str = "main") -> str:
         # measured 8% slower for a double pendulum: the order is common subexpressions, M, f)
         lines, exprs = pr.block(Mlow + f)
         out += lines
-        k = 0
-        for i in range(n):
-            for j in range(i + 1):
-                out.append(f"    m{i}_{j} = {exprs[k]}" if n <= UNROLL_MAX else f"    work[{i * n + j}] = {exprs[k]}")
-                k += 1
-        for i in range(n):
-            out.append(f"    f{i} = {exprs[k + i]}" if n <= UNROLL_MAX else f"    work[{n * n + i}] = {exprs[k + i]}")
+        out += _rhs_values(n, exprs)
         if n <= UNROLL_MAX:
             out += _ldl(n, "py", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
         else:
@@ -396,21 +390,13 @@ def numba_source(equations: Equations, part: str = "main") -> str:
         out += pr.unpack()
         lines, exprs = pr.block(Mlow + f)
         out += lines
-        k = 0
-        for i in range(n):
-            for j in range(i + 1):
-                out.append(f"    M[{i * n + j}] = {exprs[k]}")
-                if i != j:
-                    out.append(f"    M[{j * n + i}] = M[{i * n + j}]")
-                k += 1
-        out += [f"    f[{i}] = {e}" for i, e in enumerate(exprs[k:])]
+        out += _stores(n, exprs, ("M", "f"))
         out += _cfunc_head("lagrange_parts", "_SIG_VOID", (("pm", n), ("F", n)), n, nu, npar,
                            "pm = dL/dq_dot and F = dL/dq - dD/dq_dot + Q.")
         out += pr.unpack()
         lines, exprs = pr.block(pm + F)
         out += lines
-        out += [f"    pm[{i}] = {e}" for i, e in enumerate(exprs[:n])]
-        out += [f"    F[{i}] = {e}" for i, e in enumerate(exprs[n:])]
+        out += _stores(n, exprs, ("pm", "F"))
     return "\n".join(out) + "\n"
 
 
@@ -472,13 +458,7 @@ def c_source(equations: Equations) -> str:
     body += pr.unpack()
     lines, exprs = pr.block(Mlow + f)
     body += lines
-    k = 0
-    for i in range(n):
-        for j in range(i + 1):
-            body.append(f"    double m{i}_{j} = {exprs[k]};" if n <= UNROLL_MAX else f"    work[{i * n + j}] = {exprs[k]};")
-            k += 1
-    for i in range(n):
-        body.append(f"    double f{i} = {exprs[k + i]};" if n <= UNROLL_MAX else f"    work[{n * n + i}] = {exprs[k + i]};")
+    body += _rhs_values(n, exprs, "double ", ";")
     if n <= UNROLL_MAX:
         body += _ldl(n, "c", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
     else:
@@ -486,14 +466,7 @@ def c_source(equations: Equations) -> str:
     body += ["}", "", "void lg_mass_forcing(double t, double *x, double *u, double *p, double *M, double *f) {"]
     body += pr.unpack()
     body += lines
-    k = 0
-    for i in range(n):
-        for j in range(i + 1):
-            body.append(f"    M[{i * n + j}] = {exprs[k]};")
-            if i != j:
-                body.append(f"    M[{j * n + i}] = M[{i * n + j}];")
-            k += 1
-    body += [f"    f[{i}] = {e};" for i, e in enumerate(exprs[k:])]
+    body += _stores(n, exprs, ("M", "f"), ";")
     body += ["}", "", "double lg_energy(double t, double *x, double *u, double *p) {"]
     body += pr.unpack()
     lines, exprs = pr.block([h])
@@ -502,10 +475,43 @@ def c_source(equations: Equations) -> str:
     body += pr.unpack()
     lines, exprs = pr.block(pm + F)
     body += lines
-    body += [f"    pm[{i}] = {e};" for i, e in enumerate(exprs[:n])]
-    body += [f"    F[{i}] = {e};" for i, e in enumerate(exprs[n:])]
+    body += _stores(n, exprs, ("pm", "F"), ";")
     body += ["}", ""]
     return head + "\n".join(body)
+
+
+def _rhs_values(n: int, exprs, decl: str = "", end: str = "") -> list[str]:
+    """Lines naming M's lower triangle and f for the unrolled solve (m{i}_{j}, f{i}), or storing
+    them in work[] for the loop solve (n > UNROLL_MAX); `decl` and `end` make them C."""
+    out, k = [], 0
+    for i in range(n):
+        for j in range(i + 1):
+            out.append(f"    {decl}m{i}_{j} = {exprs[k]}{end}" if n <= UNROLL_MAX
+                       else f"    work[{i * n + j}] = {exprs[k]}{end}")
+            k += 1
+    for i in range(n):
+        out.append(f"    {decl}f{i} = {exprs[k + i]}{end}" if n <= UNROLL_MAX
+                   else f"    work[{n * n + i}] = {exprs[k + i]}{end}")
+    return out
+
+
+def _stores(n: int, exprs, names: tuple[str, str], end: str = "") -> list[str]:
+    """Lines storing into two output arrays: ("M", "f"), exprs = M's lower triangle then f (M
+    filled symmetric, row-major); or ("pm", "F"), exprs = n values each."""
+    first, second = names
+    out, k = [], 0
+    if first == "M":
+        for i in range(n):
+            for j in range(i + 1):
+                out.append(f"    M[{i * n + j}] = {exprs[k]}{end}")
+                if i != j:
+                    out.append(f"    M[{j * n + i}] = M[{i * n + j}]{end}")
+                k += 1
+    else:
+        out += [f"    {first}[{i}] = {e}{end}" for i, e in enumerate(exprs[:n])]
+        k = n
+    out += [f"    {second}[{i}] = {e}{end}" for i, e in enumerate(exprs[k:])]
+    return out
 
 
 def write_once(path: Path, text: str) -> None:
