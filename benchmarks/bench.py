@@ -41,19 +41,10 @@ import lagrangian as lg  # noqa: E402
 from lagrangian.numeric import _codegen  # noqa: E402
 from lagrangian.numeric._fast import compile_numba, run_dop853  # noqa: E402
 from lagrangian.numeric._inputs import constant_programs  # noqa: E402
+from derive_chain import cpu  # noqa: E402
 
 TARGET_ERROR = 2.5e-7
 RESULTS: dict[str, object] = {}
-
-
-def cpu(fn, repeat: int) -> float:
-    """Median CPU time of fn() over `repeat` calls."""
-    times = []
-    for _ in range(repeat):
-        t0 = time.process_time()
-        fn()
-        times.append(time.process_time() - t0)
-    return statistics.median(times)
 
 
 def wall(fn, repeat: int) -> float:

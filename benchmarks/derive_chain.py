@@ -19,6 +19,7 @@ import lagrangian as lg
 
 
 def cpu(fn, repeat):
+    """Median CPU time of fn() over `repeat` calls."""
     times = []
     for _ in range(repeat):
         t0 = time.process_time()

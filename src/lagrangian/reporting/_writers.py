@@ -124,12 +124,17 @@ def _md_text(text: str) -> str:
     return text.replace("*", "\\*").replace("_", "\\_")
 
 
-def _md_inline(part) -> str:
+def _latex_inline(part, text, large: str) -> str:
+    """Inline text (escaped by `text`) or $maths$, shared by the Markdown and LaTeX writers."""
     if isinstance(part, str):
-        return _md_text(part)
+        return text(part)
     if too_large(part.parts() if isinstance(part, Math) else part, 400) is not None:
-        return "*(large expression)*"
+        return large
     return f"${_latex_relation(part) if isinstance(part, Math) else latex(part)}$"
+
+
+def _md_inline(part) -> str:
+    return _latex_inline(part, _md_text, "*(large expression)*")
 
 
 def _md_block(report: Report, block) -> str:
@@ -180,11 +185,7 @@ def _tex_text(text: str) -> str:
 
 
 def _tex_inline(part) -> str:
-    if isinstance(part, str):
-        return _tex_text(part)
-    if too_large(part.parts() if isinstance(part, Math) else part, 400) is not None:
-        return "\\emph{(large expression)}"
-    return f"${_latex_relation(part) if isinstance(part, Math) else latex(part)}$"
+    return _latex_inline(part, _tex_text, "\\emph{(large expression)}")
 
 
 def _tex_block(report: Report, block) -> str:
