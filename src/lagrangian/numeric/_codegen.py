@@ -26,7 +26,7 @@ __all__ = ["cache_dir", "model_key", "numba_source", "c_source", "load_module", 
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "13"
+GENERATOR_VERSION = "16"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",
@@ -125,16 +125,30 @@ class _Printer:
             raise Unsupported(f"'{name}' in a generated expression")
         return _TOKEN.sub(sub, text)
 
-    def block(self, exprs: list, indent: str = "    ", first: int | None = None):
+    def sincos(self, bases: list, indent: str = "    ", lanes: bool = False) -> tuple[list[str], dict[str, str]]:
+        """Statements `sn{k}, cs{k} = _sincos(base k)` (see _split_trig), and the names of their
+        symbols for :meth:`block`. `lanes`: the polynomial alone, each argument named b{k}."""
+        lines, temps = [], {}
+        for k, b in enumerate(bases):
+            text = self._translate(self._str(b), {})
+            if lanes:
+                lines += [f"{indent}b{k} = {text}", f"{indent}sn{k}, cs{k} = _sincos_poly(b{k})"]
+            else:
+                lines.append(f"{indent}sn{k}, cs{k} = _sincos({text})")
+            temps.update({f"__lg_sn{k}": f"sn{k}", f"__lg_cs{k}": f"cs{k}"})
+        return lines, temps
+
+    def block(self, exprs: list, indent: str = "    ", first: int | None = None, names: dict | None = None):
         """(statements defining the common subexpressions, the output expressions); with `first`,
-        (the statements the first `first` outputs need, the other statements, the outputs)."""
+        (the statements the first `first` outputs need, the other statements, the outputs).
+        `names`: more symbols' names (those of :meth:`sincos`)."""
         safe = {}
         if self.clash:  # rename model symbols that look like SymEngine's CSE symbols
             safe = {self.syms[n]: se.Symbol(f"__lg_{n}") for n in self.syms if re.fullmatch(r"x\d+", n)}
             exprs = [e.subs(safe) for e in exprs]
             back = {f"__lg_{n}": self.rename[n] for n in self.syms if re.fullmatch(r"x\d+", n)}
         reps, reduced = se.cse(exprs)
-        temps: dict[str, str] = {}
+        temps: dict[str, str] = dict(names or {})
         if safe:
             temps.update(back)
         lines = []
@@ -165,9 +179,13 @@ class _Printer:
             return text
         return str(e)  # a name that is not the model's (I, oo, nan) is refused by _translate
 
-    def unpack(self, indent: str = "    ") -> list[str]:
+    def unpack(self, indent: str = "    ", lanes: bool = False) -> list[str]:
+        """Statements naming t, x, u and p; `lanes`: of lane k, from lane-major arrays."""
         end = ";" if self.lang == "c" else ""
         decl = "double " if self.lang == "c" else ""
+        if lanes:
+            lane = lambda acc: "t[k]" if acc == "t" else re.sub(r"\[(\d+)\]", r"[\1 * L + k]", acc)  # noqa: E731
+            return [f"{indent}{local} = {lane(acc)}" for local, acc, _ in self.locals]
         return [f"{indent}{decl}{local} = {acc}{end}" for local, acc, _ in self.locals]
 
 
@@ -219,15 +237,73 @@ def _model_parts(equations: Equations, part: str = "main"):
     return Mlow, fs, h, None, None
 
 
+#: sin and cos of arguments up to this size are evaluated by the generated module's own
+#: polynomial (_sincos_poly: both at once, and vectorizable), beyond it by libm.
+SINCOS_BOUND = 1e5
+#: pi/2 in three parts: its first 33 bits, the next 33 bits, the rest rounded (Cody and Waite).
+PIO2_PARTS = (1.5707963267341256, 6.077100506303966e-11, 2.0222662487959506e-21)
+
+
+def _prelude() -> str:
+    text = _PRELUDE.replace("@BOUND@", repr(SINCOS_BOUND)).replace("@TWO_OVER_PI@", repr(0.6366197723675814))
+    for k, part in enumerate(PIO2_PARTS, 1):
+        text = text.replace(f"@PIO2_{k}@", repr(part))
+    return text
+
+
+def _split_trig(exprs: list) -> tuple[list, list]:
+    """(bases, exprs'): sin and cos in `exprs` (of arguments free of sin and cos) replaced by the
+    symbols __lg_sn{k} and __lg_cs{k} of (sin, cos) of the arguments `bases`, one (sin, cos) pair
+    per base. An argument +-a +- b of two symbols is expanded by the addition theorems into the
+    pairs of a and b, when that needs fewer pairs (a chain's sin(q1 - q2), cos(q1 - q3), ...
+    then cost one pair per coordinate, not one per pair of coordinates)."""
+    calls = set()
+    for e in exprs:
+        calls |= {c for c in e.atoms(se.sin, se.cos) if not c.args[0].atoms(se.sin, se.cos)}
+    args = sorted({c.args[0] for c in calls}, key=str)
+
+    def pair(a):  # ((c1, s1), (c2, s2)) for a = c1 s1 + c2 s2, c = +-1, s symbols; or None
+        if not (a.is_Add and len(a.args) == 2):
+            return None
+        out = []
+        for term in a.args:
+            if term.is_Symbol:
+                out.append((1, term))
+            elif term.is_Mul and len(term.args) == 2 and term.args[0] == -1 and term.args[1].is_Symbol:
+                out.append((-1, term.args[1]))
+            else:
+                return None
+        return out
+
+    split = {a: pair(a) for a in args}
+    expanded = {a for a in args if split[a] is None} | {s for a in args if split[a] for _, s in split[a]}
+    bases = sorted(expanded, key=str) if len(expanded) < len(args) else args
+    sym = {b: (se.Symbol(f"__lg_sn{k}"), se.Symbol(f"__lg_cs{k}")) for k, b in enumerate(bases)}
+    rep = {}
+    for a in args:
+        if a in sym:
+            S, C = sym[a]
+        else:
+            (c1, s1), (c2, s2) = split[a]
+            S1, C1 = sym[s1][0] * c1, sym[s1][1]
+            S2, C2 = sym[s2][0] * c2, sym[s2][1]
+            S, C = S1 * C2 + C1 * S2, C1 * C2 - S1 * S2
+        rep[se.sin(a)] = S
+        rep[se.cos(a)] = C
+    return bases, ([e.subs(rep) for e in exprs] if rep else list(exprs))
+
+
 _PRELUDE = """
 import math
 
+import numpy as np
 from numba import carray, cfunc, njit, types
 
 _P = types.CPointer(types.float64)
 _SIG_VOID = types.void(types.float64, _P, _P, _P, _P, _P)
 _SIG_DOUBLE = types.float64(types.float64, _P, _P, _P)
 _SIG_RHS = types.float64(types.float64, _P, _P, _P, _P, _P)
+_SIG_LANES = types.float64(_P, _P, _P, _P, _P, _P, types.int64)
 
 
 @njit(cache=True)
@@ -238,6 +314,38 @@ def _sign(a):
 @njit(cache=True)
 def _heaviside(a):
     return 1.0 if a > 0.0 else (0.5 if a == 0.0 else 0.0)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _sincos_poly(a):
+    \"\"\"(sin a, cos a) for |a| <= @BOUND@, within about an ulp, without a branch (so that a loop
+    over lanes vectorizes): a = k pi/2 + r with pi/2 in three parts of 33, 33 and 53 bits (k pi/2
+    exact for |k| < 2**20), then the Taylor series of sin and cos on |r| <= pi/4 (truncation
+    below 1e-19), in Estrin's scheme (a short chain of dependent operations).\"\"\"
+    k = math.floor(a * @TWO_OVER_PI@ + 0.5)
+    r = ((a - k * @PIO2_1@) - k * @PIO2_2@) - k * @PIO2_3@
+    z = r * r
+    z2 = z * z
+    z4 = z2 * z2
+    s = r + r * z * ((-1 / 6 + z * (1 / 120)) + z2 * (-1 / 5040 + z * (1 / 362880)) + z4 * (
+        (-1 / 39916800 + z * (1 / 6227020800)) + z2 * (-1 / 1307674368000 + z * (1 / 355687428096000))))
+    c = 1.0 + z * ((-0.5 + z * (1 / 24)) + z2 * (-1 / 720 + z * (1 / 40320)) + z4 * (
+        (-1 / 3628800 + z * (1 / 479001600)) + z2 * (-1 / 87178291200 + z * (1 / 20922789888000))))
+    q = np.int64(k) & 3
+    odd = (q & 1) == 1
+    sa = c if odd else s
+    ca = s if odd else c
+    sa = -sa if (q & 2) == 2 else sa
+    ca = -ca if ((q + 1) & 2) == 2 else ca
+    return sa, ca
+
+
+@njit(cache=True, inline="always")
+def _sincos(a):
+    \"\"\"(sin a, cos a): _sincos_poly where it holds, libm beyond (and for inf and NaN).\"\"\"
+    if abs(a) <= @BOUND@:
+        return _sincos_poly(a)
+    return math.sin(a), math.cos(a)
 """
 
 
@@ -362,7 +470,7 @@ def numba_source(equations: Equations, part: str = "main") -> str:
     nu, npar = len(equations.inputs), len(equations.parameters)
     Mlow, f, h, pm, F = _model_parts(equations, part)
     pr = _Printer(equations, "py")
-    out = ['"""' + _header(equations) + '"""', _PRELUDE, f"N = {n}", f"NU = {nu}", f"NPAR = {npar}"]
+    out = ['"""' + _header(equations) + '"""', _prelude(), f"N = {n}", f"NU = {nu}", f"NPAR = {npar}"]
     if n > UNROLL_MAX and part == "main":
         out.append(_SOLVE_LOOP.replace("@N@", str(n)).replace("@SINGULAR@", repr(SINGULAR)))
     if part == "main":
@@ -371,9 +479,12 @@ def numba_source(equations: Equations, part: str = "main") -> str:
                            "its LDL^T factorization: 0 when singular) or -1.0 when f is not finite.")
         out += pr.unpack()
         # (factorizing M before computing f, to overlap the divisions with the forcing's work,
-        # measured 8% slower for a double pendulum: the order is common subexpressions, M, f)
-        lines, exprs = pr.block(Mlow + f)
-        out += lines
+        # measured 8% slower for a double pendulum: the order is sin and cos, common
+        # subexpressions, M, f)
+        bases, mf = _split_trig(Mlow + f)
+        trig, names = pr.sincos(bases)
+        lines, exprs = pr.block(mf, names=names)
+        out += trig + lines
         out += _rhs_values(n, exprs)
         if n <= UNROLL_MAX:
             out += _ldl(n, "py", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
@@ -384,6 +495,8 @@ def numba_source(equations: Equations, part: str = "main") -> str:
         out += pr.unpack()
         lines, exprs = pr.block([h])
         out += lines + [f"    return {exprs[0]}"]
+    elif part.startswith("lanes"):
+        out += _rhs_lanes(equations, pr, Mlow, f, int(part[5:]))
     else:
         out += _cfunc_head("mass_forcing", "_SIG_VOID", (("M", n * n), ("f", n)), n, nu, npar,
                            "M (row-major n x n) and f with M q_ddot = f.")
@@ -398,6 +511,59 @@ def numba_source(equations: Equations, part: str = "main") -> str:
         out += lines
         out += _stores(n, exprs, ("pm", "F"))
     return "\n".join(out) + "\n"
+
+
+def _rhs_lanes(equations: Equations, pr: _Printer, Mlow: list, f: list, lanes: int) -> list[str]:
+    """The cfunc rhs_lanes: rhs for L states at once, written as one loop over the lanes with no
+    branch and no reduction in it, so that numba vectorizes it (SIMD across the lanes)."""
+    n = equations.n
+    nu, npar = len(equations.inputs), len(equations.parameters)
+    ind = " " * 8
+    out = ["", "", '@cfunc(_SIG_LANES, cache=True, error_model="numpy", fastmath={"contract"})',
+           "def rhs_lanes(t_, x_, u_, p_, dx_, work_, lanes):",
+           '    """rhs of L states at once: t[k] the time of lane k, the other arrays lane-major (x[i * L',
+           "    + k]: component i of lane k; u and p likewise; work: 2 L). Returns the smallest inertia",
+           "    measure of the lanes' M, or -1.0 when f is not finite or an argument of sin or cos exceeds",
+           f'    {SINCOS_BOUND!r} in a lane."""',
+           f"    L = {lanes}  # the argument lanes must be this: a constant, so that the loop vectorizes",
+           "    t = carray(t_, (L,))", f"    x = carray(x_, ({2 * n} * L,))", f"    dx = carray(dx_, ({2 * n} * L,))",
+           "    work = carray(work_, (2 * L,))"]
+    if nu:
+        out.append(f"    u = carray(u_, ({nu} * L,))")
+    if npar:
+        out.append(f"    p = carray(p_, ({npar} * L,))")
+    out.append("    for k in range(L):")
+    out += pr.unpack(ind, lanes=True)
+    bases, mf = _split_trig(Mlow + f)
+    trig, names = pr.sincos(bases, ind, lanes=True)
+    lines, exprs = pr.block(mf, ind, names=names)
+    out += trig + lines
+    out += [line.replace("    ", ind, 1) for line in _rhs_values(n, exprs)]
+    m = lambda i, j: f"m{i}_{j}"  # noqa: E731
+    for j in range(n):  # LDL^T, as _ldl, without its branches
+        out.append(f"{ind}d{j} = {m(j, j)}" + "".join(f" - l{j}_{k} * l{j}_{k} * d{k}" for k in range(j)))
+        out.append(f"{ind}i{j} = 1.0 / d{j}")
+        for i in range(j + 1, n):
+            terms = "".join(f" - l{i}_{k} * l{j}_{k} * d{k}" for k in range(j))
+            out.append(f"{ind}l{i}_{j} = ({m(i, j)}{terms}) * i{j}")
+    out.append(f"{ind}r = 1.0 if d0 > 0.0 else 0.0")
+    out += [f"{ind}r = min(r, d{j} / {m(j, j)} if {m(j, j)} > 0.0 else 0.0)" for j in range(1, n)]
+    for i in range(n):
+        out.append(f"{ind}z{i} = f{i}" + "".join(f" - l{i}_{k} * z{k}" for k in range(i)))
+    for i in range(n - 1, -1, -1):
+        out.append(f"{ind}a{i} = z{i} * i{i}" + "".join(f" - l{k}_{i} * a{k}" for k in range(i + 1, n)))
+    for i in range(n):
+        out += [f"{ind}dx[{n + i} * L + k] = a{i}", f"{ind}dx[{i} * L + k] = x[{n + i} * L + k]"]
+    if bases:
+        big = ", ".join(f"abs(b{k})" for k in range(len(bases))) + (", 0.0" if len(bases) == 1 else "")
+        out.append(f"{ind}work[k] = r if max({big}) <= {SINCOS_BOUND!r} else -2.0")
+    else:
+        out.append(f"{ind}work[k] = r")
+    out += [f"{ind}work[L + k] = {' + '.join(f'a{i}' for i in range(n))}",
+            "    r = 1.0", "    s = 0.0", "    for k in range(L):", "        r = min(r, work[k])",
+            "        s += work[L + k]", "    if r < -1.0 or not math.isfinite(s):", "        return -1.0",
+            "    return r"]
+    return out
 
 
 #: The C functions' declarations (cffi cdef): the same signatures as the numba cfuncs.

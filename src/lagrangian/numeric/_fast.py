@@ -9,6 +9,7 @@ variational integrator).
 
 from __future__ import annotations
 
+import functools
 import threading
 import weakref
 from dataclasses import dataclass, field
@@ -75,6 +76,44 @@ class CompiledModel:
             per["variational"] = _module(self.equations, "variational")[2]
         return per["variational"]
 
+    @functools.cached_property
+    def rhs_address(self) -> int:
+        """The address of the compiled rhs (what the kernels call)."""
+        return _address(self.rhs_c)
+
+    def rhs_lanes_address(self, lanes: int) -> int | None:
+        """The address of the compiled rhs_lanes for blocks of `lanes` states (the right-hand
+        side of all of them at once, vectorized; see _codegen), generated on first use; None for
+        the C backend and for models with more than UNROLL_MAX coordinates."""
+        from ._codegen import UNROLL_MAX
+
+        if self.backend != "numba" or self.n > UNROLL_MAX:
+            return None
+        per = _CACHE.setdefault(self.equations, {})
+        part = f"lanes{int(lanes)}"
+        if part not in per:
+            per[part] = _module(self.equations, part)
+        return _address(per[part][2].rhs_lanes)
+
+    def lanes_source(self, lanes: int) -> str | None:
+        """The generated source of rhs_lanes for blocks of `lanes` (None where there is none)."""
+        if self.rhs_lanes_address(lanes) is None:
+            return None
+        with open(_CACHE[self.equations][f"lanes{int(lanes)}"][0]) as fh:
+            return fh.read()
+
+    @functools.cached_property
+    def energy_address(self) -> int:
+        return _address(self.energy_c)
+
+    @functools.cached_property
+    def mass_forcing_address(self) -> int:
+        return _address(self.mass_forcing_c)
+
+    @functools.cached_property
+    def lagrange_parts_address(self) -> int:
+        return _address(self.lagrange_parts_c)
+
     @property
     def mass_forcing_c(self):
         """The cfunc of M and f."""
@@ -99,20 +138,20 @@ class CompiledModel:
 
     def rhs(self, t, x, u, p) -> np.ndarray:
         """x' = [q_dot, q_ddot], shape (2n,) (NaN where M is singular or f not finite)."""
-        return kernels().rhs(self.rhs_c, self.n, *self._args(t, x, u, p))[0]
+        return kernels().rhs(self.rhs_address, self.n, *self._args(t, x, u, p))[0]
 
     def solve(self, t, x, u, p) -> tuple[np.ndarray, float]:
         """(q_ddot, inertia measure of M); the measure is -1.0 when f is not finite."""
-        dx, r = kernels().rhs(self.rhs_c, self.n, *self._args(t, x, u, p))
+        dx, r = kernels().rhs(self.rhs_address, self.n, *self._args(t, x, u, p))
         return dx[self.n:], float(r)
 
     def mass_matrix(self, t, x, u, p) -> np.ndarray:
         """M at the state, shape (n, n)."""
-        return kernels().mass_forcing(self.mass_forcing_c, self.n, *self._args(t, x, u, p))[0]
+        return kernels().mass_forcing(self.mass_forcing_address, self.n, *self._args(t, x, u, p))[0]
 
     def forcing(self, t, x, u, p) -> np.ndarray:
         """f at the state, shape (n,)."""
-        return kernels().mass_forcing(self.mass_forcing_c, self.n, *self._args(t, x, u, p))[1]
+        return kernels().mass_forcing(self.mass_forcing_address, self.n, *self._args(t, x, u, p))[1]
 
     def accelerations(self, t, x, u, p) -> np.ndarray:
         """q_ddot solving M q_ddot = f, shape (n,)."""
@@ -130,9 +169,21 @@ class CompiledModel:
         m = len(self.input_names)
         prog = constant_programs(u[:m])
         out, U = np.empty(1), np.empty((1, m))
-        kernels().energies(self.energy_c, np.array([t]), x[None, :], p, prog.ops, prog.args, prog.starts,
+        kernels().energies(self.energy_address, np.array([t]), x[None, :], p, prog.ops, prog.args, prog.starts,
                            prog.nstack, out, U)
         return float(out[0])
+
+
+def _address(fn) -> int:
+    """The address of a compiled function: a numba cfunc or a cffi function of the C backend.
+    The kernels take addresses, not function objects: typing a function object costs numba
+    several microseconds per call."""
+    address = getattr(fn, "address", None)
+    if address is not None:
+        return int(address)
+    import cffi
+
+    return int(cffi.FFI().cast("uintptr_t", fn))
 
 
 def _nonempty(a: np.ndarray) -> np.ndarray:
@@ -261,16 +312,24 @@ def _with_progress(call, stats, total: int, enabled: bool | None):
     return result["status"]
 
 
+_NO_EVENTS = None
+#: The smallest relative tolerance (as SciPy's solve_ivp): 100 machine epsilons.
+_MIN_RTOL = 100 * 2.220446049250313e-16
+
+
 def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
                first_step: float = 0.0, events=None, terminal=(), progress: bool | None = None) -> RawRun:
     """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `events`:
     the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it.
     `progress`: draw a progress bar (default: when stderr is a terminal and it takes over 1 s)."""
-    from ._inputs import Programs
-
+    global _NO_EVENTS
     n = cm.n
     if events is None:
-        events = Programs([], [], [0], 1)
+        if _NO_EVENTS is None:
+            from ._inputs import Programs
+
+            _NO_EVENTS = Programs([], [], [0], 1)
+        events = _NO_EVENTS
     nev = len(events.starts) - 1
     cap = MAX_EVENTS if nev else 1
     ev_t, ev_k, ev_x, ev_n = np.zeros(cap), np.zeros(cap, np.int64), np.zeros((cap, 2 * n)), np.zeros(1, np.int64)
@@ -280,9 +339,10 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     X = np.empty((len(times), 2 * n))
     info = np.zeros(2 + 2 * n)
     stats = np.zeros(4, dtype=np.int64)
-    rtol = max(float(rtol), 100 * np.finfo(float).eps)
+    rtol = max(float(rtol), _MIN_RTOL)
+
     def call():
-        return kernels().dop853(cm.rhs_c, n, np.array(x0, dtype=float), 0.0, times,
+        return kernels().dop853(cm.rhs_address, n, np.array(x0, dtype=float), 0.0, times,
                                 _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts,
                                 max(prog.nstack, events.nstack), rtol, float(atol), float(max_step),
                                 float(first_step), X, info, stats, *stage_table(), events.ops, events.args,
@@ -304,7 +364,7 @@ def run_variational(cm: CompiledModel, x0, h: float, nsteps: int, every: int, p,
     X = np.empty((nout, 2 * n))
     info = np.zeros(2 + 2 * n)
     stats = np.zeros(4, dtype=np.int64)
-    status = kernels().variational(cm.mass_forcing_c, cm.lagrange_parts_c, n, np.array(x0, dtype=float), 0.0,
+    status = kernels().variational(cm.mass_forcing_address, cm.lagrange_parts_address, n, np.array(x0, dtype=float), 0.0,
                                    float(h), int(nsteps), int(every), _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops,
                                    prog.args, prog.starts, prog.nstack, X, info, stats)
     k = int(stats[3])
@@ -317,7 +377,7 @@ def inputs_and_energy(cm: CompiledModel, times, X, p, prog) -> tuple[np.ndarray,
     times = np.ascontiguousarray(times, dtype=float)
     U = np.empty((len(times), len(cm.input_names)))
     energy = np.empty(len(times))
-    kernels().energies(cm.energy_c, times, np.ascontiguousarray(X, dtype=float), _nonempty(np.ascontiguousarray(p, dtype=float)),
+    kernels().energies(cm.energy_address, times, np.ascontiguousarray(X, dtype=float), _nonempty(np.ascontiguousarray(p, dtype=float)),
                        prog.ops, prog.args, prog.starts, prog.nstack, energy, U)
     return U, energy
 
