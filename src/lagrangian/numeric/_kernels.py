@@ -4,14 +4,16 @@ the midpoint variational integrator.
 
 :func:`kernel_source` returns them as Python source for numba. They are written once to the cache
 directory (see _fast.kernels) and compiled once per machine (``@njit(cache=True)``): a model's
-functions are passed to them as compiled C callbacks (numba ``cfunc``, or the C backend's
-functions) of fixed signatures,
+functions (numba ``cfunc``, or the C backend's functions) are passed to them by their addresses,
+as integers (typing a function object would cost numba microseconds per call), and have fixed
+signatures,
 
     rhs(t, x*, u*, p*, dx*, work*) -> double  dx = [q_dot, q_ddot]; returns the inertia measure
                                               of M (-1.0 when f is not finite)
     energy(t, x*, u*, p*) -> double           the Jacobi integral
     mass_forcing(t, x*, u*, p*, M*, f*)      M row-major (n x n), f (n)
     lagrange_parts(t, x*, u*, p*, pm*, F*)   pm = dL/dq_dot, F = dL/dq - dD/dq_dot + Q
+    rhs_lanes(t*, x*, u*, p*, dx*, work*, L) rhs of L states (lane-major arrays) at once
 
 so that a new model compiles only its own functions (a fraction of a second) and no integrator.
 
