@@ -817,3 +817,42 @@ def test_output_that_is_a_directory_is_refused_before_simulating(capsys, tmp_pat
     rc, out, err = run_cli(capsys, "simulate", "cart-pendulum", "--output", str(tmp_path))
     assert rc == 2
     assert "it is a directory; give a file name such as" in err
+
+
+# ------------------------------------------------------------------------- events from the CLI
+
+
+def test_simulate_records_events_and_stops_on_one(capsys, tmp_path):
+    # undamped, x1 = cos(w t) with w = sqrt(2k/m): x1 crosses zero at (2j + 1) pi / (2 w)
+    out_csv, ev_csv = tmp_path / "out.csv", tmp_path / "events.csv"
+    rc, out, err = run_cli(capsys, "simulate", "spring-mass-damper-chain-1", "--param", "c=0", "--initial", "x1=1",
+                           "--t-end", "1", "--event", "zero=x1", "-o", out_csv, "--events-output", ev_csv)
+    assert rc == 0, err
+    w = math.sqrt(200.0)
+    rows = list(csv.reader(io.StringIO(ev_csv.read_text())))
+    assert rows[0] == ["event", "t", "x1", "x1_dot"]
+    times = [float(r[1]) for r in rows[1:]]
+    assert [r[0] for r in rows[1:]] == ["zero"] * 5  # the fifth at 0.9997
+    assert times == pytest.approx([(2 * j + 1) * math.pi / (2 * w) for j in range(5)], abs=1e-8)
+    assert [abs(float(r[2])) for r in rows[1:]] == pytest.approx([0.0] * 5, abs=1e-8)
+    assert "event zero: 5 crossings, the first at t = 0.111072" in out
+    # stop at the first time x1_dot reaches -13: w sin(w t) = 13
+    rc, out, err = run_cli(capsys, "simulate", "spring-mass-damper-chain-1", "--param", "c=0", "--initial", "x1=1",
+                           "--t-end", "1", "--event", "zero=x1", "--event", "fast=x1_dot+13", "--stop-on", "fast")
+    assert rc == 0, err
+    t_stop = math.asin(13 / w) / w
+    assert f"stopped by event fast at t = {t_stop:.6g}" in err and "event zero: 0 crossings" in err
+    last = out.strip().splitlines()[-1].split(",")
+    assert float(last[0]) <= t_stop < float(last[0]) + 0.01  # the CSV (on stdout) ends at the stop
+
+
+@pytest.mark.parametrize("args, needles", [
+    (["--events-output", "e.csv"], ["--events-output needs at least one --event NAME=EXPR"]),
+    (["--event", "zero=x1", "--stop-on", "zz"], ["stop_on names 'zz', which is not one of the events"]),
+    (["--event", "zero=x1", "--method", "RK45"], ["events are watched by the compiled DOP853 only, not by method 'RK45'"]),
+    (["--event", "zero=x1+"], ["event 'zero': missing operand after '+'"]),
+    (["--event", "zero"], ["--event 'zero': expected NAME=VALUE"]),
+])
+def test_simulate_event_errors(capsys, tmp_path, args, needles):
+    rc, out, err = run_cli(capsys, "simulate", "spring-mass-damper-chain-1", "--t-end", "1", *args)
+    assert_bad_input(rc, out, err, *needles)

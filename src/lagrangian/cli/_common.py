@@ -104,6 +104,11 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
                    help="where the integrator runs: auto (default: numba when it can), numba, c (needs a C "
                         "compiler), scipy (SciPy's solve_ivp)")
     s.add_argument("--step", type=float, help="fixed step of --method variational (default: at most 1e-3, dividing dt)")
+    s.add_argument("--event", action="append", default=[], metavar="NAME=EXPR",
+                   help="record where an expression of t, coordinates, velocities, inputs and parameters crosses "
+                        "zero, e.g. \"upright=cos(q2)\" (repeatable; compiled DOP853 only)")
+    s.add_argument("--stop-on", action="append", default=[], metavar="NAME",
+                   help="stop at the first crossing of this --event (repeatable)")
     s.add_argument("--show-equations", action="store_true", help="print the equations before simulating")
 
 
@@ -117,6 +122,9 @@ def run_simulation(args, *, equations_to=None):
     initial = {k: number(v, f"--initial {k}") for k, v in assignments(args.initial, "initial").items()}
     params = {k: number(v, f"--param {k}") for k, v in assignments(args.param, "param").items()}
     inputs = assignments(args.input, "input", split_commas=False)
+    events = assignments(getattr(args, "event", []), "event", split_commas=False)
+    stop_on = [name for item in getattr(args, "stop_on", []) for name in item.split(",") if name.strip()]
+    stop_on = [name.strip() for name in stop_on]
     eqs = derive(model)
     if args.show_equations:
         print(eqs.text(), file=equations_to or sys.stdout)
@@ -124,5 +132,28 @@ def run_simulation(args, *, equations_to=None):
     traj = simulate(eqs, args.t_end, initial or None,
                     inputs={**defaults.get("inputs", {}), **inputs} or None, params=params,
                     dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method,
-                    backend=getattr(args, "backend", "auto"), step=getattr(args, "step", None))
+                    backend=getattr(args, "backend", "auto"), step=getattr(args, "step", None),
+                    events=events or None, stop_on=tuple(stop_on))
     return model, eqs, traj
+
+
+def events_csv(traj) -> str:
+    """The event crossings of a trajectory as CSV: event,t,<states>, in time order."""
+    rows = [(float(t), name, x) for name, ev in traj.events.items() for t, x in zip(ev["t"], ev["x"])]
+    rows.sort(key=lambda r: r[0])
+    lines = [",".join(["event", "t", *traj.state_names])]
+    lines += [",".join([name, repr(t), *(repr(float(v)) for v in x)]) for t, name, x in rows]
+    return "\n".join(lines) + "\n"
+
+
+def events_summary(traj) -> list[str]:
+    """One line for each event: how many crossings and the first; and why the run stopped."""
+    out = []
+    for name, ev in traj.events.items():
+        k = len(ev["t"])
+        first = f", the first at t = {ev['t'][0]:.6g}" if k else ""
+        out.append(f"event {name}: {k} crossing{'' if k == 1 else 's'}{first}")
+    if "stopped_by" in traj.stats:
+        out.append(f"stopped by event {traj.stats['stopped_by']} at t = {traj.stats['stop_time']:.6g} "
+                   f"(the last output row is t = {traj.t[-1]:g})")
+    return out

@@ -6,7 +6,9 @@ import argparse
 import json
 import sys
 
-from ._common import MODEL_HELP, add_simulation_options, check_writable, run_simulation, write_atomically
+from ..errors import ModelError
+from ._common import (MODEL_HELP, add_simulation_options, check_writable, events_csv, events_summary, run_simulation,
+                      write_atomically)
 
 
 def register(sub, fmt) -> None:
@@ -30,6 +32,8 @@ def register(sub, fmt) -> None:
     s.add_argument("model", help=MODEL_HELP)
     add_simulation_options(s)
     s.add_argument("--output", "-o", default="-", metavar="FILE", help="CSV file to write ('-' for stdout, the default)")
+    s.add_argument("--events-output", metavar="FILE",
+                   help="CSV file for the --event crossings: event,t,<states>, in time order")
     s.set_defaults(handler=_cmd_simulate)
 
     c = sub.add_parser("check", help="check a model and diagnose its mass matrix",
@@ -63,9 +67,13 @@ def _cmd_derive(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    if args.output != "-":
-        check_writable(args.output)
+    if args.events_output is not None and not args.event:
+        raise ModelError("--events-output needs at least one --event NAME=EXPR, for example --event \"upright=cos(q2)\"")
+    for path in (args.output, args.events_output):
+        if path not in ("-", None):
+            check_writable(path)
     _, _, traj = run_simulation(args, equations_to=sys.stderr if args.output == "-" else sys.stdout)
+    notes = sys.stderr if args.output == "-" else sys.stdout
     if args.output == "-":
         sys.stdout.write(traj.to_csv())
     else:
@@ -73,6 +81,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         drift = traj.energy_drift
         extra = f"; {traj.energy_name} drift {drift:.2e}" if drift is not None and traj.conservative else ""
         print(f"wrote {len(traj.t)} rows (t = 0 .. {traj.t[-1]:g}) to {args.output}{extra}")
+    if args.events_output is not None:
+        write_atomically(args.events_output, events_csv(traj))
+    for line in events_summary(traj) if args.event else ():
+        print(line, file=notes)
     return 0
 
 

@@ -312,7 +312,18 @@ def _with_progress(call, stats, total: int, enabled: bool | None):
     return result["status"]
 
 
-_NO_EVENTS = None
+_NO_EVENTS: dict = {}
+
+
+def _no_events(n: int):
+    """(events, eterm, ev_t, ev_k, ev_x, ev_n) of a run without events, shared (read only)."""
+    if n not in _NO_EVENTS:
+        from ._inputs import Programs
+
+        _NO_EVENTS[n] = (Programs([], [], [0], 1), np.zeros(1, np.int64), np.zeros(1), np.zeros(1, np.int64),
+                         np.zeros((1, 2 * n)), np.zeros(1, np.int64))
+    return _NO_EVENTS[n]
+
 #: The smallest relative tolerance (as SciPy's solve_ivp): 100 machine epsilons.
 _MIN_RTOL = 100 * 2.220446049250313e-16
 
@@ -322,19 +333,16 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `events`:
     the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it.
     `progress`: draw a progress bar (default: when stderr is a terminal and it takes over 1 s)."""
-    global _NO_EVENTS
     n = cm.n
-    if events is None:
-        if _NO_EVENTS is None:
-            from ._inputs import Programs
-
-            _NO_EVENTS = Programs([], [], [0], 1)
-        events = _NO_EVENTS
-    nev = len(events.starts) - 1
-    cap = MAX_EVENTS if nev else 1
-    ev_t, ev_k, ev_x, ev_n = np.zeros(cap), np.zeros(cap, np.int64), np.zeros((cap, 2 * n)), np.zeros(1, np.int64)
-    eterm = np.zeros(max(1, nev), np.int64)
-    eterm[:len(terminal)] = terminal
+    if events is None:  # no events: the kernel only reads these arrays, so they are shared
+        events, eterm, ev_t, ev_k, ev_x, ev_n = _no_events(n)
+        nev = 0
+    else:
+        nev = len(events.starts) - 1
+        cap = MAX_EVENTS if nev else 1
+        ev_t, ev_k, ev_x, ev_n = np.zeros(cap), np.zeros(cap, np.int64), np.zeros((cap, 2 * n)), np.zeros(1, np.int64)
+        eterm = np.zeros(max(1, nev), np.int64)
+        eterm[:len(terminal)] = terminal
     times = np.ascontiguousarray(times, dtype=float)
     X = np.empty((len(times), 2 * n))
     info = np.zeros(2 + 2 * n)
@@ -348,10 +356,10 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
                                 float(first_step), X, info, stats, *stage_table(), events.ops, events.args,
                                 events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
 
-    status = _with_progress(call, stats, len(times), progress)
+    status = call() if progress is False else _with_progress(call, stats, len(times), progress)
     k = int(stats[3])
-    m = int(ev_n[0])
-    order = np.argsort(ev_t[:m], kind="stable")
+    m = int(ev_n[0]) if nev else 0
+    order = np.argsort(ev_t[:m], kind="stable") if m else slice(None)
     return RawRun(int(status), times[:k], X[:k], float(info[0]), float(info[1]), info[2:].copy(),
                   int(stats[0]), int(stats[1]), int(stats[2]), ev_t[:m][order], ev_k[:m][order], ev_x[:m][order])
 
