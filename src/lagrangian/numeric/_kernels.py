@@ -93,46 +93,28 @@ _STAGE_LOOP = """{i}for st in range({first}, {last}):
 {i}    r = _rc(rc, ts, pxs, pu, pp, _ptr(K, st * nx), pw)"""
 
 
-def _unrolled(first: int, last: int, indent: str) -> list[str]:
-    """Stages first..last-1 of dop853 written out."""
+def _unrolled(first: int, last: int, indent: str, lanes: bool = False) -> list[str]:
+    """Stages first..last-1 written out: of dop853, or (`lanes`) of dop853_lanes, where each
+    lane k has its own time T[k] and step H[k] (HW[w] = H[k] for each component w = i * L + k
+    of the lane-major arrays) and any trouble hands the block back."""
     A, C, _, _, _ = _coefficients()
     lines = []
     for s in range(first, last):
-        lines += [
-            f"{indent}for i in range(nx):",
-            f"{indent}    xs[i] = y[i] + h * ({_lincomb(enumerate(A[s, :s]), 'K')})",
-            f"{indent}ts = t + {float(C[s])!r} * h",
-            f"{indent}if nin:",
-            f"{indent}    eval_inputs(ts, p, ops, args, starts, stack, u)",
-            f"{indent}r = _rc(rc, ts, pxs, pu, pp, _ptr(K, {s} * nx), pw)",
-        ]
-        if s < 13:
-            lines += [
-                f"{indent}nfev += 1",
-                f"{indent}if r < 0.0 or r <= SINGULAR_RATIO:",
-                f"{indent}    return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)",
-            ]
-    return lines
-
-
-def _unrolled_lanes(first: int, last: int, indent: str) -> list[str]:
-    """Stages first..last-1 of dop853_lanes written out: each lane k with its own time T[k] and
-    step H[k] (HW[w] = H[k] for each component w = i * L + k of the lane-major arrays); any
-    trouble hands the block back."""
-    A, C, _, _, _ = _coefficients()
-    lines = []
-    for s in range(first, last):
-        lines += [
-            f"{indent}for w in range(W):",
-            f"{indent}    xs[w] = y[w] + HW[w] * ({_lincomb(enumerate(A[s, :s]), 'K', 'w')})",
-            f"{indent}for k in range(L):",
-            f"{indent}    TS[k] = T[k] + {float(C[s])!r} * H[k]",
-            f"{indent}if nin:",
-            f"{indent}    _lane_inputs(TS, P, ops, args, starts, stack, u1, U)",
-            f"{indent}r = _rl(rc, pts, pxs, pu, pp, _ptr(K, {s} * W), pw, L)",
-        ]
-        if s < 13:
-            lines += [f"{indent}if r < EVENT_RATIO:", f"{indent}    return 1"]
+        c = float(C[s])
+        if lanes:
+            body = ["for w in range(W):", f"    xs[w] = y[w] + HW[w] * ({_lincomb(enumerate(A[s, :s]), 'K', 'w')})",
+                    "for k in range(L):", f"    TS[k] = T[k] + {c!r} * H[k]",
+                    "if nin:", "    _lane_inputs(TS, P, ops, args, starts, stack, u1, U)",
+                    f"r = _rl(rc, pts, pxs, pu, pp, _ptr(K, {s} * W), pw, L)"]
+            check = ["if r < EVENT_RATIO:", "    return 1"]
+        else:
+            body = ["for i in range(nx):", f"    xs[i] = y[i] + h * ({_lincomb(enumerate(A[s, :s]), 'K')})",
+                    f"ts = t + {c!r} * h",
+                    "if nin:", "    eval_inputs(ts, p, ops, args, starts, stack, u)",
+                    f"r = _rc(rc, ts, pxs, pu, pp, _ptr(K, {s} * nx), pw)"]
+            check = ["nfev += 1", "if r < 0.0 or r <= SINGULAR_RATIO:",
+                     "    return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)"]
+        lines += [indent + line for line in body + (check if s < 13 else [])]
     return lines
 
 
@@ -167,7 +149,7 @@ def _generated_parts() -> dict[str, str]:
     ]
     extra = (_unrolled(13, 16, "    ") if UNROLL_STAGES
              else _STAGE_LOOP.format(i="    ", first=13, last=16).splitlines())
-    lanes_steps = _unrolled_lanes(1, 13, " " * 8) + [
+    lanes_steps = _unrolled(1, 13, " " * 8, lanes=True) + [
         "        for w in range(W):",
         "            ynew[w] = xs[w]",
         "            scl = atol + max(abs(y[w]), abs(xs[w])) * rtol",
@@ -181,7 +163,7 @@ def _generated_parts() -> dict[str, str]:
         "                e3 += D3[i * L + k] ** 2",
         "            ERR[k] = 0.0 if (e5 == 0.0 and e3 == 0.0) else HA[k] * e5 / math.sqrt((e5 + 0.01 * e3) * nx)",
     ]
-    lanes_extra = _unrolled_lanes(13, 16, "    ") + [
+    lanes_extra = _unrolled(13, 16, "    ", lanes=True) + [
         "    for i in range(nx):",
         "        for k in range(L):",
         "            w = i * L + k",
@@ -482,18 +464,26 @@ def _fail(r, t, x, info, stats, nfev, nstep, nrej, j):
 
 
 @njit(cache=True)
-def _dense(t, h, y, F, tq, out):
-    """The order-7 interpolant of the step from (t, y) of size h, at tq."""
+def _dense_at(t, h, y, F, tq, out, k, L):
+    """The order-7 interpolant of the step from (t, y) of size h, at tq: out[i] for the
+    components y[i * L + k] (all of y for k = 0, L = 1; lane k in dop853_lanes)."""
     s = (tq - t) / h
-    for i in range(y.shape[0]):
+    for i in range(out.shape[0]):
+        w = i * L + k
         v = 0.0
         for r in range(6, -1, -1):
-            v += F[r, i]
+            v += F[r, w]
             if (6 - r) % 2 == 0:
                 v *= s
             else:
                 v *= 1.0 - s
-        out[i] = y[i] + v
+        out[i] = y[w] + v
+
+
+@njit(cache=True)
+def _dense(t, h, y, F, tq, out):
+    """The order-7 interpolant of the step from (t, y) of size h, at tq."""
+    _dense_at(t, h, y, F, tq, out, 0, 1)
 
 
 @njit(cache=True)
@@ -786,22 +776,6 @@ def _lane_dense_coefficients(rc, L, nx, T, H, HW, y, ynew, K, F, xs, TS, P, ops,
 
 
 @njit(cache=True)
-def _lane_dense(k, L, t, h, y, F, tq, out):
-    """_dense for lane k of dop853_lanes' arrays; out: its state (length nx)."""
-    s = (tq - t) / h
-    for i in range(out.shape[0]):
-        w = i * L + k
-        v = 0.0
-        for r in range(6, -1, -1):
-            v += F[r, w]
-            if (6 - r) % 2 == 0:
-                v *= s
-            else:
-                v *= 1.0 - s
-        out[i] = y[w] + v
-
-
-@njit(cache=True)
 def _lane_norm(k, L, nx, a, b, scale, atol, rtol, y):
     """The RMS norm of lane k of a - scale * b, over atol + |y| rtol (b ignored when scale = 0)."""
     d = 0.0
@@ -965,7 +939,7 @@ def dop853_lanes(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
                     for i in range(nx):
                         X_out[k, J[k], i] = ynew[i * L + k]
                 else:
-                    _lane_dense(k, L, T[k], H[k], y, F, t_out[J[k]], X_out[k, J[k]])
+                    _dense_at(T[k], H[k], y, F, t_out[J[k]], X_out[k, J[k]], k, L)
                 J[k] += 1
             for i in range(nx):
                 w = i * L + k
