@@ -80,11 +80,18 @@ def test_dask_local_cluster_gives_the_same_arrays(dp):
     X0 = np.zeros((10, 4))
     X0[:, 0] = np.linspace(-1, 1, 10)
     local = lg.simulate_batch(dp, 2.0, X0, t_eval=[1.0, 2.0])
+    # and in lanes: 40 runs, chunks of two blocks of 16 (the chunk size rounded up to whole blocks)
+    X1 = np.zeros((40, 4))
+    X1[:, 0] = np.linspace(-1, 1, 40)
+    local_lanes = lg.simulate_batch(dp, 2.0, X1, t_eval=[1.0, 2.0], lanes=16)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = lg.simulate_batch(dp, 2.0, X0, t_eval=[1.0, 2.0], client=client, chunk_size=3)
+        remote_lanes = lg.simulate_batch(dp, 2.0, X1, t_eval=[1.0, 2.0], client=client, chunk_size=20, lanes=16)
     assert np.array_equal(local.x, remote.x)
     assert np.array_equal(local.nfev, remote.nfev)
+    assert np.array_equal(local_lanes.x, remote_lanes.x)
+    assert np.array_equal(local_lanes.nfev, remote_lanes.nfev)
 
 
 def test_progress_bar_is_silent_when_not_a_terminal(dp, capsys):
