@@ -123,8 +123,7 @@ def run_simulation(args, *, equations_to=None):
     params = {k: number(v, f"--param {k}") for k, v in assignments(args.param, "param").items()}
     inputs = assignments(args.input, "input", split_commas=False)
     events = assignments(getattr(args, "event", []), "event", split_commas=False)
-    stop_on = [name for item in getattr(args, "stop_on", []) for name in item.split(",") if name.strip()]
-    stop_on = [name.strip() for name in stop_on]
+    stop_on = [name.strip() for item in getattr(args, "stop_on", []) for name in item.split(",") if name.strip()]
     eqs = derive(model)
     if args.show_equations:
         print(eqs.text(), file=equations_to or sys.stdout)

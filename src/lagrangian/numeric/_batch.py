@@ -298,8 +298,8 @@ def default_lanes(n: int, runs: int) -> int:
     (256 numbers a stage) and leave a block for each core; 1 when there are too few runs."""
     import numba
 
-    for lanes in (64, 32, 16):
-        if (2 * n * lanes <= 256 or lanes == 16) and lanes * numba.get_num_threads() <= runs:
+    for lanes in (64, 32):
+        if 2 * n * lanes <= 256 and lanes * numba.get_num_threads() <= runs:
             return lanes
     return 16 if runs >= 16 else 1
 
@@ -310,8 +310,8 @@ def _nonempty_rows(P: np.ndarray) -> np.ndarray:
 
 def _run(rc: int, rcl: int | None, n: int, lanes: int, X0, times, P, prog, rtol, atol, max_step, X, INFO, STATS,
          STATUS_) -> None:
-    """One chunk, in parallel on this machine's cores: in blocks of `lanes` runs in lockstep
-    (rcl, the address of rhs_lanes), or one run at a time (rcl None)."""
+    """One chunk, in parallel on this machine's cores: in blocks of `lanes` runs evaluated
+    together (rcl, the address of rhs_lanes), or one run at a time (rcl None)."""
     from ._fast import kernels, stage_table
 
     args = (X0, 0.0, times, P, prog.ops, prog.args, prog.starts, prog.nstack, rtol, atol, max_step, X, INFO, STATS,
@@ -351,16 +351,12 @@ def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nsta
     from ._codegen import cache_dir, load_module, write_once
     from ._inputs import Programs
 
-    modules = []
-    for pair in sources:
-        if pair is None:
-            modules.append(None)
-            continue
-        key, source = pair
+    def module(key, source):
         path = cache_dir() / f"lagrangian_{key}.py"
         write_once(path, source)
-        modules.append(load_module(path, f"lagrangian_generated_{key}"))
-    main, lane_module = modules
+        return load_module(path, f"lagrangian_generated_{key}")
+
+    main, lane_module = module(*sources[0]), (module(*sources[1]) if sources[1] else None)
     B = X0.shape[0]
     X = np.full((B, len(times), 2 * n), np.nan)
     INFO = np.zeros((B, 2 + 2 * n))

@@ -26,7 +26,7 @@ __all__ = ["cache_dir", "model_key", "numba_source", "c_source", "load_module", 
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "16"
+GENERATOR_VERSION = "17"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",
@@ -125,23 +125,26 @@ class _Printer:
             raise Unsupported(f"'{name}' in a generated expression")
         return _TOKEN.sub(sub, text)
 
-    def sincos(self, bases: list, indent: str = "    ", lanes: bool = False) -> tuple[list[str], dict[str, str]]:
-        """Statements `sn{k}, cs{k} = _sincos(base k)` (see _split_trig), and the names of their
-        symbols for :meth:`block`. `lanes`: the polynomial alone, each argument named b{k}."""
-        lines, temps = [], {}
+    def trig_block(self, exprs: list, indent: str = "    ", lanes: bool = False) -> tuple[list[str], list[str], int]:
+        """:meth:`block` of `exprs` with their sin and cos computed first, a pair at a time by
+        `sn{k}, cs{k} = _sincos(base k)` (see _split_trig); returns (statements, outputs, the
+        number of bases). `lanes`: by the polynomial alone, each argument named b{k}."""
+        bases, exprs = _split_trig(exprs)
+        lines, names = [], {}
         for k, b in enumerate(bases):
             text = self._translate(self._str(b), {})
             if lanes:
                 lines += [f"{indent}b{k} = {text}", f"{indent}sn{k}, cs{k} = _sincos_poly(b{k})"]
             else:
                 lines.append(f"{indent}sn{k}, cs{k} = _sincos({text})")
-            temps.update({f"__lg_sn{k}": f"sn{k}", f"__lg_cs{k}": f"cs{k}"})
-        return lines, temps
+            names.update({f"__lg_sn{k}": f"sn{k}", f"__lg_cs{k}": f"cs{k}"})
+        more, outputs = self.block(exprs, indent, names=names)
+        return lines + more, outputs, len(bases)
 
     def block(self, exprs: list, indent: str = "    ", first: int | None = None, names: dict | None = None):
         """(statements defining the common subexpressions, the output expressions); with `first`,
         (the statements the first `first` outputs need, the other statements, the outputs).
-        `names`: more symbols' names (those of :meth:`sincos`)."""
+        `names`: more symbols' names (those of :meth:`trig_block`)."""
         safe = {}
         if self.clash:  # rename model symbols that look like SymEngine's CSE symbols
             safe = {self.syms[n]: se.Symbol(f"__lg_{n}") for n in self.syms if re.fullmatch(r"x\d+", n)}
@@ -318,7 +321,7 @@ def _heaviside(a):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _sincos_poly(a):
-    \"\"\"(sin a, cos a) for |a| <= @BOUND@, within about an ulp, without a branch (so that a loop
+    \"\"\"(sin a, cos a) for |a| <= @BOUND@, within 2 ulp, without a branch (so that a loop
     over lanes vectorizes): a = k pi/2 + r with pi/2 in three parts of 33, 33 and 53 bits (k pi/2
     exact for |k| < 2**20), then the Taylor series of sin and cos on |r| <= pi/4 (truncation
     below 1e-19), in Estrin's scheme (a short chain of dependent operations).\"\"\"
@@ -481,10 +484,8 @@ def numba_source(equations: Equations, part: str = "main") -> str:
         # (factorizing M before computing f, to overlap the divisions with the forcing's work,
         # measured 8% slower for a double pendulum: the order is sin and cos, common
         # subexpressions, M, f)
-        bases, mf = _split_trig(Mlow + f)
-        trig, names = pr.sincos(bases)
-        lines, exprs = pr.block(mf, names=names)
-        out += trig + lines
+        lines, exprs, _ = pr.trig_block(Mlow + f)
+        out += lines
         out += _rhs_values(n, exprs)
         if n <= UNROLL_MAX:
             out += _ldl(n, "py", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
@@ -534,10 +535,8 @@ def _rhs_lanes(equations: Equations, pr: _Printer, Mlow: list, f: list, lanes: i
         out.append(f"    p = carray(p_, ({npar} * L,))")
     out.append("    for k in range(L):")
     out += pr.unpack(ind, lanes=True)
-    bases, mf = _split_trig(Mlow + f)
-    trig, names = pr.sincos(bases, ind, lanes=True)
-    lines, exprs = pr.block(mf, ind, names=names)
-    out += trig + lines
+    lines, exprs, nbases = pr.trig_block(Mlow + f, ind, lanes=True)
+    out += lines
     out += [line.replace("    ", ind, 1) for line in _rhs_values(n, exprs)]
     m = lambda i, j: f"m{i}_{j}"  # noqa: E731
     for j in range(n):  # LDL^T, as _ldl, without its branches
@@ -554,8 +553,8 @@ def _rhs_lanes(equations: Equations, pr: _Printer, Mlow: list, f: list, lanes: i
         out.append(f"{ind}a{i} = z{i} * i{i}" + "".join(f" - l{k}_{i} * a{k}" for k in range(i + 1, n)))
     for i in range(n):
         out += [f"{ind}dx[{n + i} * L + k] = a{i}", f"{ind}dx[{i} * L + k] = x[{n + i} * L + k]"]
-    if bases:
-        big = ", ".join(f"abs(b{k})" for k in range(len(bases))) + (", 0.0" if len(bases) == 1 else "")
+    if nbases:
+        big = ", ".join(f"abs(b{k})" for k in range(nbases)) + (", 0.0" if nbases == 1 else "")
         out.append(f"{ind}work[k] = r if max({big}) <= {SINCOS_BOUND!r} else -2.0")
     else:
         out.append(f"{ind}work[k] = r")

@@ -123,6 +123,14 @@ def _unrolled(first: int, last: int, indent: str, lanes: bool = False) -> list[s
 UNROLL_STAGES = True
 
 
+def _interpolant(D, h: str, i: str, indent: str) -> list[str]:
+    """Statements of the coefficients F[:, i] of the order-7 interpolant of a step of size h."""
+    lines = ["dy = ynew[@] - y[@]", "F[0, @] = dy", "F[1, @] = H * K[0, @] - dy",
+             "F[2, @] = 2.0 * dy - H * (K[12, @] + K[0, @])"]
+    lines += [f"F[{r + 3}, @] = H * ({_lincomb(enumerate(D[r]), 'K', '@')})" for r in range(D.shape[0])]
+    return [indent + line.replace("@", i).replace("H", h) for line in lines]
+
+
 def _generated_parts() -> dict[str, str]:
     _, _, E3, E5, D = _coefficients()
     if UNROLL_STAGES:
@@ -163,26 +171,10 @@ def _generated_parts() -> dict[str, str]:
         "                e3 += D3[i * L + k] ** 2",
         "            ERR[k] = 0.0 if (e5 == 0.0 and e3 == 0.0) else HA[k] * e5 / math.sqrt((e5 + 0.01 * e3) * nx)",
     ]
-    lanes_extra = _unrolled(13, 16, "    ", lanes=True) + [
-        "    for i in range(nx):",
-        "        for k in range(L):",
-        "            w = i * L + k",
-        "            dy = ynew[w] - y[w]",
-        "            F[0, w] = dy",
-        "            F[1, w] = H[k] * K[0, w] - dy",
-        "            F[2, w] = 2.0 * dy - H[k] * (K[12, w] + K[0, w])",
-    ]
-    for r in range(D.shape[0]):
-        lanes_extra.append(f"            F[{r + 3}, w] = H[k] * ({_lincomb(enumerate(D[r]), 'K', 'w')})")
-    extra += [
-        "    for i in range(nx):",
-        "        dy = ynew[i] - y[i]",
-        "        F[0, i] = dy",
-        "        F[1, i] = h * K[0, i] - dy",
-        "        F[2, i] = 2.0 * dy - h * (K[12, i] + K[0, i])",
-    ]
-    for r in range(D.shape[0]):
-        extra.append(f"        F[{r + 3}, i] = h * ({_lincomb(enumerate(D[r]), 'K')})")
+    lanes_extra = (_unrolled(13, 16, "    ", lanes=True)
+                   + ["    for i in range(nx):", "        for k in range(L):", "            w = i * L + k"]
+                   + _interpolant(D, "H[k]", "w", " " * 12))
+    extra += ["    for i in range(nx):"] + _interpolant(D, "h", "i", " " * 8)
     return {"@STEP@": "\n".join(steps), "@EXTRA@": "\n".join(extra), "@LSTEP@": "\n".join(lanes_steps),
             "@LEXTRA@": "\n".join(lanes_extra)}
 

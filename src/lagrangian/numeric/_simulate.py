@@ -495,9 +495,11 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
         stop_on = (stop_on,)
     for name in stop_on:
         if name not in events:
+            known = (f"the events are {', '.join(events)}" if events else
+                     f"no events are given: define it first, e.g. events={{'{name}': 'q1'}} "
+                     f"(on the command line: --event {name}=EXPR)")
             problems.append(Problem(f"stop_on names '{name}', which is not one of the events"
-                                    f"{_closest(name, list(events))}; the events are {', '.join(events) or 'none'}",
-                                    key="stop_on"))
+                                    f"{_closest(name, list(events))}; {known}", key="stop_on"))
     return out
 
 
