@@ -1,4 +1,4 @@
-"""Figures and animations (the optional ``plot`` extra: Matplotlib, imported only when used).
+"""Figures and animations (with Matplotlib, a dependency imported only when used).
 
 ``import lagrangian`` never imports this package; ``lagrangian.plot`` imports Matplotlib only
 when a figure or an animation is made.

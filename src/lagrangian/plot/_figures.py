@@ -12,18 +12,30 @@ import sympy
 
 from ..errors import ModelError
 
-__all__ = ["time_history", "phase_portrait", "energy_drift", "units", "pyplot"]
+__all__ = ["time_history", "phase_portrait", "energy_drift", "units", "pyplot", "matplotlib_module"]
 
 _TRIG = (sympy.sin, sympy.cos, sympy.tan, sympy.cot, sympy.sec, sympy.csc)
 
 
+#: Matplotlib is a dependency of lagrangian; this says what to do where it is missing all the same.
+MISSING_MATPLOTLIB = ("plots and animations need Matplotlib, a dependency of lagrangian that is missing from this "
+                      "Python environment: install it with `python -m pip install matplotlib`, or reinstall "
+                      "lagrangian (`python -m pip install -e .` in a clone)")
+
+
+def matplotlib_module(name: str = "matplotlib"):
+    """Import a Matplotlib module, or raise an ImportError that says how to install Matplotlib."""
+    import importlib
+
+    try:
+        return importlib.import_module(name)
+    except ImportError as exc:
+        raise ImportError(MISSING_MATPLOTLIB) from exc
+
+
 def pyplot():
     """matplotlib.pyplot, or an ImportError that says how to install it."""
-    try:
-        import matplotlib.pyplot as plt
-    except ImportError as exc:  # pragma: no cover - matplotlib is installed in the test environment
-        raise ImportError("plots and animations need Matplotlib: pip install 'lagrangian[plot]'") from exc
-    return plt
+    return matplotlib_module("matplotlib.pyplot")
 
 
 def _only_in_trig(expr, q) -> bool:
