@@ -2,6 +2,8 @@
 
 import os
 import stat
+import subprocess
+import sys
 
 import matplotlib
 
@@ -148,9 +150,32 @@ def test_gif_and_html(cart, tmp_path):
 
 def test_mp4_without_ffmpeg(cart, monkeypatch):
     monkeypatch.setattr("lagrangian.plot._animation.ffmpeg_available", lambda: False)
-    with pytest.raises(ValueError, match=r"MP4 needs ffmpeg, which is not installed \(not on PATH\); install ffmpeg, "
-                                         r"or write a .gif or an .html animation instead"):
+    with pytest.raises(ValueError, match=r"cannot write 'out.mp4': MP4 needs ffmpeg, which is not installed \(not on "
+                                         r"PATH\): install it \(Debian/Ubuntu: `sudo apt-get install ffmpeg`; .*"
+                                         r"macOS: `brew install ffmpeg`; .*\), or write a .gif or an .html animation "
+                                         r"instead$"):
         plot.animate(cart, fps=5).save("out.mp4")
+
+
+def test_ffmpeg_is_looked_up_on_path(monkeypatch, tmp_path):
+    monkeypatch.setenv("PATH", str(tmp_path))
+    assert not ffmpeg_available()
+    fake = tmp_path / "ffmpeg"
+    fake.write_text("#!/bin/sh\n")
+    fake.chmod(0o755)
+    assert ffmpeg_available()
+
+
+def test_without_matplotlib_plots_say_how_to_install_it(cart, monkeypatch):
+    for name in ("matplotlib.pyplot", "matplotlib.figure"):
+        monkeypatch.setitem(sys.modules, name, None)  # as if Matplotlib were not installed
+    message = (r"plots and animations need Matplotlib, a dependency of lagrangian that is missing from this Python "
+               r"environment: install it with `python -m pip install matplotlib`, or reinstall lagrangian "
+               r"\(`python -m pip install -e .` in a clone\)")
+    with pytest.raises(ImportError, match=message):
+        cart.plot()
+    with pytest.raises(ImportError, match=message):
+        plot.animate(cart)
 
 
 @pytest.mark.skipif(not ffmpeg_available(), reason="ffmpeg is not installed")
@@ -167,6 +192,13 @@ def test_mp4(cart, tmp_path):  # pragma: no cover - only where ffmpeg is present
         assert out == f"video,{len(anim)}"
     else:
         assert (tmp_path / "cart.mp4").stat().st_size > 0
+
+
+@pytest.mark.skipif(not ffmpeg_available(), reason="ffmpeg is not installed")
+def test_mp4_ffmpeg_failure_is_reported(cart, tmp_path, monkeypatch):  # pragma: no cover - only with ffmpeg
+    monkeypatch.setitem(matplotlib.rcParams, "animation.codec", "no-such-codec")
+    with pytest.raises(lg.LagrangianError, match=r"ffmpeg could not write '.*cart.mp4': .*no-such-codec"):
+        plot.animate(cart, fps=5, dpi=40).save(tmp_path / "cart.mp4")
 
 
 # ---------------------------------------------------------------------------- CLI
@@ -207,10 +239,26 @@ def test_cli_animate_errors(tmp_path, capsys, args, message):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_cli_animate_mp4_without_ffmpeg(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr("lagrangian.plot._animation.ffmpeg_available", lambda: False)
-    assert main(["animate", "cart-pendulum", "-o", str(tmp_path / "c.mp4")]) == 2
-    assert "MP4 needs ffmpeg, which is not installed" in capsys.readouterr().err
+def test_cli_animate_mp4_without_ffmpeg(tmp_path):
+    # a real run with ffmpeg off PATH: exit 2, one line that says how to install it, before any simulation
+    out = tmp_path / "c.mp4"
+    run = subprocess.run([sys.executable, "-m", "lagrangian", "animate", "cart-pendulum", "-o", str(out)],
+                         capture_output=True, text=True, env={**os.environ, "PATH": str(tmp_path)}, timeout=120)
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.count("\n") == 1, run.stderr
+    assert run.stderr.startswith(f"lagrangian animate: error: cannot write '{out}': MP4 needs ffmpeg, which is not "
+                                 "installed (not on PATH): install it (Debian/Ubuntu: `sudo apt-get install ffmpeg`;")
+    assert run.stderr.rstrip().endswith("or write a .gif or an .html animation instead")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_cli_animate_without_matplotlib(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    assert main(["animate", "cart-pendulum", "-o", str(tmp_path / "c.gif")]) == 2
+    err = capsys.readouterr().err
+    assert err == ("lagrangian animate: error: plots and animations need Matplotlib, a dependency of lagrangian that "
+                   "is missing from this Python environment: install it with `python -m pip install matplotlib`, or "
+                   "reinstall lagrangian (`python -m pip install -e .` in a clone)\n")
 
 
 def test_cli_animate_needs_output(capsys):

@@ -36,11 +36,13 @@ def register(sub, fmt) -> None:
 def _cmd_animate(args: argparse.Namespace) -> int:
     from ..io import load
     from ..plot._animation import animate, format_of
+    from ..plot._figures import matplotlib_module
     from ..plot._geometry import check_drawable
 
-    try:
+    try:  # before the simulation: Matplotlib, a known format, and ffmpeg for .mp4
+        matplotlib_module()
         format_of(args.output)
-    except ValueError as exc:
+    except (ImportError, ValueError) as exc:
         raise ModelError(str(exc)) from None
     for name, value in (("--fps", args.fps), ("--speed", args.speed), ("--dpi", args.dpi)):
         if not value > 0:

@@ -14,13 +14,20 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import LagrangianError, ModelError
+from ._figures import matplotlib_module
 from ._geometry import Scene, check_drawable, scene_of
 
 __all__ = ["Animation", "animate", "FORMATS"]
 
 #: Output formats of :meth:`Animation.save`, by file suffix.
 FORMATS = {".gif": "GIF (Pillow)", ".mp4": "MP4 (needs ffmpeg)", ".html": "HTML/JavaScript"}
+
+#: What to do where ffmpeg is missing: one line, for the CLI's error and the API's ValueError.
+MISSING_FFMPEG = ("MP4 needs ffmpeg, which is not installed (not on PATH): install it (Debian/Ubuntu: "
+                  "`sudo apt-get install ffmpeg`; Fedora: `sudo dnf install ffmpeg`; macOS: `brew install ffmpeg`; "
+                  "Windows: `winget install ffmpeg`; conda: `conda install -c conda-forge ffmpeg`), "
+                  "or write a .gif or an .html animation instead")
 
 _ROD = dict(color="0.25", lw=2.5, solid_capstyle="round", zorder=2)
 _SPRING = dict(color="C0", lw=1.4, zorder=3)
@@ -34,15 +41,19 @@ def format_of(path: str) -> str:
         raise ValueError(f"cannot write an animation to '{path}': unknown format '{suffix or '(no suffix)'}'; "
                          f"use a file name ending in {', '.join(FORMATS)}")
     if suffix == ".mp4" and not ffmpeg_available():
-        raise ValueError(f"cannot write '{path}': MP4 needs ffmpeg, which is not installed (not on PATH); "
-                         "install ffmpeg, or write a .gif or an .html animation instead")
+        raise ValueError(f"cannot write '{path}': {MISSING_FFMPEG}")
     return suffix
 
 
-def ffmpeg_available() -> bool:
-    from matplotlib import animation
+def _ffmpeg() -> str | None:
+    """The ffmpeg program Matplotlib is set to use (rcParams["animation.ffmpeg_path"]), if it is on PATH."""
+    import shutil
 
-    return bool(animation.writers.is_available("ffmpeg"))
+    return shutil.which(matplotlib_module().rcParams["animation.ffmpeg_path"])
+
+
+def ffmpeg_available() -> bool:
+    return _ffmpeg() is not None
 
 
 def _frame_indices(t: np.ndarray, fps: float, speed: float) -> np.ndarray:
@@ -119,8 +130,8 @@ class Animation:
 
     def __init__(self, traj, scene: Scene, *, fps: float = 25.0, speed: float = 1.0, trace: Sequence[str] = (),
                  dpi: float = 80.0, figsize=None, title: str | None = None):
-        from matplotlib.figure import Figure
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        Figure = matplotlib_module("matplotlib.figure").Figure
+        FigureCanvasAgg = matplotlib_module("matplotlib.backends.backend_agg").FigureCanvasAgg
 
         if not fps > 0 or not speed > 0:
             raise ModelError(f"fps and speed must be positive numbers, got fps={fps!r}, speed={speed!r}")
@@ -349,11 +360,37 @@ class Animation:
             images[0].save(path, format="GIF", save_all=True, append_images=images[1:], loop=0,
                            duration=int(round(1000.0 / self.fps)), optimize=False)
         else:
-            from matplotlib.animation import FFMpegWriter, FuncAnimation
+            self._save_mp4(path)
 
-            FuncAnimation(self.figure, self.draw, frames=len(self.times), interval=1000.0 / self.fps,
-                          blit=False).save(path, writer=FFMpegWriter(fps=self.fps))
-            self.draw(0)
+    def _save_mp4(self, path: str) -> None:
+        """Pipe the blitted frames (raw RGBA) to ffmpeg, which encodes them as H.264 in an MP4 file."""
+        import subprocess
+
+        frames = self.frames()
+        first = next(frames)
+        height, width = first.shape[:2]
+        cmd = [_ffmpeg() or "ffmpeg", "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgba",
+               "-s", f"{width}x{height}", "-r", f"{self.fps:g}", "-i", "-",
+               "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",  # H.264 in yuv420p needs even sides
+               "-c:v", matplotlib_module().rcParams["animation.codec"], "-pix_fmt", "yuv420p", path]
+        with subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE) as proc:
+            try:
+                proc.stdin.write(first.tobytes())
+                for rgba in frames:
+                    proc.stdin.write(rgba.tobytes())
+            except BrokenPipeError:  # ffmpeg stopped early: its message says why
+                pass
+            finally:
+                frames.close()
+                try:
+                    proc.stdin.close()
+                except BrokenPipeError:
+                    pass
+            message = proc.stderr.read().decode(errors="replace").strip()
+        if proc.returncode != 0:
+            last = message.splitlines()[-1] if message else f"exit status {proc.returncode}"
+            raise LagrangianError(f"ffmpeg could not write '{path}': {last}")
 
     def save_frame(self, path: str | os.PathLike, k: int = 0, *, dpi: float | None = None) -> None:
         """Write frame `k` as a still image (PNG, SVG, PDF... by suffix)."""
