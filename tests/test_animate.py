@@ -52,6 +52,31 @@ def test_cart_pendulum_drawn_at_its_positions(cart):
     assert len(scene.tracks) == 1 and np.allclose(np.abs(scene.tracks[0][1]), [1, 0])
 
 
+@pytest.mark.parametrize("name, cart_kind", [("cart-pendulum", "particle"), ("cart-pendulum-massless", "point"),
+                                             ("cart-pendulum-extended", "point")])
+def test_the_pendulum_pivot_stands_on_a_mast_on_the_cart(name, cart_kind):
+    # the slides put the pivot at (q1, L), a height L above the cart at (q1, 0): a mast joins them
+    traj = lg.simulate(lg.load(name), t_end=0.3, initial={"q2": 0.5, "q1_dot": 1.0})
+    anim = plot.animate(traj, fps=10)
+    scene = anim.scene
+    cart, pivot = scene.index("cart"), scene.index("pendulum pivot")
+    assert scene.nodes[cart].kind == cart_kind and scene.nodes[cart].slider
+    assert (cart, pivot) in scene.rods
+    # one guide line, the cart's, along y = 0: the pivot does not float on a line of its own
+    assert len(scene.tracks) == 1
+    np.testing.assert_allclose(scene.tracks[0][0][1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(scene.tracks[0][1], [1, 0], atol=1e-12)
+    L = 1.0
+    for k in range(len(anim)):
+        anim.draw(k)
+        q1 = traj["q1"][anim.frame_indices[k]]
+        np.testing.assert_allclose(_drawn(anim.artists["rod cart-pendulum pivot"]), [[q1, 0], [q1, L]], atol=1e-12)
+        np.testing.assert_allclose(_drawn(anim.artists["cart"]), [[q1, 0]], atol=1e-12)
+    assert anim.artists["cart"].get_marker() == "s"  # a block; an empty one for the massless cart
+    face = matplotlib.colors.to_rgba(anim.artists["cart"].get_markerfacecolor())
+    assert (face == (1, 1, 1, 1)) == (cart_kind == "point")
+
+
 def test_double_pendulum_rods_and_trace():
     traj = lg.simulate(lg.load("double-pendulum"), t_end=0.5)
     anim = traj.animate(fps=10, trace="bob2")

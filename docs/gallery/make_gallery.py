@@ -27,7 +27,7 @@ def main() -> None:
     names = [n for n in example_names() if "<n>" not in n] + ["pendulum-chain-3", "spring-mass-damper-chain-3"]
     lines = ["# Gallery", "",
              "Every built-in example, simulated from its model file's `[simulation]` settings for "
-             f"{SECONDS:g} s and drawn from its own geometry (`lagrangian animate NAME -o NAME.gif`). "
+             f"{SECONDS:g} s and drawn from its own geometry by the command under it. "
              "Examples written with their energies only have no geometry to draw; their element form is "
              "shown instead. Regenerate with `python docs/gallery/make_gallery.py`.", ""]
     for name in names:
@@ -41,17 +41,20 @@ def main() -> None:
                       ""]
             continue
         note = ""
+        t_end = min(SECONDS, model.simulation.get("t_end", SECONDS))
         try:
-            traj = lg.simulate(model, t_end=min(SECONDS, model.simulation.get("t_end", SECONDS)))
+            traj = lg.simulate(model, t_end=t_end)
         except lg.SingularMassMatrixError as exc:  # the massless cart: shown up to the singularity
-            traj = lg.simulate(model, t_end=0.98 * exc.time)
+            t_end = float(f"{0.98 * exc.time:.3g}")
+            traj = lg.simulate(model, t_end=t_end)
             note = (f"The simulation stops at t = {exc.time:.3g} s, where the mass matrix becomes singular "
                     "(`lagrangian check " + name + "` explains why); the animation ends just before.")
         trace = [n for n in drawable_names(model) if n in ("pendulum", "bob", "bob2", "bob3", "disk", "mass")][:1]
         anim = traj.animate(fps=FPS, dpi=DPI, trace=trace)
         anim.save(HERE / f"{name}.gif")
         anim.save_frame(HERE / f"{name}.png", len(anim) // 3)
-        cmd = f"lagrangian animate {name}" + "".join(f" --trace {t}" for t in trace) + f" -o {name}.gif"
+        cmd = (f"lagrangian animate {name} --t-end {t_end:g} --fps {FPS} --dpi {DPI}"
+               + "".join(f" --trace {t}" for t in trace) + f" -o {name}.gif")
         lines += [f"![{name}](gallery/{name}.png) ![{name} animation](gallery/{name}.gif)", "",
                   f"```bash\n{cmd}\n```", ""] + ([note, ""] if note else [])
         print(f"{name}: {len(anim)} frames")

@@ -1,9 +1,10 @@
 """Animation of a mechanism, drawn from the model's own geometry (see :mod:`._geometry`).
 
 Particles are dots whose area grows with their mass (blocks when they slide along a straight
-track), rigid bodies are disks of radius equal to their radius of gyration sqrt(I/m) with a
-spoke that shows their rotation, rods join the nodes at constant distance (hidden pivots
-included), springs are zigzags, dampers dashpots, fixed points stand on a hatched ground block.
+track; a point that slides so, a massless cart, is an empty block), rigid bodies are disks of
+radius equal to their radius of gyration sqrt(I/m) with a spoke that shows their rotation, rods
+join the nodes at constant distance (hidden pivots included, so a cart's mast too), springs are
+zigzags, dampers dashpots, fixed points stand on a hatched ground block.
 Planar models are drawn in 2D, spatial ones in a 3D projection.
 """
 
@@ -227,6 +228,8 @@ class Animation:
                 ms = 7 + 13 * np.sqrt(nd.mass / mmax) if mmax > 0 else 10
                 style = dict(marker="s" if nd.slider else "o", markersize=ms * (1.6 if nd.slider else 1),
                              color="C1" if nd.kind == "body" else "C3", markeredgecolor="k", zorder=6)
+            elif nd.slider:  # a massless cart or slider: an empty block
+                style = dict(marker="s", markersize=16, color="w", markeredgecolor="k", zorder=6)
             else:  # points and hidden pivots: pins
                 style = dict(marker="o", markersize=6, color="w", markeredgecolor="k", zorder=7)
             self.artists[nd.name] = ax.plot(*empty, linestyle="none", **style)[0]

@@ -18,9 +18,9 @@ once (docs/plots.md repeats them):
 * **Springs and dampers** are drawn between their two points (`between`); one given by its
   `length` only is drawn between the one pair of nodes whose distance equals |length| (or
   between a node and the origin), and not drawn when there is no such pair (a torsional spring).
-* **Tracks**: a particle or body (or a hidden pivot not fixed on one) that moves along a
+* **Tracks**: a particle, body or point (or a hidden pivot not fixed on one) that moves along a
   straight line (d position/dq constant, of rank 1, free of t) is drawn on a guide line; such
-  particles are drawn as blocks (carts, sliders).
+  particles and points are drawn as blocks (carts, sliders; a massless cart is a point).
 """
 
 from __future__ import annotations
@@ -302,7 +302,7 @@ def scene_of(model, params=None) -> Scene:
     # tracks (and sliders)
     tracks, nodes = [], list(b.nodes)
     on_track: set[int] = set()
-    order = massive + [i for i in range(len(b.nodes)) if b.nodes[i].kind == "pivot"]
+    order = massive + [i for kind in ("point", "pivot") for i in range(len(b.nodes)) if b.nodes[i].kind == kind]
     for i in order:
         if fixed[i]:
             continue
@@ -320,7 +320,7 @@ def scene_of(model, params=None) -> Scene:
             direction = -direction
         point = b.samples[i][0]
         on_track.add(i)
-        if b.nodes[i].kind == "particle":
+        if b.nodes[i].kind in ("particle", "point"):
             nodes[i] = Node(nodes[i].name, nodes[i].kind, nodes[i].mass, nodes[i].inertia, False, True)
         if not any(abs(abs(direction @ d0) - 1) < 1e-12 and
                    np.linalg.norm((point - p0) - ((point - p0) @ d0) * d0) < 1e-9 for p0, d0 in tracks):
