@@ -32,6 +32,7 @@ import sympy
 from ..errors import LagrangianError
 from ..model import Model
 from ..model._kinematics import to_sympy
+from ._readable import readable, text as _text
 
 __all__ = ["Equations", "LinearSystem", "SymbolicCore"]
 
@@ -75,21 +76,6 @@ class LinearSystem:
 
 def _vec(items) -> sympy.ImmutableMatrix:
     return sympy.ImmutableMatrix([to_sympy(e) for e in items])
-
-
-def _nice(e: sympy.Expr, collect_on=()) -> sympy.Expr:
-    """A readable form: expanded, trigonometric identities applied and collected, when that stays
-    small (large expressions, as in long chains, are left as derived)."""
-    if e.count_ops() > 400:
-        return e
-    out = sympy.expand(e)
-    if out.count_ops() > 400:
-        return e
-    if out.has(sympy.sin, sympy.cos) and out.count_ops() <= 150:
-        out = sympy.expand(sympy.trigsimp(out))
-    if collect_on:
-        out = sympy.collect(out, list(collect_on))
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -157,16 +143,29 @@ class Equations:
     # ----------------------------------------------------------- main results
     @cached_property
     def mass_matrix(self) -> sympy.ImmutableMatrix:
-        return sympy.ImmutableMatrix(self.n, self.n, [_nice(to_sympy(e)) for e in self.core.M])
+        n = self.n
+        upper = {(i, j): self.readable(self.core.M[i, j]) for i in range(n) for j in range(i, n)}
+        return sympy.ImmutableMatrix(n, n, [upper[min(i, j), max(i, j)] for i in range(n) for j in range(n)])
 
     M = property(lambda self: self.mass_matrix, doc="Alias of `mass_matrix`.")
 
     @cached_property
     def forcing(self) -> sympy.ImmutableMatrix:
-        return self._vec_nice(self.core.f, self.velocities)
+        return sympy.ImmutableMatrix([self.readable(e, self.velocities) for e in self.core.f])
 
-    def _vec_nice(self, items, collect_on=()) -> sympy.ImmutableMatrix:
-        return sympy.ImmutableMatrix([_nice(to_sympy(e), collect_on) for e in items])
+    def readable(self, expr, collect_on=()) -> sympy.Expr:
+        """`expr` (SymPy or SymEngine) in the compact form the equations are shown in: expanded,
+        sin(x)*sin(y) + cos(x)*cos(y) and the like written as cos(x - y), sin^2 + cos^2 as 1, the
+        terms grouped on `collect_on`, then on their coordinate-, velocity- and time-dependent part,
+        with the parameters' common factor taken out (``l1*l2*(m2 + m3)*cos(q1 - q2)``); equal to
+        `expr`. An expression too large to expand quickly is returned as derived."""
+        return readable(expr, state=self._varying, collect_on=collect_on)
+
+    @cached_property
+    def _varying(self) -> frozenset[str]:
+        """Names of the symbols that vary: coordinates, velocities, accelerations, t, inputs."""
+        return frozenset(s.name for s in (*self.coordinates, *self.velocities, *self.accelerations, self.t,
+                                          *self.inputs))
 
     @cached_property
     def _residuals_se(self) -> tuple:
@@ -177,9 +176,20 @@ class Equations:
 
     @cached_property
     def equations(self) -> tuple[sympy.Expr, ...]:
-        """The residuals E_i (expanded and collected on accelerations and velocities when small)."""
+        """The residuals E_i, in readable form collected on the accelerations and velocities."""
+        if self._mass_matrix_free_of_velocities:
+            # E_i = sum_j M_ij q_ddot_j - f_i, whose terms in q_ddot and in f cannot combine: the
+            # readable form of E_i is made of those of M and f, already computed
+            M, f, qdd = self.mass_matrix, self.forcing, self.accelerations
+            return tuple(sympy.Add(*(M[i, j] * qdd[j] for j in range(self.n)), -f[i]) for i in range(self.n))
         on = list(self.accelerations) + list(self.velocities)
-        return tuple(_nice(to_sympy(e), on) for e in self._residuals_se)
+        return tuple(self.readable(e, on) for e in self._residuals_se)
+
+    @cached_property
+    def _mass_matrix_free_of_velocities(self) -> bool:
+        """True when T* is quadratic in the velocities (M depends on q and t only)."""
+        velocities = set(self.core.qd)
+        return not any(set(e.free_symbols) & velocities for e in self.core.M)
 
     @cached_property
     def T(self) -> sympy.Expr:
@@ -227,14 +237,11 @@ class Equations:
     def _kinetic_split(self):
         """(T2, T1 coefficients a, T0) in SymEngine; raises if T is not quadratic in q_dot."""
         qd = self.core.qd
-        M = self.core.M
-        vel = set(qd)
-        for e in M:
-            if set(e.free_symbols) & vel:
-                raise LagrangianError(
-                    "T* is not quadratic in the velocities (its second derivatives still depend on "
-                    "q_dot), so the matrix-form parts C, gyroscopic and centrifugal forces are not defined; "
-                    "the residuals, M and f are still valid")
+        if not self._mass_matrix_free_of_velocities:
+            raise LagrangianError(
+                "T* is not quadratic in the velocities (its second derivatives still depend on "
+                "q_dot), so the matrix-form parts C, gyroscopic and centrifugal forces are not defined; "
+                "the residuals, M and f are still valid")
         zero = {v: 0 for v in qd}
         T = self.core.T
         a = tuple(T.diff(v).subs(zero) for v in qd)
@@ -334,8 +341,12 @@ class Equations:
     def jacobi_integral(self) -> sympy.Expr:
         """h = sum q_dot dL/dq_dot - L. It equals the energy T* + V when T* = T2, and is conserved
         when L has no explicit t and D = 0, Q = 0."""
+        return to_sympy(self._jacobi_se)
+
+    @cached_property
+    def _jacobi_se(self) -> se.Basic:
         h = sum((v * pi for v, pi in zip(self.core.qd, self.core.p)), se.Integer(0)) - self.core.L
-        return to_sympy(se.expand(h))
+        return se.expand(h)
 
     @property
     def is_conservative(self) -> bool:
@@ -363,12 +374,12 @@ class Equations:
         explicit t, D = 0 and Q = 0), and ``p_<q>`` = dL/dq_dot for each cyclic coordinate."""
         out: dict[str, sympy.Expr] = {}
         if self.is_conservative:
-            h = self.jacobi_integral
-            energy = sympy.expand(self.T + self.V)
-            out["energy" if sympy.expand(h - energy) == 0 else "jacobi_integral"] = _nice(h, self.velocities)
+            h = self._jacobi_se
+            is_energy = se.expand(h - self.core.T - self.core.V) == 0
+            out["energy" if is_energy else "jacobi_integral"] = self.readable(h, self.velocities)
         names = [c.name for c in self.coordinates]
         for c in self.cyclic_coordinates:
-            out[f"p_{c.name}"] = _nice(to_sympy(self.core.p[names.index(c.name)]))
+            out[f"p_{c.name}"] = self.readable(self.core.p[names.index(c.name)])
         return out
 
     # ------------------------------------------------------------- printing
@@ -382,16 +393,16 @@ class Equations:
                  f"({self.n} coordinate{'s' if self.n != 1 else ''}: "
                  f"{', '.join(c.name for c in self.coordinates)})", ""]
         for i, (c, e) in enumerate(zip(self.coordinates, self.equations)):
-            lines.append(f"  ({i + 1}) [{c.name}]  {sympy.sstr(e)} = 0")
+            lines.append(f"  ({i + 1}) [{c.name}]  {_text(e)} = 0")
         lines += ["", "Matrix form M(q) q_ddot = f(q, q_dot, t, u):", "  M ="]
         for r in range(self.n):
-            lines.append("    [" + ", ".join(sympy.sstr(x) for x in self.mass_matrix.row(r)) + "]")
+            lines.append("    [" + ", ".join(_text(x) for x in self.mass_matrix.row(r)) + "]")
         lines.append("  f =")
         for x in self.forcing:
-            lines.append(f"    {sympy.sstr(x)}")
+            lines.append(f"    {_text(x)}")
         if self.conserved_quantities:
             lines += ["", "Conserved quantities:"]
-            lines += [f"  {k} = {sympy.sstr(v)}" for k, v in self.conserved_quantities.items()]
+            lines += [f"  {k} = {_text(v)}" for k, v in self.conserved_quantities.items()]
         if self.linear is not None:
             lin = self.linear
             lines += ["", "Linear: M x'' + C x' + K x = f with",
@@ -420,7 +431,7 @@ class Equations:
         """The JSON contract: coordinates, velocities, accelerations, parameters, inputs,
         mass_matrix, forcing, equations (SymPy syntax), linear (M, C, K, f) or null, and
         conserved_quantities ({name: expression})."""
-        s = sympy.sstr
+        s = _text
         out = {
             "name": self.model.name,
             "coordinates": [c.name for c in self.coordinates],

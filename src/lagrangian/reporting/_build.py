@@ -15,11 +15,10 @@ import symengine as se
 import sympy
 
 from ..equations import Equations, derive, singularities
-from ..equations._equations import _nice
 from ..errors import LagrangianError
 from ..model import Model
 from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBody, Spring, Torque)
-from ..model._kinematics import Kinematics, to_sympy
+from ..model._kinematics import Kinematics
 from ._document import Math, Paragraph, Report, Section, Table
 from ._printing import Partial, TimeDerivative
 
@@ -82,10 +81,6 @@ def _col(items) -> sympy.ImmutableMatrix:
     return sympy.ImmutableMatrix([[x] for x in items])
 
 
-def _readable(e) -> sympy.Expr:
-    return _nice(to_sympy(e))
-
-
 def _velocity_symbol(q: sympy.Symbol) -> sympy.Symbol:
     return S(f"{q.name}_dot")
 
@@ -97,6 +92,7 @@ class _Builder:
         massive = [e for e in self.model.elements if isinstance(e, (Particle, RigidBody))]
         self.kin = Kinematics(self.model.q, massive)
         self.massive = massive
+        self.readable = eqs.readable
 
     # ----------------------------------------------------------- 1. bodies
     def bodies(self) -> Section:
@@ -168,35 +164,35 @@ class _Builder:
                     head += [", centroidal inertia ", e.inertia]
                 blocks.append(Paragraph.of(*head, ":"))
                 r = tuple(e.position)
-                v = tuple(_readable(x) for x in kin.velocity(r))
+                v = tuple(self.readable(x) for x in kin.velocity(r))
                 blocks.append(Math(_col(r), S("r"), key=f"position[{name}]"))
                 blocks.append(Math(_col(v), S("v"), key=f"velocity[{name}]"))
                 if isinstance(e, Point):
                     continue
-                v2 = _readable(sum((kin.se(x) ** 2 for x in v), se.Integer(0)))
+                v2 = self.readable(sum((kin.se(x) ** 2 for x in v), se.Integer(0)))
                 blocks.append(Math(v2, S("|v|^2"), key=f"speed2[{name}]"))
                 if isinstance(e, RigidBody):
                     blocks.append(Math(e.angle, S("theta"), key=f"angle[{name}]"))
-                    blocks.append(Math(_readable(kin.rate(e.angle)), S("omega"), key=f"rate[{name}]"))
+                    blocks.append(Math(self.readable(kin.rate(e.angle)), S("omega"), key=f"rate[{name}]"))
                     blocks.append(Paragraph.of("Its kinetic co-energy, translation and rotation, ", Math(
                         (S("m") * S("|v|^2") / 2, S("I") * S("omega") ** 2 / 2), S("T^*")), ":"))
                 else:
                     blocks.append(Paragraph.of("Its kinetic co-energy, ",
                                                Math(S("m") * S("|v|^2") / 2, S("T^*")), ":"))
-                blocks.append(Math(_readable(e.contribute(kin).T), S("T^*"), key=f"T[{name}]"))
+                blocks.append(Math(self.readable(e.contribute(kin).T), S("T^*"), key=f"T[{name}]"))
             elif isinstance(e, Spring):
                 blocks.append(Paragraph.of(f"Spring {name}, stiffness ", e.stiffness,
                                            f", between {e.between[0]} and {e.between[1]}" if e.between else "",
                                            ", length and potential energy:"))
-                blocks.append(Math(_readable(e.length), S("ell"), key=f"length[{name}]"))
-                blocks.append(Math(_readable(e.contribute(kin).V), S("V"), key=f"V[{name}]"))
+                blocks.append(Math(self.readable(e.length), S("ell"), key=f"length[{name}]"))
+                blocks.append(Math(self.readable(e.contribute(kin).V), S("V"), key=f"V[{name}]"))
             elif isinstance(e, Damper):
                 blocks.append(Paragraph.of(f"Damper {name}, coefficient ", e.coefficient,
                                            f", between {e.between[0]} and {e.between[1]}" if e.between else "",
                                            ", length, its rate and the dissipation function:"))
-                blocks.append(Math(_readable(e.length), S("ell"), key=f"length[{name}]"))
-                blocks.append(Math(_readable(kin.rate(e.length)), S("ell_dot"), key=f"rate[{name}]"))
-                blocks.append(Math(_readable(e.contribute(kin).D), S("D"), key=f"D[{name}]"))
+                blocks.append(Math(self.readable(e.length), S("ell"), key=f"length[{name}]"))
+                blocks.append(Math(self.readable(kin.rate(e.length)), S("ell_dot"), key=f"rate[{name}]"))
+                blocks.append(Math(self.readable(e.contribute(kin).D), S("D"), key=f"D[{name}]"))
             elif isinstance(e, Gravity):
                 direction = e.direction or "(0, -1) in a plane, (0, 0, -1) in space"
                 blocks.append(Paragraph.of("Gravity, of magnitude ", e.g, ", along ",
@@ -204,7 +200,7 @@ class _Builder:
                                            ", on every body with mass: the sum of ",
                                            Math(-S("m") * S("g") * S("e^T") * S("r"), S("V")),
                                            " over the bodies, e the unit vector of gravity:"))
-                blocks.append(Math(_readable(e.contribute(kin).V), S("V"), key=f"V[{name}]"))
+                blocks.append(Math(self.readable(e.contribute(kin).V), S("V"), key=f"V[{name}]"))
             elif isinstance(e, Force):
                 blocks.append(Paragraph.of(f"Force {name}" + (f" at {e.at}" if e.at else "")
                                            + ", its point of application and its generalized forces by "
@@ -213,7 +209,7 @@ class _Builder:
                                                 S("Q_k")), ":"))
                 blocks.append(Math(_col(e.force), S("F"), key=f"force[{name}]"))
                 blocks.append(Math(_col(e.position), S("r"), key=f"position[{name}]"))
-                blocks.append(Math(_col(_readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
+                blocks.append(Math(_col(self.readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
             elif isinstance(e, Torque):
                 blocks.append(Paragraph.of(f"Torque {name}" + (f" on body {e.body}" if e.body else "")
                                            + ", acting on the angle ", Math(e.angle, S("alpha")),
@@ -221,7 +217,7 @@ class _Builder:
                                            Math(sympy.Mul(S("tau"), Partial(S("alpha"), S("q_k")), evaluate=False),
                                                 S("Q_k")), ":"))
                 blocks.append(Math(e.torque, S("tau"), key=f"torque[{name}]"))
-                blocks.append(Math(_col(_readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
+                blocks.append(Math(_col(self.readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
         return Section("kinematics", "3. Positions and velocities", tuple(blocks))
 
     # ------------------------------------------------------- 4. energies
@@ -232,7 +228,7 @@ class _Builder:
         if model.elements and model.T != 0:
             src += " and the terms given directly"
         blocks.append(Paragraph.of(f"The kinetic co-energy T*, summed over {src}:"))
-        blocks.append(Math(_readable(eqs.T), S("T^*"), key="T"))
+        blocks.append(Math(self.readable(eqs.T), S("T^*"), key="T"))
         try:
             split = self._kinetic_split()
         except LagrangianError:
@@ -248,7 +244,7 @@ class _Builder:
                 if T0 != 0:
                     blocks.append(Math(T0, S("T_0"), key="T0"))
         blocks.append(Paragraph.of("The potential energy V:"))
-        blocks.append(Math(_readable(eqs.V), S("V"), key="V"))
+        blocks.append(Math(self.readable(eqs.V), S("V"), key="V"))
         return Section("energies", "4. Kinetic co-energy and potential energy", tuple(blocks))
 
     def _kinetic_split(self):
@@ -259,7 +255,7 @@ class _Builder:
         zero = {v: 0 for v in core.qd}
         T1 = sum((core.T.diff(v).subs(zero) * v for v in core.qd), se.Integer(0))
         T0 = core.T.subs(zero)
-        return _readable(T1), _readable(T0)
+        return self.readable(T1), self.readable(T0)
 
     # ---------------------------------------------------- 5. dissipation
     def dissipation(self) -> Section:
@@ -270,13 +266,13 @@ class _Builder:
         else:
             blocks = (Paragraph.of("The Rayleigh dissipation function D (its velocity gradient gives "
                                    "the damping forces -dD/dq_dot):"),
-                      Math(_readable(D), S("D"), key="D"))
+                      Math(self.readable(D), S("D"), key="D"))
         return Section("dissipation", "5. Dissipation", blocks)
 
     # --------------------------------------------------------- 6. forces
     def forces(self) -> Section:
         eqs = self.eqs
-        Q = sympy.ImmutableMatrix([_nice(x) for x in eqs.generalized_forces])
+        Q = sympy.ImmutableMatrix([self.readable(x) for x in eqs.generalized_forces])
         if all(x == 0 for x in Q):
             blocks = [Paragraph.of("No external forces or torques: the generalized forces are zero.")]
         else:
@@ -293,8 +289,8 @@ class _Builder:
     def lagrangian(self) -> Section:
         eqs = self.eqs
         blocks = [Math((S("T^*"), -S("V")), S("L"), key="L-definition"),
-                  Math(_readable(eqs.L), S("L"), key="L")]
-        h = _nice(eqs.jacobi_integral)
+                  Math(self.readable(eqs.L), S("L"), key="L")]
+        h = self.readable(eqs.jacobi_integral)
         if eqs.is_conservative:
             conserved = "It is conserved: L does not depend on t explicitly, D = 0 and Q = 0."
         else:
@@ -329,12 +325,12 @@ class _Builder:
             blocks.append(Math(Qi, tuple(lhs), key=f"lagrange[{q.name}]", label=f"({i + 1})"))
             p = core.p[i]
             dpdt = kin.rate(p) + sum((p.diff(core.qd[j]) * qdd[j] for j in range(eqs.n)), se.Integer(0))
-            blocks.append(Math(_readable(p), Partial(Lsym, qd), key=f"dL/d{qd.name}"))
-            blocks.append(Math(_readable(dpdt), TimeDerivative(Partial(Lsym, qd)), key=f"d/dt dL/d{qd.name}"))
-            blocks.append(Math(_readable(core.L.diff(core.q[i])), Partial(Lsym, q), key=f"dL/d{q.name}"))
+            blocks.append(Math(self.readable(p), Partial(Lsym, qd), key=f"dL/d{qd.name}"))
+            blocks.append(Math(self.readable(dpdt), TimeDerivative(Partial(Lsym, qd)), key=f"d/dt dL/d{qd.name}"))
+            blocks.append(Math(self.readable(core.L.diff(core.q[i])), Partial(Lsym, q), key=f"dL/d{q.name}"))
             if has_D:
-                blocks.append(Math(_readable(core.D.diff(core.qd[i])), Partial(Dsym, qd), key=f"dD/d{qd.name}"))
-            blocks.append(Math(_readable(core.Q[i]), Qi, key=f"Q_{i + 1}"))
+                blocks.append(Math(self.readable(core.D.diff(core.qd[i])), Partial(Dsym, qd), key=f"dD/d{qd.name}"))
+            blocks.append(Math(self.readable(core.Q[i]), Qi, key=f"Q_{i + 1}"))
             blocks.append(Paragraph.of("so that"))
             blocks.append(Math(_ZERO, eqs.equations[i], key=f"equation[{q.name}]", label=f"({i + 1})"))
         return Section("equations", "8. Lagrange's equations", tuple(blocks))
@@ -358,14 +354,14 @@ class _Builder:
                 parts.append(Math(eqs.gyroscopic_matrix, S("Gamma"), key="Gamma"))
             if any(x != 0 for x in eqs.centrifugal_forces):
                 rhs.append(Partial(S("T_0"), S("q")))
-                parts.append(Math(eqs.centrifugal_forces.applyfunc(_nice), Partial(S("T_0"), S("q")),
+                parts.append(Math(eqs.centrifugal_forces.applyfunc(self.readable), Partial(S("T_0"), S("q")),
                                   key="centrifugal"))
             if any(x != 0 for x in eqs.rheonomic_forces):
                 rhs.append(S("f_t"))
-                parts.append(Math(eqs.rheonomic_forces.applyfunc(_nice), S("f_t"), key="rheonomic"))
+                parts.append(Math(eqs.rheonomic_forces.applyfunc(self.readable), S("f_t"), key="rheonomic"))
         if eqs.D != 0:
             rhs.append(-Partial(S("D"), S("q_dot")))
-            parts.append(Math(eqs.damping_forces.applyfunc(_nice), -Partial(S("D"), S("q_dot")),
+            parts.append(Math(eqs.damping_forces.applyfunc(self.readable), -Partial(S("D"), S("q_dot")),
                               key="damping"))
         blocks.append(Paragraph.of("The equations in matrix form (the seed's H(q) is M(q)):"))
         blocks.append(Math(tuple(rhs), tuple(lhs), key="matrix-form"))
@@ -374,8 +370,8 @@ class _Builder:
                                       "of M, the gradient G = dV/dq" if C is not None else "") + ":"))
         blocks.append(Math(eqs.mass_matrix, S("M"), key="M"))
         if C is not None:
-            blocks.append(Math(C.applyfunc(_nice), S("C"), key="C"))
-            blocks.append(Math(eqs.potential_gradient.applyfunc(_nice), S("G"), key="G"))
+            blocks.append(Math(C.applyfunc(self.readable), S("C"), key="C"))
+            blocks.append(Math(eqs.potential_gradient.applyfunc(self.readable), S("G"), key="G"))
         blocks += parts
         blocks.append(Paragraph.of("Equivalently M q_ddot = f, the form the simulation solves, with the forcing"))
         blocks.append(Math(eqs.forcing, S("f"), key="f"))
