@@ -33,13 +33,10 @@ import symengine as se
 import sympy
 from sympy.printing.str import StrPrinter
 
-__all__ = ["readable", "expanded_terms_bound", "text", "MAX_TERMS"]
+__all__ = ["readable", "trigonometric_polynomial", "expanded_terms_bound", "text", "MAX_TERMS"]
 
 #: The budget: expressions whose expansion may exceed this many terms are left as derived.
 MAX_TERMS = 5000
-
-_ONE = frozenset()
-
 
 def readable(expr, *, state: Iterable = (), collect_on: Iterable = (), max_terms: int = MAX_TERMS) -> sympy.Expr:
     """The compact readable form of `expr`, mathematically equal to it (a SymPy expression).
@@ -57,6 +54,33 @@ def readable(expr, *, state: Iterable = (), collect_on: Iterable = (), max_terms
         The budget: when the expansion of `expr` could have more terms than this, `expr` is
         returned as it is (converted to SymPy).
     """
+    terms = _rewritten(expr, max_terms)
+    if not isinstance(terms, dict):
+        return terms
+    state_names = state if isinstance(state, frozenset) else frozenset(str(s) for s in state)
+    collect_names = frozenset(str(s) for s in collect_on)
+    return _grouped(terms, state_names, collect_names)
+
+
+def trigonometric_polynomial(expr, *, max_terms: int = MAX_TERMS) -> sympy.Expr:
+    """`expr` as the shorter of two equal sums, in one group with its common factor taken out:
+    the readable form's terms, or the Fourier form, where every product of sines and cosines is
+    a sum of sines and cosines of sums of their arguments (sin(x)*sin(y) = (cos(x - y) -
+    cos(x + y))/2, ...), unique for a trigonometric polynomial. For determinants: that of a
+    three-link chain's mass matrix is ``-l**6*m**3*(2*cos(2*theta1 - 2*theta2) + ... - 5)/2`` in
+    the Fourier form, and the cart-pendulum's ``L**2*M2*(M1 + M2*cos(q2)**2)`` in the other."""
+    terms = _rewritten(expr, max_terms)
+    if not isinstance(terms, dict):
+        return terms
+    fourier = _fourier(terms, max_terms)
+    if fourier is not None and len(fourier) < len(terms):
+        terms = fourier
+    return _grouped(terms, frozenset(), frozenset())
+
+
+def _rewritten(expr, max_terms: int):
+    """The expanded terms of `expr` {monomial: coefficient} with the identities applied, or, over
+    the budget (or not convertible to SymEngine), `expr` in SymPy as it is."""
     try:
         e = se.sympify(expr)
     except (TypeError, ValueError, RuntimeError):
@@ -64,12 +88,8 @@ def readable(expr, *, state: Iterable = (), collect_on: Iterable = (), max_terms
     if expanded_terms_bound(e, max_terms) > max_terms:
         return e._sympy_()
     terms = _terms(se.expand(e))
-    if not terms:
-        return sympy.Integer(0)
     _apply_identities(terms)
-    state_names = state if isinstance(state, frozenset) else frozenset(str(s) for s in state)
-    collect_names = frozenset(str(s) for s in collect_on)
-    return _grouped(terms, state_names, collect_names)
+    return terms
 
 
 def expanded_terms_bound(expr, limit: int | None = None) -> int:
@@ -232,9 +252,9 @@ def _rewrite_one(terms: dict, mono: frozenset) -> bool:
                     continue
                 rest = _shift(mono, {f1: 1, f2: 1}, {})
                 if d == c:  # c (sin x sin y + cos x cos y) = c cos(x - y)
-                    return _replace(terms, (mono, pair), c, rest, cos(x - y))
+                    return _replace(terms, (mono, pair), c, rest, cos(_sum(x, -y)))
                 if d == -c:  # c (cos x cos y - sin x sin y) = c cos(x + y)
-                    return _replace(terms, (mono, pair), c if kind1 is cos else -c, rest, cos(x + y))
+                    return _replace(terms, (mono, pair), c if kind1 is cos else -c, rest, cos(_sum(x, y)))
             else:  # sin x cos y with cos x sin y
                 if kind1 is cos:
                     x, y = y, x  # now the term holds sin(x) cos(y)
@@ -244,10 +264,15 @@ def _rewrite_one(terms: dict, mono: frozenset) -> bool:
                 d = terms.get(pair)
                 rest = _shift(mono, {sin(x): 1, cos(y): 1}, {})
                 if d == -c:  # c (sin x cos y - cos x sin y) = c sin(x - y)
-                    return _replace(terms, (mono, pair), c, rest, sin(x - y))
+                    return _replace(terms, (mono, pair), c, rest, sin(_sum(x, -y)))
                 if d == c:  # c (sin x cos y + cos x sin y) = c sin(x + y)
-                    return _replace(terms, (mono, pair), c, rest, sin(x + y))
+                    return _replace(terms, (mono, pair), c, rest, sin(_sum(x, y)))
     return False
+
+
+def _sum(x, y):
+    """x + y, expanded: the argument of a new sine or cosine (so that equal angles are one key)."""
+    return se.expand(x + y)
 
 
 def _replace(terms: dict, old: tuple, coef, rest: frozenset, factor) -> bool:
@@ -257,6 +282,58 @@ def _replace(terms: dict, old: tuple, coef, rest: frozenset, factor) -> bool:
     if k != 0:
         _add(terms, mono, coef * k)
     return True
+
+
+# -------------------------------------------------------------------------- Fourier form
+def _fourier(terms: dict, max_terms: int) -> dict | None:
+    """The terms with each product of sines and cosines (integer powers) written as a sum of
+    sines and cosines of sums of the arguments; None when that would exceed `max_terms` terms."""
+    out: dict = {}
+    for mono, c in terms.items():
+        series = {_ONE: se.Integer(1)}  # {frozenset holding one sin or cos, or none: coefficient}
+        rest = []
+        for base, exp in mono:
+            if exp.is_Integer and int(exp) > 0 and isinstance(base, (se.sin, se.cos)):
+                for _ in range(int(exp)):
+                    series = _times_trig(series, base)
+                    if len(series) > max_terms:
+                        return None
+            else:
+                rest.append((base, exp))
+        rest = frozenset(rest)
+        for atom, k in series.items():
+            _add(out, _shift(rest, {}, dict(atom)) if atom else rest, c * k)
+        if len(out) > max_terms:
+            return None
+    return out
+
+
+_ONE = frozenset()
+_HALF = se.Rational(1, 2)
+
+
+def _times_trig(series: dict, f) -> dict:
+    """The Fourier series `series` times sin(b) or cos(b), by the product-to-sum formulas."""
+    out: dict = {}
+    b = f.args[0]
+    f_is_sin = isinstance(f, se.sin)
+    for atom, k in series.items():
+        if not atom:
+            pieces = ((k, f),)
+        else:
+            (g, _), = atom
+            a = g.args[0]
+            if isinstance(g, se.sin):
+                pieces = (((k * _HALF, se.cos(_sum(a, -b))), (-k * _HALF, se.cos(_sum(a, b)))) if f_is_sin
+                          else ((k * _HALF, se.sin(_sum(a, b))), (k * _HALF, se.sin(_sum(a, -b)))))
+            else:
+                pieces = (((k * _HALF, se.sin(_sum(a, b))), (-k * _HALF, se.sin(_sum(a, -b)))) if f_is_sin
+                          else ((k * _HALF, se.cos(_sum(a, -b))), (k * _HALF, se.cos(_sum(a, b)))))
+        for coef, value in pieces:
+            number, mono = _split(value)
+            if number != 0:
+                _add(out, mono, coef * number)
+    return out
 
 
 # ----------------------------------------------------------------------------- grouping

@@ -7,15 +7,19 @@ moves no mass, and no solver can find q_ddot there.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
+import symengine as se
 import sympy
 
 from ..model._elements import Particle, RigidBody
 from ._equations import Equations
+from ._readable import trigonometric_polynomial
 
-__all__ = ["singularities", "SingularityReport", "SingularConfiguration", "inertia_measure"]
+__all__ = ["singularities", "SingularityReport", "SingularConfiguration", "inertia_measure", "determinant",
+           "factored"]
 
 _SYMBOLIC_DET_MAX_N = 4
 
@@ -163,6 +167,33 @@ def inertia_measure(M: np.ndarray, factor=None) -> float:
     return 0.0 if factor is None else float(np.min(np.diag(factor[1])) ** 2)
 
 
+def determinant(M) -> se.Basic:
+    """det M in SymEngine by expansion in minors along the rows (no division, unlike SymEngine's
+    det, so a polynomial stays one); M is small, its entries in readable form."""
+    n = M.shape[0]
+    a = [[se.sympify(M[i, j]) for j in range(n)] for i in range(n)]
+    minors = {frozenset(): se.Integer(1)}  # det of the last rows on a set of columns
+    for row in range(n - 1, -1, -1):
+        size = n - row
+        new = {}
+        for cols in itertools.combinations(range(n), size):
+            total = se.Integer(0)
+            for k, j in enumerate(cols):
+                rest = frozenset(cols[:k] + cols[k + 1:])
+                total = total + (-1) ** k * a[row][j] * minors[rest]
+            new[frozenset(cols)] = total
+        minors = new
+    return minors[frozenset(range(n))]
+
+
+def factored(expr) -> sympy.Expr:
+    """`expr` (a determinant, a polynomial in sines and cosines) written short (see
+    :func:`~lagrangian.equations._readable.trigonometric_polynomial`: 1 - sin(q)**2 = cos(q)**2,
+    or the Fourier form when it has fewer terms), then factored by SymPy:
+    ``L**2*M2*(M1 + M2*cos(q2)**2)``."""
+    return sympy.factor(trigonometric_polynomial(expr))
+
+
 def _values(eqs: Equations) -> dict:
     return {p: sympy.nsimplify(v) for p, v in eqs.parameters.items() if v is not None}
 
@@ -301,20 +332,20 @@ def singularities(equations: Equations) -> SingularityReport:
     eqs = equations
     values = _values(eqs)
     M = sympy.Matrix(eqs.mass_matrix)
-    M_values = M.subs(values)
     n = eqs.n
-    det = det_values = None
+    det = det_values = numeric_M = None
     if n <= _SYMBOLIC_DET_MAX_N:
-        raw = M.det(method="berkowitz")
-        det = sympy.factor(sympy.trigsimp(sympy.expand(raw)))
-        det_values = sympy.factor(sympy.trigsimp(sympy.expand(raw.subs(values))))
+        raw = determinant(M)
+        det = factored(raw)
+        det_values = factored(raw.subs({se.Symbol(p.name): v for p, v in values.items()}))
         everywhere = det_values == 0
     else:  # expanding det M of a large system is hopeless: keep it unevaluated, search numerically
         det = sympy.Determinant(sympy.ImmutableMatrix(M))
-        everywhere = _numerically_zero_everywhere(eqs, M_values)
+        numeric_M = _numeric_mass_matrix(eqs)
+        everywhere = _numerically_zero_everywhere(eqs, numeric_M)
     configurations: list[SingularConfiguration] = []
     if everywhere:
-        configurations.append(_configuration(eqs, M, M_values, {}, values))
+        configurations.append(_configuration(eqs, M, M.subs(values), {}, values))
     else:
         zeros: list[dict] = []
         symbolic_ok = det_values is not None
@@ -329,7 +360,8 @@ def singularities(equations: Equations) -> SingularityReport:
                 else:
                     zeros.extend(z)
         else:
-            zeros = _numeric_det_search(eqs, M_values)
+            zeros = _numeric_det_search(eqs, numeric_M)
+        M_values = M.subs(values) if zeros else None
         seen = set()
         for z in zeros:
             key = tuple(sorted((k.name, sympy.sstr(v)) for k, v in z.items()))
@@ -379,8 +411,6 @@ def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tu
 
 def _numeric_mass_matrix(eqs: Equations):
     """M(q) with the parameter values as a fast function of q (SymEngine), for large n."""
-    import symengine as se
-
     core = eqs.core
     values = {se.Symbol(p.name): float(v) for p, v in eqs.parameters.items() if v is not None}
     n = eqs.n
@@ -389,17 +419,16 @@ def _numeric_mass_matrix(eqs: Equations):
     return lambda x: np.asarray(f(np.asarray(x, float)), dtype=float).reshape(n, n)
 
 
-def _numerically_zero_everywhere(eqs, M_values) -> bool:
-    M = _numeric_mass_matrix(eqs)
+def _numerically_zero_everywhere(eqs, M) -> bool:
     rng = np.random.default_rng(1)
     return all(inertia_measure(M(rng.uniform(-np.pi, np.pi, eqs.n))) < 1e-12 for _ in range(8))
 
 
-def _numeric_det_search(eqs, M_values) -> list[dict]:
-    """For large n: a local minimisation of the inertia measure from a few random starts."""
+def _numeric_det_search(eqs, M) -> list[dict]:
+    """For large n: a local minimisation of the inertia measure of M (a function of q) from a few
+    random starts."""
     from scipy.optimize import minimize
 
-    M = _numeric_mass_matrix(eqs)
     rng = np.random.default_rng(2)
     for _ in range(4):
         x0 = rng.uniform(-np.pi, np.pi, eqs.n)

@@ -15,6 +15,7 @@ import symengine as se
 import sympy
 
 from ..equations import Equations, derive, singularities
+from ..equations._singular import determinant, factored
 from ..errors import LagrangianError
 from ..model import Model
 from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBody, Spring, Torque)
@@ -413,7 +414,7 @@ class _Builder:
         f = sympy.Matrix(eqs.forcing)
         if any(x.count_ops() > 60 for x in (*M, *f)):
             return None
-        det = sympy.factor(sympy.trigsimp(sympy.expand(M.det())))
+        det = factored(determinant(M))
         if det == 0:
             return None
         numerators = (M.adjugate() * f).applyfunc(sympy.expand)
