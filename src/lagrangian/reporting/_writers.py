@@ -53,7 +53,9 @@ p.description { color: #444; margin-top: 0; }
 nav ul { columns: 2; font-size: 0.95rem; list-style: none; padding-left: 1rem; }
 div.math { display: flex; align-items: center; gap: 1rem; overflow-x: auto; margin: 0.6rem 0 0.6rem 1rem;
            padding: 0.2rem 0; }
-div.math math { font-size: 1.15em; margin: 0; }
+math { font-size: 1.15em; }
+div.math math { margin: 0; }
+mover[accent="true"] > mo { font-size: 1.3em; font-weight: bold; }  /* the dots of q_dot, q_ddot: visible */
 span.label { color: #555; min-width: 2rem; }
 p.too-large { color: #8a4b00; font-style: italic; margin-left: 1rem; }
 table { border-collapse: collapse; margin: 0.6rem 0 0.6rem 1rem; }
