@@ -283,6 +283,14 @@ def test_proportional_damping_check_and_rigid_mode():
     assert cart.unit_shapes[0].tolist() == [1.0, 0.0]
 
 
+def test_undamped_modes_have_a_damping_ratio_of_exactly_zero(capsys):
+    result = modes(linearize(lg.derive(lg.load("double-pendulum"))))
+    assert result.damping_ratios.tolist() == [0.0, 0.0]  # not the eigenvalues' round-off (5e-17)
+    assert main(["modes", "double-pendulum"]) == 0
+    rows = capsys.readouterr().out.splitlines()[2:4]
+    assert [row.split()[4] for row in rows] == ["0", "0"]  # mode, kind, f, omega, zeta
+
+
 def test_unstable_mode_has_no_frequency():
     result = modes(linearize(lg.derive(lg.load("double-pendulum")), at={"theta1": math.pi}))
     assert result.kinds[-1] == "unstable" and math.isnan(result.frequencies[-1])

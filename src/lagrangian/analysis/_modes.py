@@ -43,7 +43,8 @@ class Modes:
     modal_masses, modal_stiffnesses : ndarray, shape (n,)
         phi^T M phi and phi^T K phi for the unit shapes (their ratio is omega^2).
     damping_ratios : ndarray, shape (n,)
-        zeta of each mode from the eigenvalues of A (NaN for rigid and unstable modes).
+        zeta of each mode from the eigenvalues of A (NaN for rigid and unstable modes); exactly 0
+        when the linearization has no damping at all (C = 0), not the round-off of the eigenvalues.
     damped_frequencies : ndarray, shape (n,)
         |Im(lambda)| (rad/s): 0 for an overdamped mode.
     proportional_damping : bool
@@ -180,10 +181,11 @@ def _damping(lin: LinearModel, shapes: np.ndarray, kinds: list[str]) -> tuple[np
         assigned[j].append(lam[keep[c]])
     zeta = np.full(n, math.nan)
     wd = np.full(n, math.nan)
+    undamped = not np.any(lin.C)  # no dissipation at all: the real parts are round-off (5e-17)
     for j, values in assigned.items():
         if len(values) == 1 and abs(values[0].imag) > 1e-9 * scale:
             z = values[0]
-            zeta[j] = -z.real / abs(z) + 0.0
+            zeta[j] = 0.0 if undamped else -z.real / abs(z) + 0.0
             wd[j] = abs(z.imag)
         elif len(values) == 2 and all(abs(z.imag) <= 1e-9 * scale for z in values):
             a, b = (z.real for z in values)
