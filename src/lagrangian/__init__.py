@@ -14,8 +14,8 @@ from .io import load
 from .model import Model, ddot, dot, t
 from .numeric import BatchResult, CompiledModel, NumericModel, Trajectory, grid, simulate, simulate_batch
 from .numeric import compile_equations as compile
-from .analysis import (Continuation, Equilibrium, LinearModel, Modes, continuation, equilibria, linearize,
-                       modes)
+from .analysis import (Continuation, Equilibria, Equilibrium, LinearModel, Modes, SteadyMotion, SteadyMotions,
+                       continuation, equilibria, linearize, modes, steady_motions)
 from .reporting import Report, report
 
 __version__ = "0.1.0"
@@ -32,7 +32,8 @@ def __getattr__(name):
 
 __all__ = [
     "Model", "load", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
-    "SingularConfiguration", "equilibria", "Equilibrium", "linearize", "LinearModel", "modes", "Modes",
+    "SingularConfiguration", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
+    "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate", "simulate_batch", "BatchResult", "grid", "Trajectory", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
     "SingularMassMatrixError", "SimulationError",

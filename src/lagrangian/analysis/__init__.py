@@ -5,10 +5,11 @@ equations --continuation--> Continuation (branches and critical parameter values
 """
 
 from ._continuation import Branch, BranchPoint, Continuation, continuation
-from ._equilibria import Equilibrium, equilibria
+from ._equilibria import Equilibria, Equilibrium, equilibria
 from ._modes import Modes, modes
+from ._steady import SteadyMotion, SteadyMotions, steady_motions
 from ._linearize import STABILITY, LinearModel, SymbolicLinearization, classify, linearize
 
-__all__ = ["equilibria", "Equilibrium", "linearize", "LinearModel", "SymbolicLinearization", "classify",
-           "STABILITY", "modes", "Modes", "continuation",
+__all__ = ["equilibria", "Equilibrium", "Equilibria", "linearize", "LinearModel", "SymbolicLinearization", "classify",
+           "STABILITY", "modes", "Modes", "steady_motions", "SteadyMotion", "SteadyMotions", "continuation",
            "Continuation", "Branch", "BranchPoint"]

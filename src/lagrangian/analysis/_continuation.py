@@ -23,8 +23,9 @@ import sympy
 from ..equations import Equations
 from .._progress import progress
 from ..errors import ModelError
-from ._equilibria import (EquilibriumProblem, _same, equilibrium_problem, evaluate_exact, make_equilibrium,
-                          normalized_exact, numeric_equilibria, solve_from)
+from ._equilibria import make_equilibrium
+from ._roots import numeric_roots, solve_from
+from ._stationary import StationaryProblem, evaluate_exact, normalized_exact, same_point, stationary_problem
 from ._setting import Setting, read_only, resolve_setting
 
 __all__ = ["continuation", "Continuation", "Branch", "BranchPoint"]
@@ -184,7 +185,7 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
                          "decreasing) order, e.g. numpy.linspace(0, 8, 201)")
     base = resolve_setting(equations, {k: v for k, v in (params or {}).items()
                                        if str(getattr(k, "name", k)) != parameter}, inputs, t, free=(parameter,))
-    problem = equilibrium_problem(equations, base.inputs, base.t, exact)
+    problem = stationary_problem(equations, base.inputs, base.t, exact, values=base.p)
     settings = [base.with_parameter(parameter, v) for v in values]
     exact_branches = _exact_branches(problem, settings, parameter) if problem.exact else None
     if exact_branches is not None:
@@ -203,13 +204,13 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
                         tuple(c for c, _ in critical), tuple(e for _, e in critical))
 
 
-def _point(problem: EquilibriumProblem, setting: Setting, q: np.ndarray, parameter: str,
+def _point(problem: StationaryProblem, setting: Setting, q: np.ndarray, parameter: str,
            exact=None) -> BranchPoint:
     e = make_equilibrium(problem, setting, q, exact)
     return BranchPoint(setting.parameters[parameter], e.coordinates, e.stable, e.stability, e.eigenvalues)
 
 
-def _exact_branches(problem: EquilibriumProblem, settings: list[Setting], parameter: str):
+def _exact_branches(problem: StationaryProblem, settings: list[Setting], parameter: str):
     """Branches from the exact solutions; None when the numerical search finds equilibria the exact
     solutions miss (then the numerical continuation is used)."""
     eqs = problem.equations
@@ -241,14 +242,14 @@ def _exact_branches(problem: EquilibriumProblem, settings: list[Setting], parame
     unique: list[Branch] = []
     for b in branches:
         if not any(len(b.points) == len(o.points) and all(
-                p.param == r.param and _same(_q(eqs, p), _q(eqs, r), problem.angles) for p, r in zip(b.points, o.points))
+                p.param == r.param and same_point(_q(eqs, p), _q(eqs, r), problem.angles) for p, r in zip(b.points, o.points))
                 for o in unique):
             unique.append(b)
     # check on a few values that no equilibrium is missing
     for s in settings[:: max(1, len(settings) // 8)]:
         known = [_q(eqs, p) for b in unique for p in b.points if p.param == s.parameters[parameter]]
-        for q in numeric_equilibria(problem, s, starts=16):
-            if not any(_same(q, k, problem.angles) for k in known):
+        for q in numeric_roots(problem, s, starts=16):
+            if not any(same_point(q, k, problem.angles) for k in known):
                 return None
     return unique, critical
 
@@ -257,13 +258,13 @@ def _q(eqs: Equations, p: BranchPoint) -> np.ndarray:
     return np.array([p.coordinates[c.name] for c in eqs.coordinates])
 
 
-def _exact_critical(problem: EquilibriumProblem, settings: list[Setting], parameter: str):
+def _exact_critical(problem: StationaryProblem, settings: list[Setting], parameter: str):
     """Exact critical values in the range: boundaries of the existence conditions and zeros of
     det K along each exact branch."""
     eqs = problem.equations
     psym = sympy.Symbol(parameter)
     lo, hi = sorted((settings[0].parameters[parameter], settings[-1].parameters[parameter]))
-    others = {sympy.Symbol(k): v for k, v in settings[0].parameters.items() if k != parameter}
+    others = {sympy.Symbol(k): v for k, v in {**settings[0].parameters, **settings[0].inputs}.items() if k != parameter}
     idx = list(problem.unknowns)
     static = sympy.Matrix(problem.static_sympy)
     qs = [eqs.coordinates[i] for i in idx]
@@ -300,7 +301,7 @@ def _solve_for(eq, symbol) -> list:
     return [s for s in sols if not s.has(*[c for c in eq.free_symbols if c.name.endswith("_dot")])]
 
 
-def _numeric_branches(problem: EquilibriumProblem, settings: list[Setting], parameter: str) -> list[Branch]:
+def _numeric_branches(problem: StationaryProblem, settings: list[Setting], parameter: str) -> list[Branch]:
     eqs = problem.equations
     open_runs: list[list[BranchPoint]] = []
     closed: list[list[BranchPoint]] = []
@@ -308,7 +309,7 @@ def _numeric_branches(problem: EquilibriumProblem, settings: list[Setting], para
     bar = progress(len(settings), f"following {parameter}")
     for s in settings:
         bar.update()
-        found = numeric_equilibria(problem, s, starts=8 + 8 * len(problem.unknowns), guesses=previous)
+        found = numeric_roots(problem, s, starts=8 + 8 * len(problem.unknowns), guesses=previous)
         points = [_point(problem, s, q, parameter) for q in found]
         still_open: list[list[BranchPoint]] = []
         taken = set()
@@ -344,7 +345,7 @@ def _distance(a: np.ndarray, b: np.ndarray, angles) -> float:
     return float(np.abs(diff).max()) if diff.size else 0.0
 
 
-def _numeric_critical(problem: EquilibriumProblem, settings: list[Setting], parameter: str,
+def _numeric_critical(problem: StationaryProblem, settings: list[Setting], parameter: str,
                       branches: list[Branch]) -> list[float]:
     """(stability changes along each branch, ends of branches inside the range), each located by
     bisection."""
@@ -387,7 +388,7 @@ def _numeric_critical(problem: EquilibriumProblem, settings: list[Setting], para
     return sorted(out), sorted(ends)
 
 
-def _branch_end(problem: EquilibriumProblem, base: Setting, parameter: str, end: BranchPoint,
+def _branch_end(problem: StationaryProblem, base: Setting, parameter: str, end: BranchPoint,
                 beyond: float) -> float:
     """Where a branch that exists at end.param and not at `beyond` ends, by bisection: the branch
     exists at a value when the solve started from its last point converges nearby."""

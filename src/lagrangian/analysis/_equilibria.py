@@ -1,26 +1,31 @@
 """equilibria(equations) -> the states at rest, exactly when SymPy can solve for them, with their
-stability.
+stability; right or absent, never invented.
 
 At rest (q_dot = 0, q_ddot = 0, inputs constant) Lagrange's equations reduce to f(q, 0, t, u) = 0:
 gravity and springs (dV/dq), the constant generalized forces and, when T* has a part T0 free of the
 velocities (steady rotation), the centrifugal forces dT0/dq. No special handling is needed for the
-latter: they are in f.
+latter: they are in f. The search itself (exact and numerical, every candidate checked to be a
+root, non-isolated roots grouped, the reasons when there is none) is in ``_stationary``, shared
+with the steady motions.
 
 * Coordinates absent from the equations (cyclic) are reported as families: any value is an
-  equilibrium too; they are given the value 0.
+  equilibrium too; they are given the value 0. Every equation must still hold: a coordinate that a
+  constant force pushes (dV/dx a non-zero constant) has no equilibrium at all.
 * Angles (coordinates the equations contain only through 2 pi-periodic functions) are reported in
   (-pi, pi].
 * The exact solutions keep the parameters symbolic, with the conditions for them to be real
-  (cos theta = g/(l Omega^2) needs g <= l Omega^2); a multi-start numerical search runs as well and
-  adds any solution the exact one missed.
+  (cos theta = g/(l Omega^2) needs g <= l Omega^2).
+* A set of equilibria that is not isolated (a curve, a surface) is reported once, by its point
+  nearest q = 0, with its dimension; its stability is the stability across the set.
+* Stability: "asymptotically stable", "stable" (Lagrange-Dirichlet, or Routh with cyclic
+  coordinates, or, where K is singular, a restoring force of higher odd order), "marginally stable"
+  (eigenvalues on the imaginary axis: the linearization is bounded), "unstable" (an eigenvalue with
+  a positive real part, or a force of even order where K is singular), or undetermined: where M is
+  singular, where the linearization is not finite, or where it is degenerate and nothing decides.
 """
 
 from __future__ import annotations
 
-import math
-import signal
-import threading
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Mapping
@@ -29,19 +34,15 @@ import numpy as np
 import sympy
 
 from ..equations import Equations
-from ..equations._equations import _depends_on
-from ..errors import ModelError, SingularMassMatrixError
-from ..model._kinematics import to_sympy
-from ._linearize import LinearModel, cyclic_coordinates, linearize_at
-from ._setting import Setting, derivatives, read_only, resolve_setting
+from ._linearize import LinearModel
+from ._setting import Setting, resolve_setting
+from ._roots import RootSet, free_axes, group_roots, is_root, no_root_reasons, numeric_roots, search_context
+from ._stability import DEGENERATE, NOT_FINITE, UNDETERMINED, assess
+from ._stationary import (StationaryProblem, conditions_hold, evaluate_exact, normalized_exact,
+                          parameter_conditions, same_point, stationary_problem)
 
-__all__ = ["equilibria", "Equilibrium", "EquilibriumProblem", "equilibrium_problem"]
-
-#: Seconds SymPy may spend looking for exact equilibria before the numerical search takes over.
-EXACT_TIME_LIMIT = 5.0
-_MAX_EXACT_UNKNOWNS = 3
-#: The stability of an equilibrium where M is singular: no linearization exists there.
-UNDETERMINED = "undetermined (singular mass matrix)"
+__all__ = ["equilibria", "Equilibrium", "Equilibria", "make_equilibrium", "UNDETERMINED", "DEGENERATE",
+           "NOT_FINITE"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,20 +54,29 @@ class Equilibrium:
     coordinates : mapping of str to float
         q at the equilibrium (angles in (-pi, pi]; cyclic coordinates at 0).
     stable : bool
-        False only when the linearization is unstable.
+        True when the stability is established: asymptotically stable, stable, or marginally stable
+        (bounded linearization); False when unstable or undetermined.
     stability : str
-        "asymptotically stable", "stable" (Lagrange-Dirichlet), "marginally stable", "unstable", or
-        "undetermined (singular mass matrix)" where M is singular (no eigenvalues then).
+        "asymptotically stable", "stable" (Lagrange-Dirichlet, Routh, or a restoring force of higher
+        order), "marginally stable", "unstable", or "undetermined (...)" with the reason: a singular
+        mass matrix, a linearization that is not finite, or a degenerate one that does not decide.
     eigenvalues : ndarray of complex, shape (2n,)
-        Of the state matrix A there.
+        Of the state matrix A there (empty where there is no linearization).
     exact : mapping of str to sympy.Expr, or None
         The solution with symbolic parameters, when SymPy found it.
     conditions : tuple of sympy relationals
-        When the exact solution is real (e.g. ``g <= Omega**2*l``); empty when always.
+        When the exact solution exists (e.g. ``g <= Omega**2*l``); empty when always.
     family : tuple of str
         Cyclic coordinates: the equilibrium holds for every value of these.
     linear_model : LinearModel or None
-        The linearization there (None where M is singular).
+        The linearization there (None where it does not exist).
+    isolated : bool
+        False when the equilibrium lies on a curve or surface of equilibria (then this one point
+        stands for the whole connected set found).
+    dimension : int
+        The dimension of that set (0 when isolated; cyclic coordinates not counted).
+    along : tuple of str
+        When the set runs along coordinate axes: the coordinates that may take any value on it.
     """
 
     coordinates: Mapping[str, float]
@@ -77,10 +87,13 @@ class Equilibrium:
     conditions: tuple = ()
     family: tuple[str, ...] = ()
     linear_model: LinearModel | None = field(default=None, repr=False)
+    isolated: bool = True
+    dimension: int = 0
+    along: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """The JSON contract: coordinates, stable, eigenvalues ([re, im] pairs), and stability,
-        exact (SymPy strings or null), conditions, family."""
+        exact (SymPy strings or null), conditions, family, isolated, dimension."""
         return {
             "coordinates": dict(self.coordinates),
             "stable": self.stable,
@@ -89,6 +102,8 @@ class Equilibrium:
             "exact": None if self.exact is None else {k: sympy.sstr(v) for k, v in self.exact.items()},
             "conditions": [sympy.sstr(c) for c in self.conditions],
             "family": list(self.family),
+            "isolated": self.isolated,
+            "dimension": self.dimension,
         }
 
     def _repr_html_(self) -> str:
@@ -96,318 +111,95 @@ class Equilibrium:
 
         return f"<pre>{html.escape(self.text())}</pre>"
 
-    def text(self) -> str:
+    def _where(self) -> str:
         coords = ", ".join(f"{k} = {_value_text(v, None if self.exact is None else self.exact.get(k))}"
                            for k, v in self.coordinates.items())
         extra = ""
         if self.family:
             extra += f" (any {', '.join(self.family)})"
+        if not self.isolated:
+            extra += f" (non-isolated: {_set_text(self.dimension, self.along, self._kind)})"
         if self.conditions:
-            extra += f" [exists when {' and '.join(sympy.sstr(c) for c in self.conditions)}]"
-        return f"{coords}{extra}: {self.stability}"
+            extra += f" [exists when {' and '.join(condition_text(c) for c in self.conditions)}]"
+        return coords + extra
+
+    _kind = "equilibria"
+
+    def text(self) -> str:
+        return f"{self._where()}: {self.stability}"
+
+
+def _set_text(dimension: int, along: tuple[str, ...], kind: str) -> str:
+    if along:
+        return f"any {', '.join(along)}"
+    shape = {1: "a curve", 2: "a surface"}.get(dimension, f"a {dimension}-dimensional set")
+    return f"on {shape} of {kind}"
+
+
+def condition_text(c) -> str:
+    """A condition as text: "g <= Omega**2*l", "g*(m1 - m2) = 0"."""
+    if isinstance(c, sympy.Equality):
+        return f"{sympy.sstr(c.lhs)} = {sympy.sstr(c.rhs)}"
+    return sympy.sstr(c)
 
 
 def _value_text(v: float, exact) -> str:
-    if exact is not None and not exact.is_Number and exact.is_number:
-        return f"{sympy.sstr(exact)} = {v:.6g}"
-    if exact is not None and not exact.is_number:
+    if exact is not None and not exact.is_Number:
         return f"{sympy.sstr(exact)} = {v:.6g}"
     return f"{v:.6g}"
 
 
-# --------------------------------------------------------------------------- the problem at rest
-@dataclass(frozen=True, eq=False)
-class EquilibriumProblem:
-    """f(q, 0, t, u) = 0 for one Equations object: which coordinates are unknowns, which are
-    angles, and the exact solutions with symbolic parameters (shared by equilibria and
-    continuation)."""
+class Equilibria(tuple):
+    """The equilibria found: a tuple of :class:`Equilibrium`, sorted by coordinates, with `notes`:
+    why there is none (a force that never vanishes, SymPy's proof, a search that found nothing or ran
+    away to infinity)."""
 
-    equations: Equations
-    unknowns: tuple[int, ...]
-    angles: tuple[bool, ...]
-    family: tuple[str, ...]
-    exact: tuple | None  # tuple of (dict index -> sympy expr, conditions) or None
-    static_sympy: tuple  # f at rest with the inputs' values, symbolic parameters
-    exact_functions: tuple = ()  # numerical form of each exact solution: f(*parameter values)
+    def __new__(cls, items=(), notes=()):
+        self = super().__new__(cls, items)
+        self._notes = tuple(notes)
+        return self
 
+    @property
+    def notes(self) -> tuple[str, ...]:
+        return self._notes
 
-def _periodic(equations: Equations, i: int) -> bool:
-    """Whether the equations at rest and M are 2 pi-periodic in coordinate i (an angle)."""
-    d = derivatives(equations)
-    rng = np.random.default_rng(7)
-    n = equations.n
-    p = np.array([v if v is not None else 1.0 for v in equations.parameters.values()], dtype=float)
-    p = np.where(np.isfinite(p), p, 1.0)
-    u = rng.uniform(-1, 1, d.m)
-    for _ in range(3):
-        q = rng.uniform(-2, 2, n)
-        shifted = q.copy()
-        shifted[i] += 2 * math.pi
-        f1, J1 = d.static(q, 0.3, u, p)
-        f2, J2 = d.static(shifted, 0.3, u, p)
-        scale = 1.0 + np.abs(f1).max() + np.abs(J1).max()
-        if not (np.all(np.isfinite(f1)) and np.allclose(f1, f2, atol=1e-9 * scale)
-                and np.allclose(J1, J2, atol=1e-9 * scale)):
-            return False
-    return True
+    def text(self, name: str = "the model") -> str:
+        if not self:
+            return f"Equilibria of {name}: none.\n" + "".join(f"  {n}\n" for n in self.notes).rstrip("\n")
+        lines = [f"Equilibria of {name} ({len(self)}):", *(f"  {e.text()}" for e in self)]
+        return "\n".join(lines + [f"  note: {n}" for n in self.notes])
+
+    def __repr__(self) -> str:
+        return f"Equilibria({tuple.__repr__(self)}, notes={self.notes!r})"
 
 
-class _TimeUp(Exception):
-    pass
-
-
-@contextmanager
-def _time_limit(seconds: float):
-    """Interrupt SymPy after `seconds` (only in the main thread, where signals can be used)."""
-    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer"):
-        yield False
-        return
-
-    def handler(signum, frame):
-        raise _TimeUp()
-
-    old = signal.signal(signal.SIGALRM, handler)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield True
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
-
-
-def _conditions(solution: dict, assumptions) -> tuple:
-    """Where the solution is real: arguments of acos/asin in [-1, 1], of sqrt and log >= 0 / > 0."""
-    out = []
-    for expr in solution.values():
-        for f in expr.atoms(sympy.acos, sympy.asin):
-            a = f.args[0]
-            out += [sympy.Le(a, 1), sympy.Ge(a, -1)]
-        for pw in expr.atoms(sympy.Pow):
-            if pw.exp.is_Rational and not pw.exp.is_integer and pw.exp.q % 2 == 0:
-                out.append(sympy.Ge(pw.base, 0))
-        for f in expr.atoms(sympy.log):
-            out.append(sympy.Gt(f.args[0], 0))
-    kept = []
-    for c in out:
-        c = c.subs(assumptions)
-        try:
-            c = _simplify_relational(c)
-        except (TypeError, ValueError):
-            pass
-        if c is sympy.true:
+def found_points(problem: StationaryProblem, setting: Setting, *, starts, seed) -> tuple[list[RootSet], object]:
+    """The stationary states of a problem at a setting, exact first, checked and grouped, and the
+    search context (what the search saw)."""
+    ctx = search_context(problem, setting)
+    points: list[RootSet] = []
+    for sol, conds in problem.exact or ():
+        q = evaluate_exact(problem, setting, sol)
+        if q is None or not is_root(ctx, q) or any(same_point(q, other.q, problem.angles) for other in points):
             continue
-        c = c.subs({v: k for k, v in assumptions.items()})
-        if c not in kept:
-            kept.append(c)
-    return tuple(kept)
-
-
-def _simplify_relational(c):
-    """a <= 1 with positive symbols: clear positive denominators (g/(l*Omega**2) <= 1 becomes
-    g <= l*Omega**2)."""
-    c = sympy.simplify(c)
-    if c in (sympy.true, sympy.false) or not isinstance(c, sympy.core.relational.Relational):
-        return c
-    lhs, rhs = sympy.together(c.lhs - c.rhs).as_numer_denom()
-    if rhs.is_positive:
-        c = c.func(lhs, 0)
-        num = sympy.expand(lhs)
-        neg = sympy.Add(*[t for t in sympy.Add.make_args(num) if t.could_extract_minus_sign()])
-        pos = num - neg
-        c = c.func(pos, -neg)
-        c = sympy.simplify(c) if c not in (sympy.true, sympy.false) else c
-    return c
-
-
-def _exact_solutions(equations: Equations, static: list, unknowns: tuple[int, ...]):
-    """SymPy's solutions of static = 0 for the unknowns, or None when it fails or takes too long."""
-    qs = [equations.coordinates[i] for i in unknowns]
-    exprs = [e for e in static if e != 0]
-    if not exprs or len(qs) > _MAX_EXACT_UNKNOWNS or sum(sympy.count_ops(e) for e in exprs) > 400:
-        return None
-    # parameters whose value is positive are solved as positive symbols: conditions simplify
-    assumptions = {}
-    for p, v in equations.parameters.items():
-        if v is not None and v > 0:
-            assumptions[p] = sympy.Symbol(p.name, positive=True)
-    exprs = [sympy.factor(sympy.trigsimp(e.subs(assumptions))) for e in exprs]
-    with _time_limit(EXACT_TIME_LIMIT) as limited:
-        if not limited and len(qs) > 1:
-            return None
-        try:
-            sols = sympy.solve(exprs, qs, dict=True)
-        except (NotImplementedError, _TimeUp, ValueError, TypeError, ZeroDivisionError):
-            return None
-    back = {v: k for k, v in assumptions.items()}
-    out = []
-    for s in sols:
-        if set(s) != set(qs) or any(s[q].has(*qs) for q in qs):
-            return None  # a solution left in terms of other unknowns: not a list of points
-        if any(not s[q].free_symbols <= set(assumptions.values()) | set(equations.parameters) for q in qs):
-            return None
-        sol = {unknowns[k]: s[q].subs(back) for k, q in enumerate(qs)}
-        out.append((sol, _conditions(sol, assumptions)))
-    return tuple(out)
-
-
-def equilibrium_problem(equations: Equations, inputs: Mapping[str, float], t: float,
-                        exact: bool = True) -> EquilibriumProblem:
-    """The equations at rest, checked: they must not depend on t."""
-    core = equations.core
-    d = derivatives(equations)
-    static = [to_sympy(e) for e in d.static_forcing]
-    subs = {sympy.Symbol(k): sympy.nsimplify(v) if float(v).is_integer() else sympy.Float(v)
-            for k, v in inputs.items()}
-    static = [e.subs(subs) for e in static]
-    import symengine as se
-
-    for e in d.static_forcing:
-        if _depends_on(e.subs({se.Symbol(k): v for k, v in inputs.items()}), core.t):
-            raise ModelError(
-                f"{equations.model.name}: at rest the equations still depend on the time t, so there is no "
-                "equilibrium (a state that stays at rest); linearize about a chosen state instead, with "
-                "linearize(equations, at=..., t=...)")
-    family = cyclic_coordinates(equations)
-    unknowns = tuple(i for i, c in enumerate(equations.coordinates) if c.name not in family)
-    angles = tuple(_periodic(equations, i) for i in range(equations.n))
-    sols = _exact_solutions(equations, static, unknowns) if exact and unknowns else None
-    params = list(equations.parameters)
-    functions = tuple(sympy.lambdify(params, [sol[i] for i in sorted(sol)], modules="numpy")
-                      for sol, _ in sols or ())
-    return EquilibriumProblem(equations, unknowns, angles, family, sols, tuple(static), functions)
-
-
-# --------------------------------------------------------------------------- numerical search
-def wrap_angles(q: np.ndarray, angles) -> np.ndarray:
-    """Angles into (-pi, pi]; round-off next to 0 (1e-17) set to 0."""
-    q = np.array(q, dtype=float)
-    q[np.abs(q) <= 1e-13] = 0.0
-    for i, a in enumerate(angles):
-        if a:
-            w = math.remainder(q[i], 2 * math.pi)
-            q[i] = math.pi if w <= -math.pi + 1e-12 else w
-    return q
-
-
-def _same(a: np.ndarray, b: np.ndarray, angles) -> bool:
-    diff = a - b
-    for i, is_angle in enumerate(angles):
-        if is_angle:
-            diff[i] = math.remainder(diff[i], 2 * math.pi)
-    return bool(np.all(np.abs(diff) <= 1e-6 * (1 + np.abs(a))))
-
-
-def solve_from(problem: EquilibriumProblem, setting: Setting, start: np.ndarray) -> np.ndarray | None:
-    """Newton-type solve of f(q, 0) = 0 from `start` (full q); None when it does not converge."""
-    import scipy.optimize
-
-    d = derivatives(problem.equations)
-    idx = list(problem.unknowns)
-    q = np.array(start, dtype=float)
-    u, p, t = setting.u, setting.p, setting.t
-
-    def fun(z):
-        q[idx] = z
-        f, J = d.static(q, t, u, p)
-        return f[idx], J[np.ix_(idx, idx)]
-
-    try:
-        with np.errstate(all="ignore"):
-            sol = scipy.optimize.root(fun, q[idx], jac=True, method="hybr", options={"xtol": 1e-13})
-    except (ValueError, FloatingPointError):
-        return None
-    if not np.all(np.isfinite(sol.x)):
-        return None
-    f, J = fun(sol.x)
-    scale = 1.0 + np.abs(J).max() * (1.0 + np.abs(sol.x).max())
-    if not np.all(np.isfinite(f)) or np.abs(f).max() > 1e-9 * scale:
-        return None
-    out = np.array(start, dtype=float)
-    out[idx] = sol.x
-    return wrap_angles(out, problem.angles)
-
-
-def _starts(problem: EquilibriumProblem, setting: Setting, count: int, seed: int) -> list[np.ndarray]:
-    n = problem.equations.n
-    rng = np.random.default_rng(seed)
-    p = np.abs(setting.p[np.isfinite(setting.p)])
-    lengths = sorted({float(x) for x in p if x > 0} | {1.0})
-    starts = [np.zeros(n)]
-    angles = [i for i in problem.unknowns if problem.angles[i]]
-    if 0 < len(angles) <= 8:  # every combination of 0 and pi: the equilibria of chains of pendulums
-        for bits in range(1, 2 ** len(angles)):
-            q = np.zeros(n)
-            for b, i in enumerate(angles):
-                q[i] = math.pi if bits >> b & 1 else 0.0
-            starts.append(q)
-    angle_grid = [0.0, math.pi, math.pi / 2, -math.pi / 2, math.pi / 4, -3 * math.pi / 4]
-    for k in range(count):
-        q = np.zeros(n)
-        for i in problem.unknowns:
-            if problem.angles[i]:
-                q[i] = angle_grid[k % len(angle_grid)] if k < len(angle_grid) else rng.uniform(-math.pi, math.pi)
-            else:
-                scale = lengths[k % len(lengths)] * 10.0 ** rng.uniform(-2, 1)
-                q[i] = scale * rng.choice([-1, 1]) if k else 0.0
-        starts.append(q)
-    return starts
-
-
-def numeric_equilibria(problem: EquilibriumProblem, setting: Setting, *, starts: int | None = None,
-                       seed: int = 0, guesses=()) -> list[np.ndarray]:
-    """Distinct solutions of the multi-start search (and from `guesses` first)."""
-    k = len(problem.unknowns)
-    count = starts if starts is not None else 24 + 24 * k
-    found: list[np.ndarray] = []
-    for start in [*guesses, *_starts(problem, setting, count, seed)]:
-        q = solve_from(problem, setting, start)
-        if q is not None and not any(_same(q, g, problem.angles) for g in found):
-            found.append(q)
-    return found
-
-
-def evaluate_exact(problem: EquilibriumProblem, setting: Setting, solution: dict,
-                   wrap: bool = True) -> np.ndarray | None:
-    """The exact solution's value at the setting's parameters, angles wrapped unless `wrap` is
-    False (None where it is not real)."""
-    k = next(k for k, (sol, _) in enumerate(problem.exact) if sol is solution)
-    with np.errstate(all="ignore"):
-        try:
-            zs = problem.exact_functions[k](*np.asarray(setting.p, dtype=complex))
-        except (ZeroDivisionError, ValueError, TypeError):
-            return None
-    q = np.zeros(problem.equations.n)
-    for i, z in zip(sorted(solution), zs):
-        z = complex(z)
-        if not (math.isfinite(z.real) and math.isfinite(z.imag)) or abs(z.imag) > 1e-9 * (1 + abs(z.real)):
-            return None
-        q[i] = z.real
-    return wrap_angles(q, problem.angles) if wrap else q
-
-
-def normalized_exact(problem: EquilibriumProblem, setting: Setting, solution: dict) -> dict[str, sympy.Expr]:
-    """{coordinate name: expression} with whole turns removed from angles so that, at the setting,
-    the expression gives the wrapped value (2*pi - acos(c) becomes -acos(c))."""
-    raw = evaluate_exact(problem, setting, solution, wrap=False)
-    wrapped = wrap_angles(raw, problem.angles)
-    out = {problem.equations.coordinates[i].name: (_wrap_exact(expr, raw[i], wrapped[i]) if problem.angles[i]
-                                                    else expr) for i, expr in solution.items()}
-    for name in problem.family:
-        out[name] = sympy.Integer(0)
-    return out
-
-
-def _wrap_exact(expr: sympy.Expr, value_before: float, value_after: float) -> sympy.Expr:
-    turns = round((value_before - value_after) / (2 * math.pi))
-    out = expr - 2 * sympy.pi * turns if turns else expr
-    if abs(value_after - math.pi) < 1e-12 and out.is_number and out != sympy.pi:
-        out = sympy.pi
-    return sympy.simplify(out) if turns else out
+        points.append(RootSet(q, np.zeros((len(q), 0)), normalized_exact(problem, setting, sol), conds, sol))
+    if problem.unknowns:
+        for q in numeric_roots(problem, setting, starts=starts, seed=seed, ctx=ctx):
+            if not any(same_point(q, other.q, problem.angles) for other in points):
+                points.append(RootSet(q, np.zeros((len(q), 0))))
+    elif not conditions_hold(problem, setting):
+        n = problem.equations.n
+        points.append(RootSet(np.zeros(n), np.zeros((n, 0)),
+                              {c.name: sympy.Integer(0) for c in problem.equations.coordinates},
+                              parameter_conditions(problem), {}))
+    points = group_roots(ctx, points)
+    points.sort(key=lambda r: tuple(np.round(r.q, 9)))
+    return points, ctx
 
 
 def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: Mapping | None = None,
                t: float = 0.0, exact: bool = True, starts: int | None = None,
-               seed: int = 0) -> tuple[Equilibrium, ...]:
+               seed: int = 0) -> Equilibria:
     """The equilibria of the equations (states at rest), with their stability.
 
     Parameters
@@ -420,7 +212,7 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     t : float
         The time, for equations that contain t (they must not, at rest).
     exact : bool
-        Try SymPy first (for up to 3 unknowns, within EXACT_TIME_LIMIT seconds).
+        Try SymPy first (for up to 3 unknowns, within a time limit of a few seconds).
     starts : int
         Number of starting points of the numerical search (default 24 + 24 per unknown).
     seed : int
@@ -428,8 +220,9 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
 
     Returns
     -------
-    tuple of Equilibrium
-        Sorted by coordinates. Empty when there is none.
+    Equilibria
+        A tuple of :class:`Equilibrium`, sorted by coordinates; empty when there is none, with
+        `notes` saying why.
 
     Raises
     ------
@@ -437,34 +230,26 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
         Bad names or values, or equations that depend on t at rest.
     """
     setting = resolve_setting(equations, params, inputs, t)
-    problem = equilibrium_problem(equations, setting.inputs, setting.t, exact)
-    points: list[tuple[np.ndarray, dict | None, tuple]] = []
-    for sol, conds in problem.exact or ():
-        q = evaluate_exact(problem, setting, sol)
-        if q is None or any(_same(q, other, problem.angles) for other, _, _ in points):
-            continue
-        points.append((q, normalized_exact(problem, setting, sol), conds))
-    if problem.unknowns:
-        for q in numeric_equilibria(problem, setting, starts=starts, seed=seed):
-            if not any(_same(q, other, problem.angles) for other, _, _ in points):
-                points.append((q, None, ()))
-    elif not points:
-        points.append((np.zeros(equations.n), {c.name: sympy.Integer(0) for c in equations.coordinates}, ()))
-    points.sort(key=lambda item: tuple(np.round(item[0], 9)))
-    return tuple(make_equilibrium(problem, setting, q, ex, conds) for q, ex, conds in points)
+    problem = stationary_problem(equations, setting.inputs, setting.t, exact, values=setting.p)
+    points, ctx = found_points(problem, setting, starts=starts, seed=seed)
+    found = tuple(make_equilibrium(problem, setting, r.q, r.exact, r.conditions, r.tangent, r.solution)
+                  for r in points)
+    notes = no_root_reasons(problem, setting, ctx, "equilibrium") if not found else _search_notes(ctx)
+    return Equilibria(found, notes)
 
 
-def make_equilibrium(problem: EquilibriumProblem, setting: Setting, q: np.ndarray, exact=None,
-                     conditions=()) -> Equilibrium:
+def _search_notes(ctx) -> tuple[str, ...]:
+    return tuple(f"{count} of {ctx.starts} searches ran away towards {name} = +-infinity, where the forces "
+                 "tend to 0 (not an equilibrium)" for name, count in sorted(ctx.runaway.items()))
+
+
+def make_equilibrium(problem: StationaryProblem, setting: Setting, q: np.ndarray, exact=None,
+                     conditions=(), tangent: np.ndarray | None = None, solution: dict | None = None) -> Equilibrium:
     eqs = problem.equations
-    names = eqs.state_names
-    point = dict(zip(names, [*map(float, q), *([0.0] * eqs.n)]))
+    tangent = np.zeros((eqs.n, 0)) if tangent is None else tangent
     coords = MappingProxyType({c.name: float(v) for c, v in zip(eqs.coordinates, q)})
     exact = None if exact is None else MappingProxyType(dict(exact))
-    try:
-        lin = linearize_at(eqs, point, setting, exact)
-    except SingularMassMatrixError:
-        return Equilibrium(coords, False, UNDETERMINED, read_only(np.zeros(0, complex)), exact,
-                           tuple(conditions), problem.family, None)
-    return Equilibrium(coords, lin.stable, lin.stability, lin.eigenvalues, exact, tuple(conditions),
-                       problem.family, lin)
+    a = assess(problem, setting, q, tangent, exact, solution)
+    along = free_axes(search_context(problem, setting), q, tangent)
+    return Equilibrium(coords, a.stable, a.stability, a.eigenvalues, exact, tuple(conditions), problem.family,
+                       a.linear_model, not tangent.shape[1], tangent.shape[1], along)

@@ -17,6 +17,7 @@ linear solve with M0; nothing divides by a symbolic M, so no NaN appears.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 from functools import cached_property
 from types import MappingProxyType
@@ -27,7 +28,7 @@ import symengine as se
 import sympy
 
 from ..equations import Equations, singularities
-from ..equations._equations import _latex_name
+from ..equations._equations import _depends_on, _latex_name
 from ..equations._singular import inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
@@ -39,6 +40,7 @@ __all__ = ["linearize", "LinearModel", "SymbolicLinearization", "classify", "STA
 STABILITY = ("asymptotically stable", "stable", "marginally stable", "unstable")
 
 _SINGULAR = 1e-12
+_ROUND_OFF = 1e-14
 
 
 @dataclass(frozen=True)
@@ -173,6 +175,9 @@ class LinearModel:
     def eigenvalues(self) -> np.ndarray:
         """Eigenvalues of A, shape (2n,), sorted by real part then imaginary part."""
         lam = np.linalg.eigvals(self.A)
+        if lam.size:  # round-off (8.9e-16 beside 5.8j) as exact zeros
+            tiny = 1e-12 * float(np.abs(lam).max())
+            lam = np.where(np.abs(lam.real) <= tiny, 0.0, lam.real) + 1j * np.where(np.abs(lam.imag) <= tiny, 0.0, lam.imag)
         lam = lam[np.lexsort((lam.imag, lam.real))]
         return read_only(lam)
 
@@ -350,7 +355,11 @@ def linearize_at(equations: Equations, point: Mapping[str, float], setting: Sett
     u, p = setting.u, setting.p
     base = d.full(q, qd, setting.t, u, p, np.zeros(n))
     M, f = base["M"], base["f"]
-    if not np.all(np.isfinite(M)) or inertia_measure(M) <= _SINGULAR:
+    diag = np.abs(np.diag(M)) if M.size else np.ones(0)
+    if (not np.all(np.isfinite(M)) or inertia_measure(M) <= _SINGULAR
+            or (diag.size and diag.min() <= _ROUND_OFF * diag.max())):
+        # the second test: a diagonal entry at round-off against the others (sin(pi)**2 = 1.5e-32
+        # at the pole of spherical coordinates), which the scaled measure cannot see
         raise _singular_error(equations, point)
     qdd = np.linalg.solve(M, f)
     parts = d.full(q, qd, setting.t, u, p, qdd) if np.any(qdd) else base
@@ -389,12 +398,19 @@ def _clean(a: np.ndarray) -> np.ndarray:
 
 
 def cyclic_coordinates(equations: Equations) -> tuple[str, ...]:
-    """Coordinates absent from M and f: the equations are the same wherever they are."""
-    core = equations.core
-    used = set()
-    for e in (*core.M, *core.f):
-        used |= e.free_symbols
-    return tuple(q.name for q, qs in zip(equations.coordinates, core.q) if qs not in used)
+    """Coordinates absent from M and f: the equations are the same wherever they are (a coordinate
+    that appears only through sin(phi)**2 + cos(phi)**2, as elements give it, counts as absent)."""
+    out = _CYCLIC.get(equations)
+    if out is None:
+        core = equations.core
+        entries = (*core.M, *core.f)
+        out = _CYCLIC[equations] = tuple(
+            q.name for q, qs in zip(equations.coordinates, core.q)
+            if not any(qs in e.free_symbols and _depends_on(e, qs) for e in entries))
+    return out
+
+
+_CYCLIC: "weakref.WeakKeyDictionary[Equations, tuple]" = weakref.WeakKeyDictionary()
 
 
 def _singular_error(equations: Equations, point: Mapping[str, float]) -> SingularMassMatrixError:

@@ -146,6 +146,20 @@ class Derivatives:
         fsq = [e.diff(qj) for e in fs for qj in q]
         self._static = se.Lambdify(self._args, fs + fsq, cse=True, real=True)
         self.static_forcing = tuple(fs)
+        self._core = core
+        self._momenta = None
+
+    def momenta(self, q, qd, t, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(p, dp/dq, M) with p = dL/dq_dot, the generalized momenta: shapes (n,), (n, n), (n, n)
+        (M = dp/dq_dot). Built on first use (steady motions need it)."""
+        n = self.n
+        if self._momenta is None:
+            core = self._core
+            mom = list(core.p)
+            self._momenta = se.Lambdify(self._args, mom + [e.diff(qj) for e in mom for qj in core.q]
+                                        + [core.M[i, j] for i in range(n) for j in range(n)], cse=True, real=True)
+        out = np.asarray(self._momenta(self._argv(q, qd, t, u, p)), dtype=float).ravel()
+        return out[:n], out[n:n + n * n].reshape(n, n), out[n + n * n:].reshape(n, n)
 
     def _argv(self, q, qd, t, u, p, extra=()):
         return np.concatenate((q, qd, [t], u, p, extra)).astype(float)

@@ -23,6 +23,28 @@ def register(sub, fmt) -> None:
                    help="print a JSON list of {coordinates, stable, eigenvalues, stability, exact, conditions, family}")
     e.set_defaults(handler=_cmd_equilibria)
 
+    st = sub.add_parser("steady", help="find the steady motions (cyclic coordinates turning at constant rates)",
+                        formatter_class=fmt,
+                        description="Find the steady motions (relative equilibria): the coordinates the equations "
+                        "contain constant, each cyclic coordinate turning at a constant rate, given by --velocity or "
+                        "through its momentum by --momentum (Routh). Exactly when SymPy can, by a multi-start "
+                        "numerical search otherwise; stability from the eigenvalues of the linearization about each "
+                        "(all 2n states) and Routh's criterion.",
+                        epilog="Examples:\n  lagrangian steady spherical-pendulum --velocity phi_dot=4\n"
+                               "  lagrangian steady kepler --momentum p_phi=1 --json\n"
+                               "  lagrangian steady heavy-top --velocity phi_dot=2,psi_dot=50")
+    st.add_argument("model", help=MODEL_HELP)
+    st.add_argument("--velocity", action="append", default=[], metavar="NAME_dot=VALUE",
+                    help="the rate of a cyclic coordinate, e.g. phi_dot=4 (repeatable, or comma-separated); "
+                         "cyclic coordinates given neither a rate nor a momentum stay at rest")
+    st.add_argument("--momentum", action="append", default=[], metavar="p_NAME=VALUE",
+                    help="the momentum dL/dq_dot of a cyclic coordinate, e.g. p_phi=1: its rate is found (Routh)")
+    _values(st)
+    st.add_argument("--json", action="store_true",
+                    help="print a JSON list of {coordinates, velocities, stable, eigenvalues, stability, momenta, "
+                         "exact, ...}")
+    st.set_defaults(handler=_cmd_steady)
+
     lin = sub.add_parser("linearize", help="linearize about an operating point", formatter_class=fmt,
                          description="Linearize about an operating point: M dq'' + (C + G) dq' + K dq = B0 du "
                          "and the state space x' = A x + B u, x = [q, q_dot]. Without --at, about the "
@@ -105,9 +127,20 @@ def _cmd_equilibria(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps([e.to_dict() for e in found], indent=2))
         return 0
-    print(f"Equilibria of {eqs.model.name} ({len(found)}):")
-    for e in found:
-        print(f"  {e.text()}")
+    print(found.text(eqs.model.name))
+    return 0
+
+
+def _cmd_steady(args: argparse.Namespace) -> int:
+    from ..analysis import steady_motions
+
+    eqs = _load(args)
+    found = steady_motions(eqs, _numbers(args.velocity, "velocity"), momenta=_numbers(args.momentum, "momentum"),
+                           params=_numbers(args.param, "param"), inputs=_numbers(args.input, "input"))
+    if args.json:
+        print(json.dumps([e.to_dict() for e in found], indent=2))
+    else:
+        print(found.text(eqs.model.name))
     return 0
 
 

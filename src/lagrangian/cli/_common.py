@@ -26,6 +26,10 @@ def split_top_level(text: str) -> list[str]:
     return parts
 
 
+_EXAMPLES = {"initial": "q2=0.5", "input": "F=1.5*sin(3*t)", "velocity": "phi_dot=4", "momentum": "p_phi=1",
+             "at": "q2=pi/2"}
+
+
 def assignments(items: Sequence[str], what: str, *, split_commas: bool = True) -> dict[str, str]:
     out: dict[str, str] = {}
     for item in items:
@@ -36,7 +40,7 @@ def assignments(items: Sequence[str], what: str, *, split_commas: bool = True) -
                 continue
             if "=" not in part:
                 raise ModelError(f"--{what} '{part}': expected NAME=VALUE, for example --{what} "
-                                 + ("q2=0.5" if what == "initial" else "F=1.5*sin(3*t)" if what == "input" else "k=2"))
+                                 + _EXAMPLES.get(what, "k=2"))
             name, value = part.split("=", 1)
             out[name.strip()] = value.strip()
     return out

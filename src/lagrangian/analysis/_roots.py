@@ -1,0 +1,430 @@
+"""The roots of a stationary problem: found, checked, grouped, and explained when there is none.
+
+Answers are right or absent:
+
+* SymPy's exact solutions come first (``_stationary``); a multi-start numerical search runs as well.
+* Every candidate, exact or numerical, is checked to be a root: the residual is small relative to
+  the scale of the forces (measured at the starting points, not at the candidate), the Newton
+  correction there is small relative to the point, and no coordinate has run away. Where the
+  Jacobian is singular the Newton test is done again in 50-digit arithmetic, so that forces that
+  underflow to 0 far away (exp(-x**2) at x = 45) are not taken for roots. A search that drifts to
+  r = 1e25 because the forces tend to 0 at infinity finds nothing, and says so.
+* A root where the Jacobian is singular is tested for being non-isolated (a curve or surface of
+  roots): the roots found on one connected set are reported once, with its dimension.
+* When there is none, the reasons are given: a condition on the parameters that fails
+  ("dV/dx = -g*(m1 - m2) is never 0"), SymPy's proof, a search that found nothing or ran away.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy
+
+from ..model._kinematics import to_sympy
+from ._setting import Setting
+from ._stationary import StationaryProblem, conditions_hold, constant_map, residual, same_point, wrap_angles
+
+__all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "RootSet", "group_roots",
+           "free_axes", "no_root_reasons"]
+
+#: A root's residual, relative to the scale of the forces.
+_RESIDUAL = 1e-9
+#: A root's Newton correction, relative to 1 + |q|.
+_NEWTON = 1e-6
+
+
+# --------------------------------------------------------------------------- the search
+@dataclass
+class Search:
+    """What the numerical search needs at one setting, and what it saw."""
+
+    problem: StationaryProblem
+    setting: Setting
+    force_scale: float
+    far: float
+    starts: int = 0
+    runaway: dict = field(default_factory=dict)  # coordinate name -> number of starts that ran away along it
+
+
+def search_context(problem: StationaryProblem, setting: Setting) -> Search:
+    """The scales of the search at this setting (cached per problem)."""
+    key = (tuple(setting.p), tuple(setting.u), setting.t)
+    ctx = problem._contexts.get(key)
+    if ctx is not None:
+        return ctx
+    p = setting.p[np.isfinite(setting.p)]
+    big = max([1.0, *np.abs(p)])
+    magnitudes = []
+    for q in _starts(problem, setting, 12, 11)[:16]:
+        with np.errstate(all="ignore"):
+            r, _ = residual(problem, setting, q)
+        if r.size and np.all(np.isfinite(r)) and np.abs(r).max() > 0:
+            magnitudes.append(float(np.abs(r).max()))
+    ctx = Search(problem, setting, float(np.median(magnitudes)) if magnitudes else 1.0, 1e6 * big)
+    if len(problem._contexts) > 64:
+        problem._contexts.clear()
+    problem._contexts[key] = ctx
+    return ctx
+
+
+def is_root(ctx: Search, q: np.ndarray) -> bool:
+    """Whether q (full) is a root of the stationary equations: finite, within reach, residual small
+    against the scale of the forces, Newton correction small against the point."""
+    problem = ctx.problem
+    if not np.all(np.isfinite(q)):
+        return False
+    unk = list(problem.unknowns)
+    z = q[unk]
+    if any(not problem.angles[i] and abs(q[i]) > ctx.far for i in unk):
+        return False
+    with np.errstate(all="ignore"):
+        r, J = residual(problem, ctx.setting, q)
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return False
+    if not r.size:
+        return True
+    scale = max(ctx.force_scale, float(np.abs(J).max(initial=0.0)) * (1.0 + float(np.abs(z).max(initial=0.0))))
+    if np.abs(r).max() > _RESIDUAL * scale:
+        return False
+    step = np.linalg.lstsq(J, r, rcond=1e-12)[0] if J.size else np.zeros(0)
+    if not np.all(np.abs(step) <= _NEWTON * (1.0 + np.abs(z))):
+        return False
+    sv = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
+    if sv.size and sv.min() <= 1e-8 * sv.max(initial=0.0) or (sv.size and sv.max() == 0):
+        # a singular Jacobian: a multiple or non-isolated root, or forces that underflow to 0 far
+        # away (exp(-x**2) at x = 45): decide in 50-digit arithmetic
+        return _precise_newton_ok(ctx, q)
+    return True
+
+
+def _precise_newton_ok(ctx: Search, q: np.ndarray) -> bool:
+    """The Newton test of is_root in 50-digit arithmetic, from the symbolic stationary rows."""
+    import mpmath
+
+    problem = ctx.problem
+    eqs = problem.equations
+    unk = list(problem.unknowns)
+    xs = [eqs.coordinates[i] for i in unk]
+    if not problem._precise:
+        rows = sympy.Matrix([problem.static_sympy[i] for i in problem.rows])
+        args = [*xs, *problem.constants, eqs.t]
+        problem._precise.append((sympy.lambdify(args, rows, modules="mpmath"),
+                                 sympy.lambdify(args, rows.jacobian(xs), modules="mpmath")))
+    fr, fj = problem._precise[0]
+    with mpmath.workdps(50):
+        args = [mpmath.mpf(float(v)) for v in (*q[unk], *problem.constant_values(ctx.setting), ctx.setting.t)]
+        try:
+            r = mpmath.matrix(fr(*args))
+            J = mpmath.matrix(fj(*args))
+        except (ZeroDivisionError, ValueError, TypeError, OverflowError):
+            return False
+        U, S, V = mpmath.svd_r(J)
+        smax = max((abs(x) for x in S), default=mpmath.mpf(0))
+        step = mpmath.matrix(len(unk), 1)
+        for k in range(len(S)):
+            if smax and abs(S[k]) > mpmath.mpf(10) ** -40 * smax:
+                coef = sum(U[i, k] * r[i] for i in range(r.rows)) / S[k]
+                for j in range(len(unk)):
+                    step[j] += V[k, j] * coef
+        return all(abs(step[j]) <= _NEWTON * (1 + abs(q[unk[j]])) for j in range(len(unk)))
+
+
+def solve_from(problem: StationaryProblem, setting: Setting, start: np.ndarray,
+               ctx: Search | None = None) -> np.ndarray | None:
+    """A root of the stationary equations found from `start` (full q); None when the solve does
+    not end at one (is_root)."""
+    import scipy.optimize
+
+    ctx = ctx or search_context(problem, setting)
+    idx = list(problem.unknowns)
+    q = np.array(start, dtype=float)
+    m, k = len(problem.rows), len(idx)
+    if not k:
+        return wrap_angles(q, problem.angles)
+    pad = max(0, k - m)
+
+    def fun(z):
+        q[idx] = z
+        r, J = residual(problem, setting, q)
+        if pad:
+            r, J = np.concatenate((r, np.zeros(pad))), np.vstack((J, np.zeros((pad, k))))
+        return r, J
+
+    try:
+        with np.errstate(all="ignore"):
+            if m + pad == k:
+                sol = scipy.optimize.root(fun, q[idx], jac=True, method="hybr", options={"xtol": 1e-13})
+            else:
+                sol = scipy.optimize.root(fun, q[idx], jac=True, method="lm", options={"xtol": 1e-13, "ftol": 1e-15})
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+        return None
+    out = np.array(start, dtype=float)
+    out[idx] = sol.x
+    if not is_root(ctx, out):
+        _note_runaway(ctx, start, out)
+        return None
+    return wrap_angles(out, problem.angles)
+
+
+def _note_runaway(ctx: Search, start: np.ndarray, end: np.ndarray) -> None:
+    problem = ctx.problem
+    for i in problem.unknowns:
+        if not problem.angles[i] and (not math.isfinite(end[i]) or abs(end[i]) > 1e4 * (1 + abs(start[i]))):
+            name = problem.equations.coordinates[i].name
+            ctx.runaway[name] = ctx.runaway.get(name, 0) + 1
+
+
+def _starts(problem: StationaryProblem, setting: Setting, count: int, seed: int) -> list[np.ndarray]:
+    n = problem.equations.n
+    rng = np.random.default_rng(seed)
+    p = np.abs(setting.p[np.isfinite(setting.p)])
+    lengths = sorted({float(x) for x in p if x > 0} | {1.0})
+    starts = [np.zeros(n)]
+    angles = [i for i in problem.unknowns if problem.angles[i]]
+    if 0 < len(angles) <= 8:  # every combination of 0 and pi: the equilibria of chains of pendulums
+        for bits in range(1, 2 ** len(angles)):
+            q = np.zeros(n)
+            for b, i in enumerate(angles):
+                q[i] = math.pi if bits >> b & 1 else 0.0
+            starts.append(q)
+    angle_grid = [0.0, math.pi, math.pi / 2, -math.pi / 2, math.pi / 4, -3 * math.pi / 4]
+    for k in range(count):
+        q = np.zeros(n)
+        for i in problem.unknowns:
+            if problem.angles[i]:
+                q[i] = angle_grid[k % len(angle_grid)] if k < len(angle_grid) else rng.uniform(-math.pi, math.pi)
+            else:
+                scale = lengths[k % len(lengths)] * 10.0 ** rng.uniform(-2, 1)
+                q[i] = scale * rng.choice([-1, 1]) if k else 0.0
+        starts.append(q)
+    return starts
+
+
+def numeric_roots(problem: StationaryProblem, setting: Setting, *, starts: int | None = None,
+                  seed: int = 0, guesses=(), ctx: Search | None = None) -> list[np.ndarray]:
+    """Distinct roots of the multi-start search (from `guesses` first); none when a condition on
+    the parameters fails."""
+    if conditions_hold(problem, setting):
+        return []
+    ctx = ctx or search_context(problem, setting)
+    k = len(problem.unknowns)
+    count = starts if starts is not None else 24 + 24 * k
+    found: list[np.ndarray] = []
+    points = [*guesses, *_starts(problem, setting, count, seed)]
+    ctx.starts += len(points)
+    for start in points:
+        q = solve_from(problem, setting, start, ctx)
+        if q is not None and not any(same_point(q, g, problem.angles) for g in found):
+            found.append(q)
+    return found
+
+
+# --------------------------------------------------------------------------- non-isolated roots
+@dataclass(frozen=True)
+class RootSet:
+    """A root, or one point standing for a connected set of roots.
+
+    `tangent` (shape (n, d)) spans the directions along which the roots continue (d = 0: isolated)."""
+
+    q: np.ndarray
+    tangent: np.ndarray
+    exact: dict | None = None
+    conditions: tuple = ()
+    solution: dict | None = None
+
+    @property
+    def dimension(self) -> int:
+        return self.tangent.shape[1]
+
+
+def _project(ctx: Search, q: np.ndarray, iterations: int = 60) -> np.ndarray | None:
+    """Gauss-Newton with minimal-norm corrections from q onto the roots, polished to round-off;
+    None when it fails."""
+    problem = ctx.problem
+    unk = list(problem.unknowns)
+    q = np.array(q, dtype=float)
+    polish = 0
+    for _ in range(iterations):
+        with np.errstate(all="ignore"):
+            r, J = residual(problem, ctx.setting, q)
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+            return None
+        if not r.size:
+            return q
+        scale = max(ctx.force_scale, float(np.abs(J).max(initial=0.0)) * (1.0 + float(np.abs(q[unk]).max(initial=0.0))))
+        step = np.linalg.lstsq(J, r, rcond=1e-10)[0]
+        if np.abs(r).max() <= _RESIDUAL * scale:
+            polish += 1
+            if polish > 3 or np.abs(step).max(initial=0.0) <= 1e-15 * (1.0 + np.abs(q[unk]).max(initial=0.0)):
+                return q
+        q[unk] -= step
+    return q if polish else None
+
+
+def _tangent(ctx: Search, q: np.ndarray) -> np.ndarray:
+    """The directions (columns, in full q) along which the roots through q continue."""
+    problem = ctx.problem
+    n, unk = problem.equations.n, list(problem.unknowns)
+    with np.errstate(all="ignore"):
+        _, J = residual(problem, ctx.setting, q)
+    k = len(unk)
+    if J.size:
+        s, vt = np.linalg.svd(J)[1:]
+        rank = int(np.sum(s > 1e-9 * s.max())) if s.size and s.max() > 0 else 0
+        null = vt[rank:].T
+    else:
+        null = np.eye(k)
+    h = 1e-3 * (1.0 + float(np.abs(q[unk]).max(initial=0.0)))
+    directions = []
+    for v in null.T:
+        moved = np.array(q, dtype=float)
+        moved[unk] += h * v
+        landed = _project(ctx, moved)
+        if landed is not None and np.linalg.norm(landed[unk] - q[unk]) >= 0.5 * h:
+            full = np.zeros(n)
+            full[unk] = v
+            directions.append(full)
+    return np.array(directions).T if directions else np.zeros((n, 0))
+
+
+def _connected(ctx: Search, a: np.ndarray, b: np.ndarray, budget: int = 400) -> bool:
+    """Whether a path of roots joins a and b: walk from a on the set of roots, each step along the
+    set's tangent towards b, projected back onto the roots; the step shrinks where the walk strays."""
+    problem = ctx.problem
+    unk = list(problem.unknowns)
+
+    def towards(c):
+        d = b - c
+        for i, is_angle in enumerate(problem.angles):
+            if is_angle:
+                d[i] = math.remainder(d[i], 2 * math.pi)
+        return d[unk]
+
+    c = np.array(a, dtype=float)
+    h = 0.1 * (1.0 + float(np.linalg.norm(towards(c))))
+    for _ in range(budget):
+        gap = towards(c)
+        dist = float(np.linalg.norm(gap))
+        if dist <= 1e-6 * (1.0 + float(np.abs(c[unk]).max(initial=0.0))):
+            return True
+        t = _tangent(ctx, c)[unk]
+        if not t.shape[1]:
+            return False
+        t, _ = np.linalg.qr(t)
+        step = t @ (t.T @ gap)
+        if np.linalg.norm(step) <= 1e-3 * dist:  # b lies straight across the set: go round it
+            step = t[:, 0] * dist
+        length = min(h, dist, float(np.linalg.norm(step)))
+        moved = np.array(c)
+        moved[unk] += step * (length / np.linalg.norm(step))
+        if dist <= h:  # close enough: go straight for b
+            moved[unk] = c[unk] + gap
+        landed = _project(ctx, moved)
+        if landed is None or np.linalg.norm(landed[unk] - moved[unk]) > 0.5 * length:
+            h *= 0.5
+            if h < 1e-6 * (1.0 + dist):
+                return False
+            continue
+        c = landed
+        h = min(1.5 * h, 0.25 * (1.0 + dist))
+    return False
+
+
+def group_roots(ctx: Search, roots: list[RootSet]) -> list[RootSet]:
+    """Roots with their tangent directions; those on one connected non-isolated set merged into
+    one, represented by the point nearest q = 0."""
+    out = []
+    for r in roots:
+        q = r.q
+        if r.exact is None:  # polished to round-off: the rank of the Jacobian is then clear-cut
+            q = wrap_angles(_project(ctx, q) if _project(ctx, q) is not None else q, ctx.problem.angles)
+        out.append(RootSet(q, _tangent(ctx, q), r.exact, r.conditions, r.solution))
+    loose = [k for k, r in enumerate(out) if r.dimension]
+    parent = {k: k for k in loose}
+
+    def find(k):
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    pairs = sorted(((float(np.linalg.norm(out[a].q - out[b].q)), a, b) for i, a in enumerate(loose)
+                    for b in loose[i + 1:]))
+    attempts = 0
+    for _, a, b in pairs:  # nearest first, as in Kruskal's algorithm: a chain of short walks joins a set
+        if find(a) == find(b) or out[a].dimension != out[b].dimension:
+            continue
+        attempts += 1
+        if attempts > 200:
+            break
+        if _connected(ctx, out[a].q, out[b].q):
+            parent[find(a)] = find(b)
+    groups: dict[int, list[int]] = {}
+    for k in loose:
+        groups.setdefault(find(k), []).append(k)
+    chosen = {min(g, key=lambda k: (out[k].exact is None, float(np.abs(out[k].q).sum()))) for g in groups.values()}
+    return [r for k, r in enumerate(out) if not r.dimension or k in chosen]
+
+
+def free_axes(ctx: Search, q: np.ndarray, tangent: np.ndarray) -> tuple[str, ...]:
+    """The coordinates that may take any value on the set of roots through q: when every tangent
+    direction is a coordinate axis and q moved far along it is still a root (the parabola y = x**2
+    is tangent to the x axis at 0, but x is not free on it)."""
+    problem = ctx.problem
+    names = []
+    for v in tangent.T:
+        big = np.flatnonzero(np.abs(v) > 1e-9)
+        if len(big) != 1:
+            return ()
+        i = int(big[0])
+        shifts = (-2.5, -1.0, 1.0, 2.5) if problem.angles[i] else tuple(x * (1.0 + abs(q[i])) for x in (-3, -0.5, 0.5, 3))
+        for d in shifts:
+            moved = np.array(q, dtype=float)
+            moved[i] += d
+            if not is_root(ctx, moved):
+                return ()
+        names.append(problem.equations.coordinates[i].name)
+    return tuple(names)
+
+
+# --------------------------------------------------------------------------- why none
+def no_root_reasons(problem: StationaryProblem, setting: Setting, ctx: Search, what: str) -> tuple[str, ...]:
+    """Sentences saying why no stationary state was found (`what`: "equilibrium", "steady motion")."""
+    eqs = problem.equations
+    failed = conditions_hold(problem, setting)
+    values = constant_map(problem, setting)
+    out = []
+    if failed:
+        for i in failed:
+            name = eqs.coordinates[i].name
+            row = problem.static_sympy[i]
+            dV = to_sympy(eqs.core.V.diff(eqs.core.q[i]))
+            value = complex(sympy.N(row.subs(values)))
+            shown = f"{value.real:.6g}" if abs(value.imag) <= 1e-12 * abs(value) else f"{value:.6g}"
+            if not problem.moving and sympy.expand(row + dV) == 0:
+                out.append(f"dV/d{name} = {sympy.sstr(sympy.factor(dV))} is never 0 ({_negate(shown)} with these "
+                           f"values; an {what} needs {sympy.sstr(sympy.factor(row))} = 0)")
+            else:
+                where = "at rest" if not problem.moving else "in a steady motion"
+                out.append(f"the generalized force on {name} {where}, {sympy.sstr(sympy.factor(row))}, is never 0 "
+                           f"({shown} with these values)")
+        return tuple(out)
+    if problem.exact is not None:
+        eqs_text = ", ".join(f"{sympy.sstr(sympy.factor(problem.static_sympy[i]))} = 0" for i in problem.rows)
+        out.append(f"SymPy finds no solution of {eqs_text}" if not problem.exact else
+                   f"SymPy's solutions of {eqs_text} are not real with these values")
+    if problem.unknowns and problem.rows:
+        out.append(f"the numerical search from {ctx.starts} starting points found none")
+    for name, count in sorted(ctx.runaway.items()):
+        out.append(f"{count} of those searches ran away towards {name} = +-infinity (the forces there tend to 0 "
+                   "only at infinity: a root at infinity is not an " + what + ")")
+    return tuple(out)
+
+
+def _negate(text: str) -> str:
+    return text[1:] if text.startswith("-") else "-" + text
+
+
