@@ -376,11 +376,22 @@ class Equations:
         if self.is_conservative:
             h = self._jacobi_se
             is_energy = se.expand(h - self.core.T - self.core.V) == 0
-            out["energy" if is_energy else "jacobi_integral"] = self.readable(h, self.velocities)
+            out["energy" if is_energy else "jacobi_integral"] = self._readable_jacobi_integral()
         names = [c.name for c in self.coordinates]
         for c in self.cyclic_coordinates:
             out[f"p_{c.name}"] = self.readable(self.core.p[names.index(c.name)])
         return out
+
+    def _readable_jacobi_integral(self) -> sympy.Expr:
+        """h in readable form, collected on the velocities. With L quadratic in the velocities
+        (M free of them), h = q_dot^T M q_dot / 2 - L0 (L0: L at q_dot = 0), written with the
+        readable M already computed."""
+        if not self._mass_matrix_free_of_velocities:
+            return self.readable(self._jacobi_se, self.velocities)
+        M, v, n = self.mass_matrix, self.velocities, self.n
+        L0 = self.core.L.subs({qd: 0 for qd in self.core.qd})
+        kinetic = [M[i, j] * v[i] * v[j] * (sympy.S.Half if i == j else 1) for i in range(n) for j in range(i, n)]
+        return sympy.Add(*kinetic, self.readable(-L0, v))
 
     # ------------------------------------------------------------- printing
     def equation(self, i: int) -> sympy.Eq:
