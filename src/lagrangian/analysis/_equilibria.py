@@ -36,7 +36,8 @@ import sympy
 from ..equations import Equations
 from ._linearize import LinearModel
 from ._setting import Setting, resolve_setting
-from ._roots import RootSet, free_axes, group_roots, is_root, no_root_reasons, numeric_roots, search_context
+from ._roots import (RootSet, free_axes, group_roots, is_root, no_root_reasons, numeric_roots,
+                     search_context)
 from ._stability import DEGENERATE, NOT_FINITE, UNDETERMINED, assess
 from ._stationary import (StationaryProblem, conditions_hold, evaluate_exact, normalized_exact,
                           parameter_conditions, same_point, stationary_problem)
@@ -234,13 +235,8 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     points, ctx = found_points(problem, setting, starts=starts, seed=seed)
     found = tuple(make_equilibrium(problem, setting, r.q, r.exact, r.conditions, r.tangent, r.solution)
                   for r in points)
-    notes = no_root_reasons(problem, setting, ctx, "equilibrium") if not found else _search_notes(ctx)
+    notes = no_root_reasons(problem, setting, ctx, "an equilibrium") if not found else ()
     return Equilibria(found, notes)
-
-
-def _search_notes(ctx) -> tuple[str, ...]:
-    return tuple(f"{count} of {ctx.starts} searches ran away towards {name} = +-infinity, where the forces "
-                 "tend to 0 (not an equilibrium)" for name, count in sorted(ctx.runaway.items()))
 
 
 def make_equilibrium(problem: StationaryProblem, setting: Setting, q: np.ndarray, exact=None,

@@ -28,7 +28,7 @@ from ._setting import Setting
 from ._stationary import StationaryProblem, conditions_hold, constant_map, residual, same_point, wrap_angles
 
 __all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "RootSet", "group_roots",
-           "free_axes", "no_root_reasons"]
+           "free_axes", "no_root_reasons", "runaway_notes"]
 
 #: A root's residual, relative to the scale of the forces.
 _RESIDUAL = 1e-9
@@ -406,7 +406,7 @@ def no_root_reasons(problem: StationaryProblem, setting: Setting, ctx: Search, w
             shown = f"{value.real:.6g}" if abs(value.imag) <= 1e-12 * abs(value) else f"{value:.6g}"
             if not problem.moving and sympy.expand(row + dV) == 0:
                 out.append(f"dV/d{name} = {sympy.sstr(sympy.factor(dV))} is never 0 ({_negate(shown)} with these "
-                           f"values; an {what} needs {sympy.sstr(sympy.factor(row))} = 0)")
+                           f"values; {what} needs {sympy.sstr(sympy.factor(row))} = 0)")
             else:
                 where = "at rest" if not problem.moving else "in a steady motion"
                 out.append(f"the generalized force on {name} {where}, {sympy.sstr(sympy.factor(row))}, is never 0 "
@@ -418,10 +418,13 @@ def no_root_reasons(problem: StationaryProblem, setting: Setting, ctx: Search, w
                    f"SymPy's solutions of {eqs_text} are not real with these values")
     if problem.unknowns and problem.rows:
         out.append(f"the numerical search from {ctx.starts} starting points found none")
-    for name, count in sorted(ctx.runaway.items()):
-        out.append(f"{count} of those searches ran away towards {name} = +-infinity (the forces there tend to 0 "
-                   "only at infinity: a root at infinity is not an " + what + ")")
-    return tuple(out)
+    return tuple(out) + runaway_notes(ctx, what)
+
+
+def runaway_notes(ctx: Search, what: str) -> tuple[str, ...]:
+    """What the search saw run away: a root at infinity is not a stationary state."""
+    return tuple(f"{count} of the {ctx.starts} searches ran away towards {name} = +-infinity, where the forces "
+                 f"tend to 0: a root at infinity is not {what}" for name, count in sorted(ctx.runaway.items()))
 
 
 def _negate(text: str) -> str:

@@ -232,6 +232,6 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
             a.linear_model, not r.dimension, r.dimension, free_axes(ctx, r.q, r.tangent),
             MappingProxyType({f"{n}_dot": float(v) + 0.0 for n, v in zip(names, qd)}),
             MappingProxyType({f"p_{names[i]}": float(p[i]) + 0.0 for i in cyclic}), exact_rates))
-    notes = no_root_reasons(problem, setting, ctx, "steady motion") if not found else ()
+    notes = no_root_reasons(problem, setting, ctx, "a steady motion") if not found else ()
     given = {**{f"{names[i]}_dot": v for i, v in fixed_v.items()}, **{f"p_{names[i]}": v for i, v in fixed_p.items()}}
     return SteadyMotions(tuple(found), notes, given)
