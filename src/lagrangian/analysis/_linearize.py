@@ -32,7 +32,7 @@ from ..equations._equations import _depends_on, _latex_name
 from ..equations._singular import inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
-from ._setting import Setting, derivatives, read_only, resolve_setting
+from ._setting import Setting, collect_setting, derivatives, read_only
 
 __all__ = ["linearize", "LinearModel", "SymbolicLinearization", "classify", "STABILITY"]
 
@@ -333,11 +333,7 @@ def linearize(equations: Equations, at: Mapping | None = None, *, inputs: Mappin
         M is singular at the operating point (with the diagnosis of :func:`singularities`).
     """
     problems: list[Problem] = []
-    try:
-        setting = resolve_setting(equations, params, inputs, t)
-    except ModelError as exc:
-        problems.extend(exc.problems)
-        setting = None
+    setting = collect_setting(equations, params, inputs, t, problems)
     point, exact = _point(equations, at, problems)
     if problems:
         raise ModelError(problems)

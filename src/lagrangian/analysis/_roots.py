@@ -70,6 +70,17 @@ def search_context(problem: StationaryProblem, setting: Setting) -> Search:
     return ctx
 
 
+def _checked_residual(ctx: Search, q: np.ndarray):
+    """(r, J, whether r is small against the scale of the forces) at q; None where not finite."""
+    with np.errstate(all="ignore"):
+        r, J = residual(ctx.problem, ctx.setting, q)
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return None
+    z = q[list(ctx.problem.unknowns)]
+    scale = max(ctx.force_scale, float(np.abs(J).max(initial=0.0)) * (1.0 + float(np.abs(z).max(initial=0.0))))
+    return r, J, bool(not r.size or np.abs(r).max() <= _RESIDUAL * scale)
+
+
 def is_root(ctx: Search, q: np.ndarray) -> bool:
     """Whether q (full) is a root of the stationary equations: finite, within reach, residual small
     against the scale of the forces, Newton correction small against the point."""
@@ -80,14 +91,13 @@ def is_root(ctx: Search, q: np.ndarray) -> bool:
     z = q[unk]
     if any(not problem.angles[i] and abs(q[i]) > ctx.far for i in unk):
         return False
-    with np.errstate(all="ignore"):
-        r, J = residual(problem, ctx.setting, q)
-    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+    checked = _checked_residual(ctx, q)
+    if checked is None:
         return False
+    r, J, small = checked
     if not r.size:
         return True
-    scale = max(ctx.force_scale, float(np.abs(J).max(initial=0.0)) * (1.0 + float(np.abs(z).max(initial=0.0))))
-    if np.abs(r).max() > _RESIDUAL * scale:
+    if not small:
         return False
     step = np.linalg.lstsq(J, r, rcond=1e-12)[0] if J.size else np.zeros(0)
     if not np.all(np.abs(step) <= _NEWTON * (1.0 + np.abs(z))):
@@ -248,15 +258,14 @@ def _project(ctx: Search, q: np.ndarray, iterations: int = 60) -> np.ndarray | N
     q = np.array(q, dtype=float)
     polish = 0
     for _ in range(iterations):
-        with np.errstate(all="ignore"):
-            r, J = residual(problem, ctx.setting, q)
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        checked = _checked_residual(ctx, q)
+        if checked is None:
             return None
+        r, J, small = checked
         if not r.size:
             return q
-        scale = max(ctx.force_scale, float(np.abs(J).max(initial=0.0)) * (1.0 + float(np.abs(q[unk]).max(initial=0.0))))
         step = np.linalg.lstsq(J, r, rcond=1e-10)[0]
-        if np.abs(r).max() <= _RESIDUAL * scale:
+        if small:
             polish += 1
             if polish > 3 or np.abs(step).max(initial=0.0) <= 1e-15 * (1.0 + np.abs(q[unk]).max(initial=0.0)):
                 return q

@@ -23,7 +23,7 @@ import sympy
 from ..equations import Equations
 from ..errors import ModelError, Problem
 
-__all__ = ["Setting", "resolve_setting", "derivatives", "read_only"]
+__all__ = ["Setting", "resolve_setting", "collect_setting", "derivatives", "read_only"]
 
 
 def read_only(a) -> np.ndarray:
@@ -119,6 +119,16 @@ def resolve_setting(equations: Equations, params: Mapping | None = None, inputs:
     if problems:
         raise ModelError(problems)
     return Setting(MappingProxyType(values), MappingProxyType({u: given_u.get(u, 0.0) for u in unames}), float(t))
+
+
+def collect_setting(equations: Equations, params: Mapping | None, inputs: Mapping | None, t: float,
+                    problems: list[Problem]) -> Setting | None:
+    """resolve_setting() that adds its problems to `problems` (to be reported with others at once)."""
+    try:
+        return resolve_setting(equations, params, inputs, t)
+    except ModelError as exc:
+        problems.extend(exc.problems)
+        return None
 
 
 class Derivatives:

@@ -30,7 +30,7 @@ from ..equations import Equations
 from ..errors import ModelError, Problem
 from ._equilibria import Equilibria, Equilibrium, found_points
 from ..model._kinematics import to_sympy
-from ._setting import _number, derivatives, resolve_setting
+from ._setting import _number, collect_setting, derivatives
 from ._roots import free_axes, no_root_reasons
 from ._stability import assess
 from ._stationary import conserved_cyclic, stationary_problem
@@ -202,11 +202,7 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
         for the same coordinate, unknown parameters or inputs.
     """
     problems: list[Problem] = []
-    try:
-        setting = resolve_setting(equations, params, inputs, t)
-    except ModelError as exc:
-        problems.extend(exc.problems)
-        setting = None
+    setting = collect_setting(equations, params, inputs, t, problems)
     fixed_v, fixed_p = _fixed(equations, velocities, momenta, problems)
     if problems:
         raise ModelError(problems)
