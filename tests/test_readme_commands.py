@@ -239,10 +239,11 @@ class Venv:
     cache: Path
 
 
-def _unreachable_index(output: str) -> bool:
-    return any(s in output for s in ("NewConnectionError", "Failed to establish a new connection",
-                                      "Temporary failure in name resolution", "Network is unreachable",
-                                      "ConnectTimeoutError", "ProxyError"))
+def _unreachable_index(output: str) -> str:
+    """pip's first line that says it could not connect to an index ("" when none does)."""
+    signs = ("NewConnectionError", "Failed to establish a new connection", "Temporary failure in name resolution",
+             "Network is unreachable", "ConnectTimeoutError", "ProxyError")
+    return next((line.strip() for line in output.splitlines() if any(s in line for s in signs)), "")
 
 
 @pytest.fixture(scope="module")
@@ -267,9 +268,9 @@ def venv(tmp_path_factory) -> Venv:
     install = subprocess.run(DEFAULT_INSTALL.split(), cwd=ROOT, env=env, capture_output=True, text=True,
                              timeout=1200)
     output = install.stdout + install.stderr
-    if install.returncode != 0 and _unreachable_index(output):
-        pytest.skip("pip cannot reach a package index, so the default install cannot be made here: "
-                    + output.strip().splitlines()[-1])
+    unreachable = _unreachable_index(output) if install.returncode != 0 else ""
+    if unreachable:
+        pytest.skip(f"pip cannot reach a package index, so the default install cannot be made here: {unreachable[:300]}")
     assert install.returncode == 0, output[-4000:]
     return Venv(bin_dir, env, where / "cache")
 
