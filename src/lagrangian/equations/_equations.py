@@ -32,7 +32,7 @@ import sympy
 from ..errors import LagrangianError
 from ..model import Model
 from ..model._kinematics import to_sympy
-from ._readable import readable, text as _text
+from ._readable import readable, readable_many, text as _text
 
 __all__ = ["Equations", "LinearSystem", "SymbolicCore"]
 
@@ -144,14 +144,15 @@ class Equations:
     @cached_property
     def mass_matrix(self) -> sympy.ImmutableMatrix:
         n = self.n
-        upper = {(i, j): self.readable(self.core.M[i, j]) for i in range(n) for j in range(i, n)}
+        pairs = [(i, j) for i in range(n) for j in range(i, n)]
+        upper = dict(zip(pairs, readable_many([self.core.M[i, j] for i, j in pairs], state=self._varying)))
         return sympy.ImmutableMatrix(n, n, [upper[min(i, j), max(i, j)] for i in range(n) for j in range(n)])
 
     M = property(lambda self: self.mass_matrix, doc="Alias of `mass_matrix`.")
 
     @cached_property
     def forcing(self) -> sympy.ImmutableMatrix:
-        return sympy.ImmutableMatrix([self.readable(e, self.velocities) for e in self.core.f])
+        return sympy.ImmutableMatrix(readable_many(self.core.f, state=self._varying, collect_on=self.velocities))
 
     def readable(self, expr, collect_on=()) -> sympy.Expr:
         """`expr` (SymPy or SymEngine) in the compact form the equations are shown in: expanded,
