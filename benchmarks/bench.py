@@ -17,6 +17,10 @@ Sections
   new model    derive + generate + compile, cold and cached, in fresh processes; the CLI's first
                and second `lagrangian simulate` of a new model file
   40 links     derivation, code generation and compilation times, separately
+  display      readable equations: `lagrangian derive` of a 20-link chain (text and --json) and a
+               KanesMethod script as whole processes, derive + readable M and f of a 10-link chain
+               in process against KanesMethod, the report of pendulum-chain-4 and the check of
+               pendulum-chain-20 (benchmarks/display.py; the targets of issue 10)
 """
 
 from __future__ import annotations
@@ -384,6 +388,14 @@ def forty(quick: bool) -> None:
         shutil.rmtree(folder, ignore_errors=True)
 
 
+# --------------------------------------------------------------------------------- display
+def display(quick: bool) -> None:
+    import display as readable_display
+
+    header("Readable equations: derive, check and report against KanesMethod (medians)")
+    RESULTS["display"] = readable_display.run(repeat=3 if quick else 5)
+
+
 # --------------------------------------------------------------------------------- summary
 def summary() -> None:
     header("Targets")
@@ -423,16 +435,23 @@ def summary() -> None:
         d, g, c, _, _ = R["forty"]
         print(f"| 40-link chain derived in a few seconds | derive {d:.2f} s, generate {g:.1f} s, compile {c:.1f} s "
               f"| {mark(d < 5)} |")
+    if "display" in R:
+        import display as readable_display
+
+        print()
+        for line in readable_display.targets(R["display"]):
+            print(line)
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats; skip the slowest peers")
-    ap.add_argument("--only", nargs="*", choices=["derivation", "simulation", "batch", "new-model", "forty"],
+    ap.add_argument("--only", nargs="*", choices=["derivation", "simulation", "batch", "new-model", "forty",
+                                                  "display"],
                     help="run only these sections")
     args = ap.parse_args(argv)
     sections = {"derivation": derivation, "simulation": simulation, "batch": batch, "new-model": new_model,
-                "forty": forty}
+                "forty": forty, "display": display}
     import platform
 
     print(f"# lagrangian benchmarks ({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
