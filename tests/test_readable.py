@@ -222,6 +222,7 @@ def test_fast_constructors_give_sympys_canonical_objects():
             if type(value) in (se.sin, se.cos):
                 mine, theirs = R._to_sympy(value), g(arg._sympy_())
                 assert mine == theirs and sympy.srepr(mine) == sympy.srepr(theirs)
+                assert mine.atoms(sympy.Function).pop().nargs == theirs.atoms(sympy.Function).pop().nargs
     p, r, t = sympy.symbols("p r theta1")
     pool = [p, r ** 2, 1 / r, sympy.sin(t - p), -sympy.sin(t), sympy.cos(t) ** 2, p + r, sympy.sqrt(p), sympy.pi]
     for _ in range(3000):

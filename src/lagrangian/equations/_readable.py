@@ -32,6 +32,7 @@ from collections.abc import Iterable
 import symengine as se
 import sympy
 from sympy.core.mul import _args_sortkey
+from sympy.sets.sets import FiniteSet
 from sympy.printing.str import StrPrinter
 
 __all__ = ["readable", "readable_many", "trigonometric_polynomial", "expanded_terms_bound", "text", "MAX_TERMS"]
@@ -399,14 +400,10 @@ def _grouped(terms: dict, state: frozenset, collect_on: frozenset) -> sympy.Expr
     group's parameter polynomial with its common factor taken out."""
     groups: dict = {}
     for mono, coef in terms.items():
-        collected, varying, params = [], [], []
-        for base, exp in mono:
-            if base.is_Symbol and str(base) in collect_on:
-                collected.append((base, exp))
-            elif _is_state(base, state):
-                varying.append((base, exp))
-            else:
-                params.append((base, exp))
+        parts: tuple = ([], [], [])  # collected, varying, parameters
+        for factor in mono:
+            parts[_role(factor[0], state, collect_on)].append(factor)
+        collected, varying, params = parts
         by_state = groups.setdefault(frozenset(collected), {})
         by_state.setdefault(frozenset(varying), []).append((coef, frozenset(params)))
     out = []
@@ -421,10 +418,12 @@ def _grouped(terms: dict, state: frozenset, collect_on: frozenset) -> sympy.Expr
 
 
 @functools.lru_cache(maxsize=8192)
-def _is_state(base, state: frozenset) -> bool:
+def _role(base, state: frozenset, collect_on: frozenset) -> int:
+    """0: a symbol to collect on; 1: a factor that varies (depends on the state); 2: a parameter."""
     if base.is_Symbol:
-        return str(base) in state
-    return any(str(s) in state for s in base.free_symbols)
+        name = str(base)
+        return 0 if name in collect_on else 1 if name in state else 2
+    return 1 if any(str(s) in state for s in base.free_symbols) else 2
 
 
 def _factored(poly: list, factors: list) -> sympy.Expr:
@@ -482,8 +481,19 @@ def _to_sympy(e) -> sympy.Expr:
         arg, flipped = _oriented(e.args[0])
         if arg is not None:
             func, parity = trig
-            return parity * func(arg, evaluate=False) if flipped else func(arg, evaluate=False)
+            return parity * _unevaluated(func, arg) if flipped else _unevaluated(func, arg)
     return e._sympy_() if isinstance(e, se.Basic) else sympy.sympify(e)
+
+
+_ONE_ARGUMENT = FiniteSet(1)
+
+
+def _unevaluated(func, arg) -> sympy.Expr:
+    """``func(arg, evaluate=False)`` for sin or cos: the object SymPy's Application.__new__ makes
+    (its arguments, and nargs = {1}), without its checks (a third of the cost of a new entry)."""
+    obj = sympy.Basic.__new__(func, arg)
+    obj.nargs = _ONE_ARGUMENT
+    return obj
 
 
 @functools.lru_cache(maxsize=8192)
