@@ -442,7 +442,7 @@ class Equations:
     def to_dict(self) -> dict:
         """The JSON contract: coordinates, velocities, accelerations, parameters, inputs,
         mass_matrix, forcing, equations (SymPy syntax), linear (M, C, K, f) or null, and
-        conserved_quantities ({name: expression})."""
+        conserved_quantities ({name: expression}); T*, V, D and Q in readable form too."""
         s = _text
         out = {
             "name": self.model.name,
@@ -454,10 +454,10 @@ class Equations:
             "mass_matrix": [[s(x) for x in self.mass_matrix.row(r)] for r in range(self.n)],
             "forcing": [s(x) for x in self.forcing],
             "equations": [s(e) for e in self.equations],
-            "kinetic_coenergy": s(self.T),
-            "potential_energy": s(self.V),
-            "dissipation": s(self.D),
-            "generalized_forces": [s(x) for x in self.generalized_forces],
+            "kinetic_coenergy": s(self.readable(self.core.T, self.velocities)),
+            "potential_energy": s(self.readable(self.core.V)),
+            "dissipation": s(self.readable(self.core.D, self.velocities)),
+            "generalized_forces": [s(self.readable(x)) for x in self.core.Q],
             "linear": None,
             "conserved_quantities": {k: s(v) for k, v in self.conserved_quantities.items()},
         }
