@@ -438,9 +438,8 @@ def summary() -> None:
     if "display" in R:
         import display as readable_display
 
-        print()
-        for line in readable_display.targets(R["display"]):
-            print(line)
+        for target, measured, ok in readable_display.targets(R["display"]):
+            print(f"| {target} | {measured} | {mark(ok)} |")
 
 
 def main(argv=None) -> None:
