@@ -391,7 +391,8 @@ class Equations:
             return self.readable(self._jacobi_se, self.velocities)
         M, v, n = self.mass_matrix, self.velocities, self.n
         L0 = self.core.L.subs({qd: 0 for qd in self.core.qd})
-        kinetic = [M[i, j] * v[i] * v[j] * (sympy.S.Half if i == j else 1) for i in range(n) for j in range(i, n)]
+        kinetic = [sympy.Mul(sympy.S.Half if i == j else sympy.S.One, M[i, j], v[i], v[j])
+                   for i in range(n) for j in range(i, n)]
         return sympy.Add(*kinetic, self.readable(-L0, v))
 
     # ------------------------------------------------------------- printing
