@@ -301,28 +301,23 @@ def _rewrite_one(terms: dict, mono: frozenset):
             x, y = b1.args[0], b2.args[0]
             if x == y:
                 continue
-            if sin1 == sin2:  # sin x sin y with cos x cos y, or cos x cos y with sin x sin y
-                pair = _shift(mono, {b1: 1, b2: 1}, {_partner(b1): 1, _partner(b2): 1})
-                d = None if pair is None else terms.get(pair)
-                if d is None:
-                    continue
-                rest = _shift(mono, {b1: 1, b2: 1}, {})
+            # the partner: each of the two factors replaced by the other function of its angle
+            pair = _shift(mono, {b1: 1, b2: 1}, {_partner(b1): 1, _partner(b2): 1})
+            d = None if pair is None else terms.get(pair)
+            if d is None or (d != c and d != -c):
+                continue
+            rest = _shift(mono, {b1: 1, b2: 1}, {})
+            if sin1 == sin2:  # sin x sin y with cos x cos y
                 if d == c:  # c (sin x sin y + cos x cos y) = c cos(x - y)
                     return _replace(terms, (mono, pair), c, rest, se.cos(_sum(x, -y)))
-                if d == -c:  # c (cos x cos y - sin x sin y) = c cos(x + y)
-                    return _replace(terms, (mono, pair), -c if sin1 else c, rest, se.cos(_sum(x, y)))
-            else:  # sin x cos y with cos x sin y
-                if not sin1:
-                    x, y = y, x  # now the term holds sin(x) cos(y)
-                pair = _shift(mono, {b1: 1, b2: 1}, {_partner(b1): 1, _partner(b2): 1})
-                d = None if pair is None else terms.get(pair)
-                if d is None:
-                    continue
-                rest = _shift(mono, {b1: 1, b2: 1}, {})
-                if d == -c:  # c (sin x cos y - cos x sin y) = c sin(x - y)
-                    return _replace(terms, (mono, pair), c, rest, se.sin(_sum(x, -y)))
-                if d == c:  # c (sin x cos y + cos x sin y) = c sin(x + y)
-                    return _replace(terms, (mono, pair), c, rest, se.sin(_sum(x, y)))
+                # c (cos x cos y - sin x sin y) = c cos(x + y)
+                return _replace(terms, (mono, pair), -c if sin1 else c, rest, se.cos(_sum(x, y)))
+            if not sin1:
+                x, y = y, x  # now the term holds sin(x) cos(y), its partner cos(x) sin(y)
+            if d == -c:  # c (sin x cos y - cos x sin y) = c sin(x - y)
+                return _replace(terms, (mono, pair), c, rest, se.sin(_sum(x, -y)))
+            # c (sin x cos y + cos x sin y) = c sin(x + y)
+            return _replace(terms, (mono, pair), c, rest, se.sin(_sum(x, y)))
     return None
 
 
