@@ -476,7 +476,8 @@ def _to_sympy(e) -> sympy.Expr:
         arg, flipped = _oriented(e.args[0])
         if arg is not None:
             func, parity = trig
-            return parity * _unevaluated(func, arg) if flipped else _unevaluated(func, arg)
+            value = _unevaluated(func, arg)
+            return _mul(_MINUS_ONE, [value]) if flipped and parity < 0 else value
     return e._sympy_() if isinstance(e, se.Basic) else sympy.sympify(e)
 
 
