@@ -224,10 +224,12 @@ def test_fast_constructors_give_sympys_canonical_objects():
                 assert mine == theirs and sympy.srepr(mine) == sympy.srepr(theirs)
                 assert mine.atoms(sympy.Function).pop().nargs == theirs.atoms(sympy.Function).pop().nargs
     p, r, t = sympy.symbols("p r theta1")
-    pool = [p, r ** 2, 1 / r, sympy.sin(t - p), -sympy.sin(t), sympy.cos(t) ** 2, p + r, sympy.sqrt(p), sympy.pi]
+    pool = [p, r ** 2, 1 / r, sympy.sin(t - p), -sympy.sin(t), sympy.cos(t) ** 2, p + r, sympy.sqrt(p), sympy.pi,
+            sympy.exp(t), sympy.exp(p), sympy.Function("F")(t) ** 3]
     for _ in range(3000):
         factors = rng.sample(pool, rng.randint(1, 4))
-        bases = [(-f if f.could_extract_minus_sign() else f).as_base_exp()[0] for f in factors]
+        unsigned = [-f if f.could_extract_minus_sign() else f for f in factors]
+        bases = [f.base if f.is_Pow else f for f in unsigned]
         if len(set(bases)) < len(bases):
             continue
         coef = rng.choice([sympy.S.One, sympy.Integer(-2), sympy.Rational(1, 2), sympy.Float(1.5)])

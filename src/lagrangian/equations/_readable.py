@@ -21,6 +21,9 @@ entry (0, 1) of a chain's mass matrix reads ``l1*l2*(m2 + m3 + ... + m10)*cos(q1
 
 A budget bounds the work: an expression whose expansion could have more than `max_terms` terms
 (estimated from its tree, before expanding) is returned as derived.
+
+Also here: :func:`trigonometric_polynomial`, the shorter of that form and the Fourier form (for
+det M), and :func:`text`, ``sympy.sstr`` for many entries.
 """
 
 from __future__ import annotations
@@ -343,7 +346,7 @@ def _fourier(terms: dict, max_terms: int) -> dict | None:
     sines and cosines of sums of the arguments; None when that would exceed `max_terms` terms."""
     out: dict = {}
     for mono, c in terms.items():
-        series = {_ONE: se.Integer(1)}  # {frozenset holding one sin or cos, or none: coefficient}
+        series = {_NO_TRIG: _UNIT}  # {frozenset holding one sin or cos, or none: coefficient}
         rest = []
         for base, exp in mono:
             if exp.is_Integer and int(exp) > 0 and isinstance(base, (se.sin, se.cos)):
@@ -361,7 +364,7 @@ def _fourier(terms: dict, max_terms: int) -> dict | None:
     return out
 
 
-_ONE = frozenset()
+_NO_TRIG = frozenset()
 _HALF = se.Rational(1, 2)
 
 
@@ -453,15 +456,15 @@ def _content(coefs: list):
     """The common numerical factor taken out of a group: the gcd of the numerators over the common
     denominator (1 when the denominators differ), negative when every coefficient is."""
     if not all(c.is_Rational for c in coefs):
-        return se.Integer(1)
+        return _UNIT
     nums, dens = zip(*(c.get_num_den() for c in coefs))
     g = se.Integer(math.gcd(*(abs(int(n)) for n in nums)))
-    content = g / dens[0] if all(d == dens[0] for d in dens) else se.Integer(1)
+    content = g / dens[0] if all(d == dens[0] for d in dens) else _UNIT
     return -content if all(c.is_negative for c in coefs) else content
 
 
 # ------------------------------------------------------------------------- to SymPy
-_TRIG = {se.sin: (sympy.sin, -1), se.cos: (sympy.cos, 1)}
+_TRIG = {se.sin: (sympy.sin, True), se.cos: (sympy.cos, False)}  # the function, whether it is odd
 
 
 @functools.lru_cache(maxsize=8192)
@@ -475,9 +478,9 @@ def _to_sympy(e) -> sympy.Expr:
     if trig is not None:
         arg, flipped = _oriented(e.args[0])
         if arg is not None:
-            func, parity = trig
+            func, odd = trig
             value = _unevaluated(func, arg)
-            return _mul(_MINUS_ONE, [value]) if flipped and parity < 0 else value
+            return _mul(_MINUS_ONE, [value]) if flipped and odd else value
     return e._sympy_() if isinstance(e, se.Basic) else sympy.sympify(e)
 
 
@@ -587,6 +590,7 @@ def _mul(coef: sympy.Expr, factors: list) -> sympy.Expr:
 
 
 def _plain_factor(f) -> bool:
+    """A symbol, sum, function or an integer power of a symbol or function."""
     if f.is_Symbol or f.is_Add or f.is_Function:
         return True
     return f.is_Pow and f.exp.is_Integer and (f.base.is_Symbol or f.base.is_Function)
