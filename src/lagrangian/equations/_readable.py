@@ -437,7 +437,10 @@ def _factored(poly: list, factors: list) -> sympy.Expr:
     for coef, mono in poly:
         rest = [(b, x - common[b]) if b in common else (b, x) for b, x in mono]
         inner.append(_mul(_to_sympy(coef / content), _factors(p for p in rest if p[1] != 0)))
-    return _mul(_to_sympy(content), [*_factors(common.items()), sympy.Add(*inner), *factors])
+    total = sympy.Add(*inner)
+    if total.could_extract_minus_sign():  # (I1 - I3), not (-I1 + I3)
+        content, total = -content, -total
+    return _mul(_to_sympy(content), [*_factors(common.items()), total, *factors])
 
 
 def _common_powers(monos: list) -> dict:
@@ -454,7 +457,8 @@ def _common_powers(monos: list) -> dict:
 
 def _content(coefs: list):
     """The common numerical factor taken out of a group: the gcd of the numerators over the common
-    denominator (1 when the denominators differ), negative when every coefficient is."""
+    denominator (1 when the denominators differ), negative when every coefficient is (and when
+    SymPy would extract a minus sign from the sum left, see `_factored`)."""
     if not all(c.is_Rational for c in coefs):
         return _UNIT
     nums, dens = zip(*(c.get_num_den() for c in coefs))
