@@ -118,6 +118,14 @@ def test_equilibria_and_their_stability(cart):
     assert "unstable" not in stability[-float(sympy.pi / 2)] and "unstable" in stability[float(sympy.pi / 2)]
 
 
+def test_a_model_without_equilibrium_says_why_in_its_report():
+    texts = [b.text() for b in lg.report("kepler").section("equilibria").blocks if isinstance(b, Paragraph)]
+    assert texts[:3] == ["There is no equilibrium (with the inputs at zero and the parameter values):",
+                         "SymPy finds no solution of -m*mu/r**2 = 0.",
+                         "The numerical search from 49 starting points found none."]
+    assert "a root at infinity is not an equilibrium" in texts[3]
+
+
 def test_massless_cart_diagnosis_names_the_singular_configuration():
     rep = lg.report("cart-pendulum-massless", equilibria=False)
     assert same(rep.expression("det M"), (M2 if "M2" in str(rep.expression("det M")) else S("M")) ** 2

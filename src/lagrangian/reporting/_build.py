@@ -453,7 +453,8 @@ class _Builder:
             return Section("equilibria", title, (Paragraph.of(f"Equilibria could not be computed: {exc}"),))
         if not found:
             return Section("equilibria", title, (Paragraph.of(
-                "No equilibrium was found (with the inputs at zero and the parameter values)."),))
+                "There is no equilibrium (with the inputs at zero and the parameter values):"),
+                *(Paragraph.of(f"{_sentence(note)}.") for note in getattr(found, "notes", ()))))
         blocks = [Paragraph.of("Equilibria with the inputs at zero and the parameter values, and their "
                                "stability from the linearized equations:")]
         rows = []
@@ -472,6 +473,11 @@ class _Builder:
                          getattr(e, "stability", "stable" if e.stable else "unstable"), eig_text))
         blocks.append(Table(("", "configuration", "stability", "eigenvalues"), tuple(rows)))
         return Section("equilibria", title, tuple(blocks))
+
+
+def _sentence(text: str) -> str:
+    """A note as a sentence: 'the search ...' -> 'The search ...' (not 'dV/dx' -> 'DV/dx')."""
+    return text[0].upper() + text[1:] if len(text) > 1 and text[0].islower() and text[1].islower() else text
 
 
 def _complex_text(z) -> str:
