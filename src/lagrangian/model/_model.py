@@ -470,7 +470,8 @@ class Model:
                 e = getattr(el, field_name, None)
                 if e is None:
                     continue
-                val = e.subs(values)
+                # a symbol or a number, as fields mostly are, without SymPy's (slow) subs
+                val = sympy.sympify(values.get(e, e)) if e.is_Symbol else e if e.is_Number else e.subs(values)
                 if val.is_number and val.is_real and float(val) < 0:
                     problems.append(Problem(f"{field_name} is negative ({float(val):g}): it must be zero or positive; "
                                             "check the sign or the parameter values",
