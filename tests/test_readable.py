@@ -235,6 +235,11 @@ def test_fast_constructors_give_sympys_canonical_objects():
         coef = rng.choice([sympy.S.One, sympy.Integer(-2), sympy.Rational(1, 2), sympy.Float(1.5)])
         mine, theirs = R._mul(coef, factors), sympy.Mul(coef, *factors)
         assert mine == theirs and sympy.srepr(mine) == sympy.srepr(theirs)
+    terms = [sympy.Mul(c, f) for c in (1, -1, 2, sympy.Rational(-1, 3), sympy.Float(0.5)) for f in pool]
+    for _ in range(3000):
+        chosen = rng.sample(terms, rng.randint(1, 6))
+        mine, theirs = R._add_sympy(chosen), sympy.Add(*chosen)
+        assert mine == theirs and sympy.srepr(mine) == sympy.srepr(theirs)
 
 
 def test_text_is_sympys_text():

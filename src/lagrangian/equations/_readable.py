@@ -411,8 +411,8 @@ def _grouped(terms: dict, state: frozenset, collect_on: frozenset) -> sympy.Expr
             out.append(_factored(poly, _factors(collected) + _factors(varying)))
         else:
             parts = [_factored(poly, _factors(varying)) for varying, poly in by_state.items()]
-            out.append(_mul(_ONE_SYMPY, [*_factors(collected), sympy.Add(*parts)]))
-    return sympy.Add(*out)
+            out.append(_mul(_ONE_SYMPY, [*_factors(collected), _add_sympy(parts)]))
+    return _add_sympy(out)
 
 
 @functools.lru_cache(maxsize=8192)
@@ -437,7 +437,7 @@ def _factored(poly: list, factors: list) -> sympy.Expr:
     for coef, mono in poly:
         rest = [(b, x - common[b]) if b in common else (b, x) for b, x in mono]
         inner.append(_mul(_to_sympy(coef / content), _factors(p for p in rest if p[1] != 0)))
-    total = sympy.Add(*inner)
+    total = _add_sympy(inner)
     if total.could_extract_minus_sign():  # (I1 - I3), not (-I1 + I3)
         content, total = -content, -total
     return _mul(_to_sympy(content), [*_factors(common.items()), total, *factors])
@@ -591,6 +591,18 @@ def _mul(coef: sympy.Expr, factors: list) -> sympy.Expr:
     if coef is not _ONE_SYMPY:
         args.insert(0, coef)
     return sympy.Mul._from_args(args, True)
+
+
+def _add_sympy(terms: list) -> sympy.Expr:
+    """``sympy.Add(*terms)``. When the terms are products, symbols or functions that do not combine
+    (no two with the same part besides the number: the groups of `_grouped` and the monomials of
+    `_factored`), SymPy's flattening would only sort them, and that is done here directly."""
+    if len(terms) < 2 or any(t.is_Add or t.is_Number for t in terms):
+        return sympy.Add(*terms)
+    parts = {t.as_coeff_Mul()[1] for t in terms}
+    if len(parts) != len(terms):
+        return sympy.Add(*terms)
+    return sympy.Add._from_args(sorted(terms, key=_args_sortkey), True)
 
 
 def _plain_factor(f) -> bool:
