@@ -169,3 +169,11 @@ def test_equilibria_are_roots_to_the_scale_of_the_forces():
     for e in equilibria(eqs, params={"g": 1e-6}):  # tiny forces: the tolerance scales with them
         f, _ = d.static(np.array(list(e.coordinates.values())), 0.0, np.zeros(0), np.array([1.0, 1.0, 1e-6]))
         assert np.abs(f).max() <= 1e-18
+
+
+def test_a_search_sympy_did_not_solve_says_there_may_be_others():
+    found = equilibria(lg.derive(lg.load("pendulum-chain-5")))
+    assert len(found) == 32  # every 0/pi combination is a start
+    assert found.notes == ("found by a numerical search from 176 starting points, SymPy not having solved for "
+                           "the equilibria: there may be others",)
+    assert found.text("chain").endswith("\n  note: " + found.notes[0])

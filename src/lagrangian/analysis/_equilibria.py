@@ -36,7 +36,7 @@ import sympy
 from ..equations import Equations
 from ._linearize import LinearModel
 from ._setting import Setting, resolve_setting
-from ._roots import (RootSet, free_axes, group_roots, is_root, no_root_reasons, numeric_roots,
+from ._roots import (RootSet, completeness_notes, free_axes, group_roots, is_root, no_root_reasons, numeric_roots,
                      search_context)
 from ._stability import DEGENERATE, NOT_FINITE, UNDETERMINED, assess
 from ._stationary import (StationaryProblem, conditions_hold, evaluate_exact, normalized_exact,
@@ -153,7 +153,7 @@ def _value_text(v: float, exact) -> str:
 class Equilibria(tuple):
     """The equilibria found: a tuple of :class:`Equilibrium`, sorted by coordinates, with `notes`:
     why there is none (a force that never vanishes, SymPy's proof, a search that found nothing or ran
-    away to infinity)."""
+    away to infinity), or that there may be others (found by the numerical search alone)."""
 
     def __new__(cls, items=(), notes=()):
         self = super().__new__(cls, items)
@@ -235,7 +235,8 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     points, ctx = found_points(problem, setting, starts=starts, seed=seed)
     found = tuple(make_equilibrium(problem, setting, r.q, r.exact, r.conditions, r.tangent, r.solution)
                   for r in points)
-    notes = no_root_reasons(problem, setting, ctx, "an equilibrium") if not found else ()
+    notes = (no_root_reasons(problem, setting, ctx, "an equilibrium") if not found
+             else completeness_notes(problem, ctx, "the equilibria"))
     return Equilibria(found, notes)
 
 

@@ -28,7 +28,7 @@ from ._setting import Setting
 from ._stationary import StationaryProblem, conditions_hold, constant_map, residual, same_point, wrap_angles
 
 __all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "RootSet", "group_roots",
-           "free_axes", "no_root_reasons", "runaway_notes"]
+           "free_axes", "no_root_reasons", "runaway_notes", "completeness_notes"]
 
 #: A root's residual, relative to the scale of the forces.
 _RESIDUAL = 1e-9
@@ -428,6 +428,15 @@ def no_root_reasons(problem: StationaryProblem, setting: Setting, ctx: Search, w
     if problem.unknowns and problem.rows:
         out.append(f"the numerical search from {ctx.starts} starting points found none")
     return tuple(out) + runaway_notes(ctx, what)
+
+
+def completeness_notes(problem: StationaryProblem, ctx: Search, what: str) -> tuple[str, ...]:
+    """When some were found only numerically: that others may exist (SymPy solved it completely
+    otherwise)."""
+    if problem.exact is not None or not problem.rows:
+        return ()
+    return (f"found by a numerical search from {ctx.starts} starting points, SymPy not having solved for "
+            f"{what}: there may be others",)
 
 
 def runaway_notes(ctx: Search, what: str) -> tuple[str, ...]:

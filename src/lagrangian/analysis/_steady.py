@@ -31,7 +31,7 @@ from ..errors import ModelError, Problem
 from ._equilibria import Equilibria, Equilibrium, found_points
 from ..model._kinematics import to_sympy
 from ._setting import _number, collect_setting, derivatives
-from ._roots import free_axes, no_root_reasons
+from ._roots import completeness_notes, free_axes, no_root_reasons
 from ._stability import assess
 from ._stationary import conserved_cyclic, stationary_problem
 
@@ -228,6 +228,7 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
             a.linear_model, not r.dimension, r.dimension, free_axes(ctx, r.q, r.tangent),
             MappingProxyType({f"{n}_dot": float(v) + 0.0 for n, v in zip(names, qd)}),
             MappingProxyType({f"p_{names[i]}": float(p[i]) + 0.0 for i in cyclic}), exact_rates))
-    notes = no_root_reasons(problem, setting, ctx, "a steady motion") if not found else ()
+    notes = (no_root_reasons(problem, setting, ctx, "a steady motion") if not found
+             else completeness_notes(problem, ctx, "the steady motions"))
     given = {**{f"{names[i]}_dot": v for i, v in fixed_v.items()}, **{f"p_{names[i]}": v for i, v in fixed_p.items()}}
     return SteadyMotions(tuple(found), notes, given)
