@@ -18,7 +18,7 @@ from __future__ import annotations
 import symengine as se
 
 from ..model import Model
-from ..model._elements import Particle, RigidBody
+from ..model._elements import Particle, RigidBody, RigidBody3D
 from ..model._kinematics import Kinematics
 from ._equations import Equations, SymbolicCore
 
@@ -44,7 +44,7 @@ def derive(model: Model) -> Equations:
                         f"got {type(model).__name__}")
     model.validate()
     snapshot = model.copy()._freeze()
-    massive = [e for e in snapshot.elements if isinstance(e, (Particle, RigidBody))]
+    massive = [e for e in snapshot.elements if isinstance(e, (Particle, RigidBody, RigidBody3D))]
     kin = Kinematics(snapshot.q, massive)
     n = len(kin.q)
 

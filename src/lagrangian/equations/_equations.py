@@ -219,10 +219,10 @@ class Equations:
 
     @cached_property
     def input_matrix(self) -> sympy.ImmutableMatrix:
-        """B = dQ/du, shape (n, number of inputs)."""
+        """B = dQ/du, shape (n, number of inputs), in readable form."""
         u = [se.Symbol(s.name) for s in self.inputs]
-        rows = [[to_sympy(Qi.diff(uj)) for uj in u] for Qi in self.core.Q]
-        return sympy.ImmutableMatrix(self.n, len(u), [x for r in rows for x in r])
+        entries = readable_many([Qi.diff(uj) for Qi in self.core.Q for uj in u], state=self._varying)
+        return sympy.ImmutableMatrix(self.n, len(u), entries)
 
     B = property(lambda self: self.input_matrix, doc="Alias of `input_matrix`.")
 

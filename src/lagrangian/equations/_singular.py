@@ -14,7 +14,7 @@ import numpy as np
 import symengine as se
 import sympy
 
-from ..model._elements import Particle, RigidBody
+from ..model._elements import Particle, RigidBody, RigidBody3D
 from ._equations import Equations
 from ._readable import trigonometric_polynomial
 
@@ -293,9 +293,12 @@ def _element_motion(eqs: Equations, where: dict, direction: sympy.Matrix, values
     still, moving_massless = [], []
     at = {**values, **where}
     for el in eqs.model.elements:
-        if not isinstance(el, (Particle, RigidBody)):
+        if not isinstance(el, (Particle, RigidBody, RigidBody3D)):
             continue
         coords = list(el.position) + ([el.angle] if isinstance(el, RigidBody) else [])
+        if isinstance(el, RigidBody3D):  # a body in space moves when its centre or its rotation does
+            coords += [f.angle for f in el.factors if f.matrix is None]
+            coords += [x for f in el.factors if f.matrix is not None for row in f.matrix for x in row]
         moves = False
         for c in coords:
             rate = sum(sympy.diff(c, q) * d for q, d in zip(eqs.coordinates, direction))
@@ -388,7 +391,7 @@ def _configuration(eqs, M, M_values, where, values) -> SingularConfiguration:
 def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tuple[str, str]:
     direction = [c.null_velocity.get(v.name, 0) for v in eqs.velocities]
     q = _blamed_coordinate(eqs, direction)
-    has_elements = any(isinstance(e, (Particle, RigidBody)) for e in eqs.model.elements)
+    has_elements = any(isinstance(e, (Particle, RigidBody, RigidBody3D)) for e in eqs.model.elements)
     if c.moving_massless:
         cause = (f"along this motion only massless parts move: {', '.join(c.moving_massless)}; "
                  "every body with mass stays still, so the motion has no inertia.")

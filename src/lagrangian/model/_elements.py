@@ -17,8 +17,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._kinematics import Kinematics
 
 __all__ = [
-    "Element", "Particle", "RigidBody", "Point", "Spring", "Damper", "Gravity", "Force", "Torque",
-    "Contribution",
+    "Element", "Particle", "RigidBody", "RigidBody3D", "Point", "Spring", "Damper", "Gravity", "Force", "Torque",
+    "Torque3D", "Contribution",
 ]
 
 Vector = tuple[sympy.Expr, ...]
@@ -101,6 +101,49 @@ class RigidBody(Element):
         w = kin.rate(self.angle)
         T = kin.se(self.mass) * sum(vi * vi for vi in v) / 2 + kin.se(self.inertia) * w * w / 2
         return Contribution(T=T)
+
+
+@dataclass(frozen=True)
+class RigidBody3D(Element):
+    """A rigid body in space: `mass`, centroidal `inertia` (3x3, in body axes), centre of mass
+    `position` (world coordinates) and its orientation, the rotation from the world's axes to the
+    body's as the `factors` of the chain of frames down to its `frame` (see ``_frames``).
+
+    T* = m |v_G|^2 / 2 + omega^T I omega / 2, with omega the angular velocity in body axes, derived
+    from the rotation (omega~ = R^T R').
+    """
+
+    name: str
+    mass: sympy.Expr
+    inertia: tuple  # 3 rows of 3
+    position: Vector
+    frame: str
+    factors: tuple = ()
+    kind = "rigid body"
+
+    def expressions(self) -> dict[str, sympy.Expr]:
+        out = {"mass": self.mass}
+        out.update({f"position[{i}]": v for i, v in enumerate(self.position)})
+        out.update({f"inertia[{i}][{j}]": v for i, row in enumerate(self.inertia) for j, v in enumerate(row)})
+        for k, f in enumerate(self.factors):
+            if f.matrix is not None:
+                out.update({f"rotation[{k}][{i}][{j}]": v for i, row in enumerate(f.matrix) for j, v in enumerate(row)})
+            else:
+                out[f"rotation[{k}]"] = f.angle
+        return out
+
+    def omega(self, kin) -> list:
+        """The angular velocity in body axes (SymEngine)."""
+        from ._frames import angular_velocity
+
+        return angular_velocity(self.factors, kin)
+
+    def contribute(self, kin):
+        v = kin.velocity(self.position)
+        w = self.omega(kin)
+        inertia = [[kin.se(x) for x in row] for row in self.inertia]
+        rotational = sum((w[i] * inertia[i][j] * w[j] for i in range(3) for j in range(3)), 0)
+        return Contribution(T=kin.se(self.mass) * sum(vi * vi for vi in v) / 2 + rotational / 2)
 
 
 @dataclass(frozen=True)
@@ -190,6 +233,38 @@ class Force(Element):
         F = [kin.se(c) for c in self.force]
         r = [kin.se(c) for c in self.position]
         return Contribution(Q=tuple(sum(Fi * ri.diff(qk) for Fi, ri in zip(F, r)) for qk in kin.q))
+
+
+@dataclass(frozen=True)
+class Torque3D(Element):
+    """A torque vector on a rigid body in space, its components in the axes of `frame` (the body's
+    frame, another frame, or the world): Q_k = tau_body . d(omega_body)/d(q_dot_k) (virtual work:
+    the torque times the virtual rotation)."""
+
+    name: str
+    torque: Vector
+    body: str
+    frame: str
+    body_factors: tuple = ()
+    frame_factors: tuple = ()
+    kind = "torque"
+
+    def contribute(self, kin):
+        import symengine as se
+
+        from ._frames import angular_velocity, rotation_product
+
+        w = angular_velocity(self.body_factors, kin)
+        # tau in body axes: R_body^T R_frame tau, the rotations common to both chains cancelled
+        common = 0
+        while (common < min(len(self.body_factors), len(self.frame_factors))
+               and self.body_factors[common] == self.frame_factors[common]):
+            common += 1
+        to_body = (rotation_product(self.body_factors[common:]).T
+                   * rotation_product(self.frame_factors[common:]))
+        tau = to_body * sympy.Matrix(self.torque)
+        tau = [kin.se(c) for c in tau]
+        return Contribution(Q=tuple(sum((tau[i] * w[i].diff(v) for i in range(3)), se.Integer(0)) for v in kin.qd))
 
 
 @dataclass(frozen=True)

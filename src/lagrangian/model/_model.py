@@ -16,8 +16,9 @@ from typing import Mapping, Sequence
 import sympy
 
 from ..errors import ExpressionError, ModelError, Problem
-from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, Spring,
-                        Torque)
+from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, Spring,
+                        Torque, Torque3D)
+from ._frames import AXES, WORLD, Factor, Frame, frame_pose, world_factors
 from ._symbols import check_name, ddot, dot, t
 
 __all__ = ["Model"]
@@ -69,6 +70,7 @@ class Model:
         self._parameters: dict[sympy.Symbol, float | None] = {}
         self._inputs: list[sympy.Symbol] = []
         self._elements: list[Element] = []
+        self._frames: dict[str, Frame] = {}
         self._T = sympy.Integer(0)
         self._V = sympy.Integer(0)
         self._D = sympy.Integer(0)
@@ -158,6 +160,11 @@ class Model:
     def elements(self) -> tuple[Element, ...]:
         return tuple(self._elements)
 
+    @property
+    def frames(self) -> dict[str, Frame]:
+        """The reference frames by name (the inertial frame ``world`` is implicit)."""
+        return dict(self._frames)
+
     def symbol(self, name: str) -> sympy.Symbol:
         """The symbol of a declared name (coordinate, velocity, parameter, input or t)."""
         known = self.names()
@@ -224,9 +231,21 @@ class Model:
         raise ModelError(f"{where}: expected an expression, a number or a string, got {value!r} "
                          f"({type(value).__name__})")
 
-    def _vector(self, value, where: str) -> tuple[sympy.Expr, ...]:
+    def _vector(self, value, where: str, frame: str | None = None) -> tuple[sympy.Expr, ...]:
+        """A position (components, or a point's name); with `frame`, components in that frame,
+        returned in world coordinates."""
         if isinstance(value, str) and value in self._points():
+            if frame is not None:
+                raise ModelError(f"{where}: '{value}' is a point's name: it has a position already, so "
+                                 "give no frame with it")
             return self._points()[value]
+        if frame is not None:
+            local = self._vector(value, where)
+            if len(local) != 3:
+                raise ModelError(f"{where}: a position in the frame '{frame}' has 3 components (x, y, z), "
+                                 f"got {len(local)}")
+            origin, R = frame_pose(self._frames, self._frame_name(frame, f"{where} (frame)"))
+            return tuple(o + r for o, r in zip(origin, R * sympy.Matrix(local)))
         if isinstance(value, (sympy.Matrix, sympy.ImmutableMatrix)):
             value = list(value)
         if not isinstance(value, (list, tuple)) or len(value) not in (2, 3):
@@ -236,7 +255,7 @@ class Model:
 
     def _points(self) -> dict[str, tuple]:
         return {e.name: e.position for e in self._elements if hasattr(e, "position")
-                and isinstance(e, (Particle, RigidBody, Point))}
+                and isinstance(e, (Particle, RigidBody, RigidBody3D, Point))}
 
     def _unique_element_name(self, name: str | None, kind: str) -> str:
         self._check_mutable()
@@ -253,29 +272,164 @@ class Model:
         return name
 
     # ----------------------------------------------------------------- elements
-    def add_point(self, name: str, position) -> Point:
-        """A massless named point (a pivot, an attachment) that springs and loads can refer to."""
-        e = Point(self._unique_element_name(name, "point"), self._vector(position, f"point '{name}'.position"))
+    def add_point(self, name: str, position, *, frame: str | None = None) -> Point:
+        """A massless named point (a pivot, an attachment) that springs and loads can refer to;
+        with `frame`, `position` is given in that frame (a body-fixed point)."""
+        e = Point(self._unique_element_name(name, "point"),
+                  self._vector(position, f"point '{name}'.position", frame))
         self._elements.append(e)
         return e
 
-    def add_particle(self, mass, position, *, name: str | None = None) -> Particle:
-        """A point mass at `position`: a 2- or 3-tuple of expressions of q and t."""
+    def add_particle(self, mass, position, *, frame: str | None = None, name: str | None = None) -> Particle:
+        """A point mass at `position`: a 2- or 3-tuple of expressions of q and t (in the axes and
+        from the origin of `frame`, when given)."""
         name = self._unique_element_name(name, "particle")
         e = Particle(name, self.expr(mass, f"particle '{name}'.mass"),
-                     self._vector(position, f"particle '{name}'.position"))
+                     self._vector(position, f"particle '{name}'.position", frame))
         self._elements.append(e)
         return e
 
-    def add_rigid_body(self, mass, inertia, position, angle, *, name: str | None = None) -> RigidBody:
-        """A planar rigid body: `mass`, centroidal `inertia`, centre `position` and rotation `angle`."""
+    # ------------------------------------------------------------------- frames
+    def add_frame(self, name: str, *, parent: str = WORLD, origin=(0, 0, 0), rotation=None) -> Frame:
+        """A reference frame, chained from the inertial frame ``world``.
+
+        Parameters
+        ----------
+        name : str
+        parent : str
+            ``"world"`` (default) or a frame added before.
+        origin : 3 expressions
+            The frame's origin in the parent's axes (relative to the parent's origin), of q and t.
+        rotation : list of (axis, angle), or a 3x3 matrix, optional
+            Successive elementary rotations about the frame's own current axes (intrinsic): axis
+            ``"x"``, ``"y"``, ``"z"`` or a 3-vector, angle an expression of q and t
+            (``[("z", "phi"), ("x", "theta"), ("z", "psi")]``, Euler's angles); or the rotation
+            matrix itself (the frame's axes in the parent's, R with R^T R = I and det R = 1).
+            Default: the parent's axes.
+
+        Returns
+        -------
+        Frame
+        """
+        self._check_mutable()
+        where = f"frame '{name}'"
+        if not isinstance(name, str) or not name.isidentifier():
+            raise ModelError(f"{where}: a frame's name must be an identifier (letters, digits, _), e.g. 'body'")
+        if name == WORLD or name in self._frames:
+            raise ModelError(f"{where}: the name is taken ({'the inertial frame' if name == WORLD else 'another frame'}); "
+                             "give each frame its own name")
+        parent = self._frame_name(parent, f"{where}.parent")
+        local = self._vector(origin, f"{where}.origin")
+        if len(local) != 3:
+            raise ModelError(f"{where}.origin: expected 3 components (x, y, z), got {len(local)}")
+        frame = Frame(name, parent, local, self._factors(rotation, f"{where}.rotation"))
+        self._frames[name] = frame
+        return frame
+
+    def _frame_name(self, name, where: str) -> str:
+        if name == WORLD or name in self._frames:
+            return name
+        hint = difflib.get_close_matches(str(name), [WORLD, *self._frames], n=1)
+        extra = f" (did you mean '{hint[0]}'?)" if hint else ""
+        raise ModelError(f"{where}: no frame is named '{name}'{extra}; the frames are "
+                         f"{', '.join([WORLD, *self._frames])} (add a frame with m.add_frame(...), or a "
+                         "[[frames]] table, before what is placed in it)")
+
+    def _factors(self, rotation, where: str) -> tuple[Factor, ...]:
+        if rotation is None:
+            return ()
+        if isinstance(rotation, (sympy.Matrix, sympy.ImmutableMatrix)):
+            rotation = rotation.tolist()
+        if (isinstance(rotation, (list, tuple)) and len(rotation) == 3
+                and all(isinstance(r, (list, tuple)) and len(r) == 3 for r in rotation)
+                and not any(isinstance(r[0], str) for r in rotation)):
+            rows = tuple(tuple(self.expr(x, f"{where}[{i}][{j}]") for j, x in enumerate(r))
+                         for i, r in enumerate(rotation))
+            return (Factor(matrix=rows),)
+        if not isinstance(rotation, (list, tuple)):
+            raise ModelError(f"{where}: expected a list of (axis, angle) pairs, e.g. [(\"z\", \"phi\"), "
+                             f"(\"x\", \"theta\")], or a 3x3 rotation matrix, got {rotation!r}")
+        out = []
+        for k, step in enumerate(rotation):
+            if not isinstance(step, (list, tuple)) or len(step) != 2:
+                raise ModelError(f"{where}[{k}]: expected (axis, angle), e.g. (\"z\", \"phi\"), got {step!r}")
+            axis, angle = step
+            out.append(Factor(axis=self._axis(axis, f"{where}[{k}].axis"), angle=self.expr(angle, f"{where}[{k}].angle")))
+        return tuple(out)
+
+    def _axis(self, axis, where: str) -> tuple:
+        if isinstance(axis, str):
+            if axis not in AXES:
+                raise ModelError(f"{where}: '{axis}' is not an axis; use \"x\", \"y\", \"z\" or a 3-vector "
+                                 "such as [1, 1, 0]")
+            return tuple(sympy.Integer(a) for a in AXES[axis])
+        if not isinstance(axis, (list, tuple)) or len(axis) != 3:
+            raise ModelError(f"{where}: expected \"x\", \"y\", \"z\" or a 3-vector of numbers, got {axis!r}")
+        v = [self.expr(a, f"{where}[{i}]") for i, a in enumerate(axis)]
+        if not all(c.is_number for c in v):
+            raise ModelError(f"{where}: an axis is fixed in the frame: its components must be numbers, got {axis!r}")
+        norm = sympy.sqrt(sum(c ** 2 for c in v))
+        if norm == 0:
+            raise ModelError(f"{where}: the zero vector is not an axis; give its direction, e.g. [0, 0, 1]")
+        return tuple(sympy.nsimplify(c / norm) for c in v)
+
+    # ------------------------------------------------------------------- bodies
+    def add_rigid_body(self, mass, inertia, position=None, angle=None, *, frame: str | None = None,
+                       center=(0, 0, 0), center_frame: str | None = None,
+                       name: str | None = None) -> RigidBody | RigidBody3D:
+        """A rigid body: planar, or in space when a `frame` gives its orientation.
+
+        Planar: `mass`, centroidal `inertia` (a number), centre `position` and rotation `angle`.
+
+        In space (`frame` given): `mass`; centroidal `inertia` in the frame's axes: three principal
+        values (I1, I2, I3), the six components (xx, yy, zz, xy, yz, zx) of the tensor, or a 3x3
+        matrix; the centre of mass `center` in the axes and from the origin of `center_frame`
+        (default: the body's frame; ``"world"`` for world coordinates). The body's orientation is
+        the frame's: its angular velocity is derived from the frame's rotations.
+        """
         name = self._unique_element_name(name, "body")
-        e = RigidBody(name, self.expr(mass, f"body '{name}'.mass"),
-                      self.expr(inertia, f"body '{name}'.inertia"),
-                      self._vector(position, f"body '{name}'.position"),
-                      self.expr(angle, f"body '{name}'.angle"))
+        where = f"body '{name}'"
+        if frame is None:
+            if position is None or angle is None:
+                raise ModelError(f"{where}: a planar body needs a position and an angle; a body in space needs "
+                                 "frame=... (the frame that carries it), with its center and its 3D inertia")
+            e = RigidBody(name, self.expr(mass, f"{where}.mass"), self.expr(inertia, f"{where}.inertia"),
+                          self._vector(position, f"{where}.position"), self.expr(angle, f"{where}.angle"))
+        else:
+            if position is not None or angle is not None:
+                raise ModelError(f"{where}: a body in space takes its orientation from its frame and its centre "
+                                 "from center=... (in the frame's axes): give no position or angle")
+            frame = self._frame_name(frame, f"{where}.frame")
+            at = self._vector(center, f"{where}.center", frame if center_frame is None else center_frame)
+            e = RigidBody3D(name, self.expr(mass, f"{where}.mass"), self._inertia(inertia, f"{where}.inertia"),
+                            at, frame, world_factors(self._frames, frame))
         self._elements.append(e)
         return e
+
+    def _inertia(self, value, where: str) -> tuple:
+        """A 3x3 inertia tensor from 3 principal values, the 6 components or a 3x3 matrix."""
+        if isinstance(value, (sympy.Matrix, sympy.ImmutableMatrix)):
+            value = value.tolist()
+        if isinstance(value, Mapping):
+            keys = ("xx", "yy", "zz", "xy", "yz", "zx")
+            unknown = set(value) - set(keys)
+            if unknown or not {"xx", "yy", "zz"} <= set(value):
+                raise ModelError(f"{where}: expected the components xx, yy, zz (and xy, yz, zx, default 0), "
+                                 f"got {', '.join(map(str, value))}")
+            value = [value.get(k, 0) for k in keys]
+        if isinstance(value, (list, tuple)) and len(value) == 3 and all(
+                isinstance(r, (list, tuple)) and len(r) == 3 for r in value):
+            m = [[self.expr(x, f"{where}[{i}][{j}]") for j, x in enumerate(r)] for i, r in enumerate(value)]
+            if any(sympy.simplify(m[i][j] - m[j][i]) != 0 for i in range(3) for j in range(i + 1, 3)):
+                raise ModelError(f"{where}: an inertia tensor is symmetric; the matrix given is not")
+            return tuple(tuple(r) for r in m)
+        if isinstance(value, (list, tuple)) and len(value) in (3, 6):
+            c = [self.expr(x, f"{where}[{i}]") for i, x in enumerate(value)]
+            xx, yy, zz = c[:3]
+            xy, yz, zx = c[3:] if len(c) == 6 else (sympy.Integer(0),) * 3
+            return ((xx, xy, zx), (xy, yy, yz), (zx, yz, zz))
+        raise ModelError(f"{where}: expected 3 principal moments (I1, I2, I3), the 6 components (xx, yy, zz, "
+                         f"xy, yz, zx) or a 3x3 matrix, got {value!r}")
 
     def _ends(self, between, where):
         if not isinstance(between, (list, tuple)) or len(between) != 2:
@@ -338,11 +492,17 @@ class Model:
         self._elements.append(e)
         return e
 
-    def add_force(self, force, at, *, name: str | None = None) -> Force:
-        """A force vector applied at a point (its name or position); Q by virtual work."""
+    def add_force(self, force, at, *, frame: str | None = None, name: str | None = None) -> Force:
+        """A force vector applied at a point (its name or position); Q by virtual work. With
+        `frame`, the force's components are in that frame's axes (a thrust along a body's axis)."""
         name = self._unique_element_name(name, "force")
         where = f"force '{name}'"
         F = self._vector(force, f"{where}.force")
+        if frame is not None:
+            if len(F) != 3:
+                raise ModelError(f"{where}.force: a force in the frame '{frame}' has 3 components, got {len(F)}")
+            _, R = frame_pose(self._frames, self._frame_name(frame, f"{where}.frame"))
+            F = tuple(R * sympy.Matrix(F))
         r = self._vector(at, f"{where}.at")
         if len(F) != len(r):
             raise ModelError(f"{where}: the force has {len(F)} components but the point has {len(r)}; "
@@ -351,13 +511,31 @@ class Model:
         self._elements.append(e)
         return e
 
-    def add_torque(self, torque, *, angle=None, body: str | None = None, name: str | None = None) -> Torque:
-        """A torque acting on the rotation `angle` (an expression) or on the rigid body named `body`."""
+    def add_torque(self, torque, *, angle=None, body: str | None = None, frame: str | None = None,
+                   name: str | None = None) -> Torque | Torque3D:
+        """A torque acting on the rotation `angle` (an expression) or on the rigid body named `body`.
+
+        On a body in space the torque is a 3-vector, its components in the axes of `frame` (default:
+        the body's own frame; ``"world"`` for the inertial axes)."""
         name = self._unique_element_name(name, "torque")
         where = f"torque '{name}'"
         if (angle is None) == (body is None):
             raise ModelError(f"{where}: give either `angle` (an expression) or `body` (a rigid body's name), "
                              "exactly one of them")
+        spatial = {e.name: e for e in self._elements if isinstance(e, RigidBody3D)}
+        if body in spatial:
+            tau = self._vector(torque, f"{where}.torque")
+            if len(tau) != 3:
+                raise ModelError(f"{where}.torque: a torque on the body '{body}' in space has 3 components "
+                                 f"(x, y, z), got {len(tau)}")
+            b = spatial[body]
+            axes = b.frame if frame is None else self._frame_name(frame, f"{where}.frame")
+            e = Torque3D(name, tau, body, axes, b.factors, world_factors(self._frames, axes))
+            self._elements.append(e)
+            return e
+        if frame is not None:
+            raise ModelError(f"{where}.frame: only a torque on a body in space has axes; a planar torque is a "
+                             "number (about the axis normal to the plane)")
         if body is not None:
             bodies = {e.name: e for e in self._elements if isinstance(e, RigidBody)}
             if body not in bodies:
@@ -468,7 +646,7 @@ class Model:
         for el in self._elements:
             for field_name in ("mass", "inertia", "stiffness", "coefficient"):
                 e = getattr(el, field_name, None)
-                if e is None:
+                if e is None or isinstance(e, tuple):  # a body's inertia tensor in space: below
                     continue
                 # a symbol or a number, as fields mostly are, without SymPy's (slow) subs
                 val = sympy.sympify(values.get(e, e)) if e.is_Symbol else e if e.is_Number else e.subs(values)
@@ -476,6 +654,13 @@ class Model:
                     problems.append(Problem(f"{field_name} is negative ({float(val):g}): it must be zero or positive; "
                                             "check the sign or the parameter values",
                                             key=f"{el.kind} '{el.name}'.{field_name}"))
+        for el in self._elements:
+            if isinstance(el, RigidBody3D):
+                problems += _inertia_problems(el, values)
+        for frame in self._frames.values():
+            for f in frame.factors:
+                if f.matrix is not None:
+                    problems += _rotation_problems(f.matrix, values, f"frame '{frame.name}'.rotation")
         return problems
 
     def validate(self) -> None:
@@ -496,6 +681,7 @@ class Model:
         self._parameters = dict(self._parameters)
         self._inputs = list(self._inputs)
         self._elements = list(self._elements)
+        self._frames = dict(self._frames)
         self._Q = dict(self._Q)
         self.simulation = copy.deepcopy(self.simulation)
         return self
@@ -536,3 +722,59 @@ class Model:
     def __repr__(self) -> str:
         return (f"Model({self.name!r}, coordinates={[c.name for c in self._coordinates]}, "
                 f"elements={len(self._elements)})")
+
+
+def _numeric(expr, values) -> float | None:
+    try:
+        v = sympy.sympify(expr).subs(values)
+        return float(v) if v.is_number and v.is_real else None
+    except (TypeError, ValueError):
+        return None
+
+
+def _inertia_problems(body: RigidBody3D, values) -> list[Problem]:
+    """A body's inertia tensor, when its entries have values: positive semi-definite (a zero
+    moment is a slender rod about its axis) and its principal moments within the triangle
+    inequality (I1 + I2 >= I3 and the like: no real body breaks it)."""
+    import numpy as np
+
+    where = f"{body.kind} '{body.name}'.inertia"
+    numbers = [[_numeric(x, values) for x in row] for row in body.inertia]
+    if any(x is None for row in numbers for x in row):
+        return []
+    moments = np.linalg.eigvalsh(np.array(numbers, dtype=float))
+    scale = max(1e-300, float(np.abs(moments).max()))
+    text = ", ".join(f"{m:g}" for m in moments)
+    if moments.min() < -1e-12 * scale:
+        return [Problem(f"the inertia tensor is not positive definite (principal moments {text}): a moment of "
+                        "inertia is never negative; check the signs of the products of inertia (xy, yz, zx are "
+                        "the tensor's entries) and the parameter values", key=where)]
+    a, b, c = sorted(moments)
+    if a + b < c - 1e-9 * scale:
+        return [Problem(f"the principal moments of inertia {text} break the triangle inequality "
+                        f"({a:g} + {b:g} < {c:g}): no body has them; a moment about an axis is at most the sum of "
+                        "the other two (equal for a flat plate)", key=where)]
+    return []
+
+
+def _rotation_problems(matrix, values, where: str) -> list[Problem]:
+    """A rotation matrix: R^T R = I and det R = 1, checked at random values of what it depends on."""
+    import numpy as np
+
+    M = sympy.Matrix(matrix).subs(values)
+    free = sorted(M.free_symbols, key=str)
+    f = sympy.lambdify(free, M, modules="numpy")
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        try:
+            R = np.array(f(*rng.uniform(-2, 2, len(free))), dtype=float)
+        except (TypeError, ValueError, ZeroDivisionError):
+            return [Problem("the rotation matrix could not be evaluated: its entries must be expressions of the "
+                            "coordinates, parameters and t", key=where)]
+        if not (np.allclose(R.T @ R, np.eye(3), atol=1e-9) and abs(np.linalg.det(R) - 1) < 1e-9):
+            det = np.linalg.det(R)
+            why = "its columns are not orthonormal (R^T R is not the identity)" if not np.allclose(
+                R.T @ R, np.eye(3), atol=1e-9) else f"its determinant is {det:.3g}, not 1 (a reflection)"
+            return [Problem(f"the matrix is not a rotation: {why}; write it as elementary rotations, e.g. "
+                            "[(\"z\", \"phi\"), (\"x\", \"theta\")], or check its entries", key=where)]
+    return []

@@ -32,7 +32,7 @@ import numpy as np
 import sympy
 
 from ..errors import ModelError
-from ..model._elements import Damper, Particle, Point, RigidBody, Spring
+from ..model._elements import Damper, Particle, Point, RigidBody, RigidBody3D, Spring
 
 __all__ = ["Scene", "Node", "scene_of", "check_drawable", "drawable_names"]
 
@@ -108,7 +108,7 @@ class Scene:
 
 
 def _positioned(model):
-    return [e for e in model.elements if isinstance(e, (Point, Particle, RigidBody))]
+    return [e for e in model.elements if isinstance(e, (Point, Particle, RigidBody, RigidBody3D))]
 
 
 def drawable_names(model) -> list[str]:
@@ -236,11 +236,12 @@ def scene_of(model, params=None) -> Scene:
 
     index_of: dict[str, int] = {}
     for e in elements:
-        kind = {Point: "point", Particle: "particle", RigidBody: "body"}[type(e)]
+        # a body in space is drawn at its centre of mass, as a particle is
+        kind = {Point: "point", Particle: "particle", RigidBody: "body", RigidBody3D: "particle"}[type(e)]
         mass = float(sympy.sympify(getattr(e, "mass", 0)).subs(b.subs)) if kind != "point" else 0.0
         inertia = float(sympy.sympify(e.inertia).subs(b.subs)) if kind == "body" else 0.0
         index_of[e.name] = b.add(Node(e.name, kind, mass, inertia), pad(e.position))
-    massive = [index_of[e.name] for e in elements if isinstance(e, (Particle, RigidBody))]
+    massive = [index_of[e.name] for e in elements if isinstance(e, (Particle, RigidBody, RigidBody3D))]
 
     # hidden pivots
     for i in massive:

@@ -18,7 +18,9 @@ from ..equations import Equations, derive, singularities
 from ..equations._singular import determinant, factored
 from ..errors import LagrangianError
 from ..model import Model
-from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBody, Spring, Torque)
+from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, Spring, Torque,
+                               Torque3D)
+from ..model._frames import angular_velocity
 from ..model._kinematics import Kinematics
 from ._document import Math, Paragraph, Report, Section, Table
 from ._printing import Partial, TimeDerivative
@@ -90,7 +92,7 @@ class _Builder:
     def __init__(self, eqs: Equations):
         self.eqs = eqs
         self.model = eqs.model
-        massive = [e for e in self.model.elements if isinstance(e, (Particle, RigidBody))]
+        massive = [e for e in self.model.elements if isinstance(e, (Particle, RigidBody, RigidBody3D))]
         self.kin = Kinematics(self.model.q, massive)
         self.massive = massive
         self.readable = eqs.readable
@@ -105,10 +107,17 @@ class _Builder:
                 "elements: there are no bodies or frames to list."))
             return Section("bodies", "1. Bodies and frame", tuple(blocks))
         n = len(self.massive)
+        frames = self.model.frames
         blocks.append(Paragraph.of(
             f"{n} {'body' if n == 1 else 'bodies'} with mass "
             f"({', '.join(f'{e.kind} {e.name}' for e in self.massive) or 'none'}). "
-            f"With the inertial frame, {n + 1} reference frame{'s' if n else ''} (the seed's N + 1)."))
+            + (f"With the inertial frame, {n + 1} reference frame{'s' if n else ''} (the seed's N + 1)."
+               if not frames else
+               f"Reference frames: the inertial frame world and {len(frames)} more, each with its parent, its "
+               "origin in the parent's axes and its rotation (successive rotations about its own axes):")))
+        if frames:
+            blocks.append(Table(("frame", "parent", "origin", "rotation"), tuple(
+                (f.name, f.parent, _col(f.origin), _rotation_text(f)) for f in frames.values())))
         dims = {len(e.position) for e in elements if hasattr(e, "position")}
         axes = "x, y, z" if 3 in dims else "x, y"
         blocks.append(Paragraph.of(f"Positions are written in one inertial frame with axes {axes}"
@@ -120,6 +129,9 @@ class _Builder:
                 rows.append((e.name, e.kind, e.mass, "point mass"))
             elif isinstance(e, RigidBody):
                 rows.append((e.name, e.kind, e.mass, sympy.Eq(S("I"), e.inertia, evaluate=False)))
+            elif isinstance(e, RigidBody3D):
+                rows.append((e.name, f"{e.kind} in space, frame {e.frame}", e.mass,
+                             sympy.Eq(S("I"), sympy.Matrix(e.inertia), evaluate=False)))
             else:
                 rows.append((e.name, e.kind, "", ""))
         blocks.append(Table(("element", "kind", "mass", "inertia"), tuple(rows)))
@@ -181,6 +193,28 @@ class _Builder:
                     blocks.append(Paragraph.of("Its kinetic co-energy, ",
                                                Math(S("m") * S("|v|^2") / 2, S("T^*")), ":"))
                 blocks.append(Math(self.readable(e.contribute(kin).T), S("T^*"), key=f"T[{name}]"))
+            elif isinstance(e, RigidBody3D):
+                blocks.append(Paragraph.of(f"Rigid body {name} in space, mass ", e.mass, ", centroidal inertia in "
+                                           f"the axes of its frame {e.frame} ", sympy.Matrix(e.inertia),
+                                           "; its centre of mass and velocity:"))
+                r = tuple(e.position)
+                v = tuple(self.readable(x) for x in kin.velocity(r))
+                blocks.append(Math(_col(r), S("r"), key=f"position[{name}]"))
+                blocks.append(Math(_col(v), S("v"), key=f"velocity[{name}]"))
+                blocks.append(Paragraph.of(
+                    "Its angular velocity in its own axes, derived from its frame's rotation R (the skew-symmetric "
+                    "matrix of omega is R^T dR/dt; never given), and its kinetic co-energy, translation and "
+                    "rotation, T* = m |v|^2/2 + omega^T I omega/2:"))
+                blocks.append(Math(_col(self.readable(w) for w in angular_velocity(e.factors, kin)), S("omega"),
+                                   key=f"omega[{name}]"))
+                blocks.append(Math(self.readable(e.contribute(kin).T), S("T^*"), key=f"T[{name}]"))
+            elif isinstance(e, Torque3D):
+                blocks.append(Paragraph.of(f"Torque {name} on body {e.body}, in the axes of {e.frame}; its "
+                                           "generalized forces by virtual work, the torque times the virtual "
+                                           "rotation, ", Math(sympy.Mul(S("tau^T"), Partial(S("omega"), S("q_k_dot")),
+                                                                        evaluate=False), S("Q_k")), ":"))
+                blocks.append(Math(_col(e.torque), S("tau"), key=f"torque[{name}]"))
+                blocks.append(Math(_col(self.readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
             elif isinstance(e, Spring):
                 blocks.append(Paragraph.of(f"Spring {name}, stiffness ", e.stiffness,
                                            f", between {e.between[0]} and {e.between[1]}" if e.between else "",
@@ -478,6 +512,21 @@ class _Builder:
 def _sentence(text: str) -> str:
     """A note as a sentence: 'the search ...' -> 'The search ...' (not 'dV/dx' -> 'DV/dx')."""
     return text[0].upper() + text[1:] if len(text) > 1 and text[0].islower() and text[1].islower() else text
+
+
+def _rotation_text(frame) -> str:
+    """A frame's rotation in words: "z by phi, then x by theta", or "a matrix", or "none"."""
+    if not frame.factors:
+        return "none (the parent's axes)"
+    parts = []
+    for f in frame.factors:
+        if f.matrix is not None:
+            parts.append("the matrix " + sympy.sstr(sympy.Matrix(f.matrix).tolist()))
+        else:
+            axis = {(1, 0, 0): "x", (0, 1, 0): "y", (0, 0, 1): "z"}.get(tuple(int(a) if a.is_Integer else a
+                                                                                for a in f.axis))
+            parts.append(f"{axis or sympy.sstr(list(f.axis))} by {sympy.sstr(f.angle)}")
+    return ", then ".join(parts)
 
 
 def _complex_text(z) -> str:

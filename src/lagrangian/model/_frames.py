@@ -1,0 +1,153 @@
+"""Reference frames: each one a parent, an origin in the parent's axes and a rotation, chained from
+the inertial frame ``world``.
+
+A frame's rotation R (its axes expressed in its parent's axes: a vector with components b in the
+frame has the components R b in the parent) is written either as successive elementary rotations
+about the frame's own current axes (intrinsic: first about an axis of the parent's orientation,
+then about the rotated axes, ...), R = R1(a1) R2(a2) ... Rk(ak), each about x, y, z or a given
+unit axis by an angle expression of q and t, or as a rotation matrix.
+
+The world position of a point with components c in a frame is o_world + R_world c, with
+R_world = R_parent_world R and o_world = o_parent_world + R_parent_world o (o the frame's origin in
+its parent's axes).
+
+Angular velocities are never asked of the user: the angular velocity of a frame in its own axes is
+derived from its rotations. For a product of factors F1 F2 ... Fk (the world's to the frame's),
+
+    omega = sum_i (F_{i+1} ... F_k)^T w_i,
+
+with w_i = a_i' e_i for an elementary rotation about the unit axis e_i, and w_i = vee(F_i^T F_i')
+(the vector of the skew-symmetric matrix F_i^T F_i') for a matrix: the same as vee(R^T R'), without
+forming the products of sines and cosines whose sum the identities would have to undo.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Mapping
+
+import sympy
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._kinematics import Kinematics
+
+__all__ = ["Frame", "WORLD", "AXES", "Factor", "elementary", "rotation_product", "chain", "frame_pose",
+           "angular_velocity"]
+
+#: The name of the inertial frame every frame is chained from.
+WORLD = "world"
+
+#: The unit axes by name.
+AXES = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1)}
+
+Vector3 = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+
+
+@dataclass(frozen=True)
+class Factor:
+    """One factor of a rotation: an elementary rotation by `angle` about the unit `axis` (in the
+    axes it starts from), or a general rotation `matrix` (3x3 tuple of rows)."""
+
+    axis: Vector3 | None = None
+    angle: sympy.Expr | None = None
+    matrix: tuple | None = None
+
+    def as_matrix(self) -> sympy.Matrix:
+        if self.matrix is not None:
+            return sympy.Matrix(self.matrix)
+        return elementary(self.axis, self.angle)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A reference frame (see the module docstring).
+
+    Attributes
+    ----------
+    name : str
+    parent : str
+        ``"world"`` or another frame's name.
+    origin : tuple of 3 sympy.Expr
+        The frame's origin in the parent's axes (relative to the parent's origin).
+    factors : tuple of Factor
+        Its rotation relative to the parent, R = F1 F2 ... Fk (empty: the parent's axes).
+    """
+
+    name: str
+    parent: str
+    origin: Vector3
+    factors: tuple[Factor, ...] = ()
+
+    @property
+    def rotation(self) -> sympy.Matrix:
+        """R, the frame's axes in its parent's axes (3x3)."""
+        return rotation_product(self.factors)
+
+
+def elementary(axis, angle) -> sympy.Matrix:
+    """The rotation by `angle` about the unit vector `axis` (Rodrigues' formula; the familiar
+    matrices for x, y and z)."""
+    axis = tuple(sympy.sympify(a) for a in axis)
+    c, s = sympy.cos(angle), sympy.sin(angle)
+    if axis == (1, 0, 0):
+        return sympy.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == (0, 1, 0):
+        return sympy.Matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    if axis == (0, 0, 1):
+        return sympy.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    e = sympy.Matrix(axis)
+    K = sympy.Matrix([[0, -e[2], e[1]], [e[2], 0, -e[0]], [-e[1], e[0], 0]])
+    return sympy.eye(3) + s * K + (1 - c) * K * K
+
+
+def rotation_product(factors) -> sympy.Matrix:
+    out = sympy.eye(3)
+    for f in factors:
+        out = out * f.as_matrix()
+    return out
+
+
+def chain(frames: Mapping[str, Frame], name: str) -> list[Frame]:
+    """The frames from the world down to `name` (the world itself not included)."""
+    out = []
+    while name != WORLD:
+        frame = frames[name]
+        out.append(frame)
+        name = frame.parent
+    return out[::-1]
+
+
+def frame_pose(frames: Mapping[str, Frame], name: str) -> tuple[tuple[sympy.Expr, ...], sympy.Matrix]:
+    """(origin in world coordinates, R_world) of the frame `name` (SymPy)."""
+    origin = sympy.zeros(3, 1)
+    R = sympy.eye(3)
+    for frame in chain(frames, name):
+        origin = origin + R * sympy.Matrix(frame.origin)
+        R = R * frame.rotation
+    return tuple(origin), R
+
+
+def world_factors(frames: Mapping[str, Frame], name: str) -> tuple[Factor, ...]:
+    """The factors of R_world of the frame `name`, from the world's to the frame's."""
+    return tuple(f for frame in chain(frames, name) for f in frame.factors)
+
+
+def angular_velocity(factors, kin: "Kinematics") -> list:
+    """The angular velocity, in the axes of the last factor's frame, of the rotation F1 F2 ... Fk
+    (SymEngine expressions of q, q_dot and t): sum_i (F_{i+1} ... F_k)^T w_i."""
+    import symengine as se
+
+    omega = [se.Integer(0)] * 3
+    for f in factors:  # omega_new = F^T omega_old + w
+        if f.matrix is not None:
+            F = se.DenseMatrix(3, 3, [kin.se(x) for row in f.matrix for x in row])
+            dF = se.DenseMatrix(3, 3, [kin.rate(x) for row in f.matrix for x in row])
+            W = F.T * dF
+            w = [(W[2, 1] - W[1, 2]) / 2, (W[0, 2] - W[2, 0]) / 2, (W[1, 0] - W[0, 1]) / 2]
+        else:
+            F = se.DenseMatrix(3, 3, [kin.se(x) for x in elementary(f.axis, f.angle)])
+            rate = kin.rate(f.angle)
+            w = [kin.se(a) * rate for a in f.axis]
+        rotated = F.T * se.DenseMatrix(3, 1, omega)
+        omega = [rotated[i] + w[i] for i in range(3)]
+    return omega
