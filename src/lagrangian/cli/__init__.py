@@ -36,9 +36,9 @@ def _parser() -> argparse.ArgumentParser:
 
 def _command_modules():
     """Each module adds its commands with `register(sub, fmt)`, each command setting `handler`."""
-    from . import _analysis, _core, _report, _visual
+    from . import _analysis, _core, _report, _serve, _visual
 
-    return [_core, _analysis, _visual, _report]
+    return [_core, _analysis, _visual, _report, _serve]
 
 
 def _version() -> str:

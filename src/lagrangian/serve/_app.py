@@ -1,0 +1,312 @@
+"""The playground's web application (Tornado): the page, its static assets and the HTTP API.
+
+Routes (the API is documented in docs/conventions.md):
+
+=======================  =================================================================
+``GET /``                the page; ``?example=NAME`` opens it with that built-in example
+``GET /static/...``      the page's scripts and style sheet (shipped in the package)
+``GET /api/info``        the server's version, limits and what it offers
+``GET /api/examples``    ``{name: description}`` of the built-in examples
+``GET /api/examples/N``  ``{"name", "text"}``: the model file of example N
+``POST /api/derive``     model text -> the JSON of ``lagrangian derive --json``
+``POST /api/analysis``   model text -> the report's sections (MathML), [simulation] defaults
+``POST /api/equilibria`` ``{"model", "params", "inputs"}`` -> equilibria, modes, as JSON and HTML
+``POST /api/simulate``   ``{"model", "t_end", "initial", "inputs", "params", "dt", ...}`` -> the
+                         trajectory as JSON (``?format=csv``: the CSV of ``lagrangian simulate``)
+``POST /api/report``     model text -> the derivation report (``?format=html|md|tex``)
+=======================  =================================================================
+
+Errors of the API are JSON, ``{"errors": [{"line", "key", "message"}, ...]}``: 400 for a bad
+request or model, 403 for a foreign Host header, 404, 405, 413 for a body over the size limit,
+422 for a computation that fails or runs past the time limit, 503 when overloaded.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import logging
+from pathlib import Path
+
+import tornado.web
+
+from ._tasks import Reply, errors_reply
+from ._workers import WorkerPool
+
+__all__ = ["make_app", "Settings"]
+
+HERE = Path(__file__).resolve().parent
+STATIC = HERE / "static"
+TEMPLATES = HERE / "templates"
+#: The largest request body accepted (bytes): a model file is a few kilobytes.
+MAX_BODY = 1024 * 1024
+LOOPBACK = ("127.0.0.1", "localhost", "::1", "[::1]")
+
+
+class Settings:
+    """What the handlers share: the worker pool, the limits, and the model the page opens with."""
+
+    def __init__(self, pool: WorkerPool, *, model: str | None = None, max_body: int = MAX_BODY,
+                 check_host: bool = True):
+        self.pool = pool
+        self.model = model
+        self.max_body = max_body
+        self.check_host = check_host
+
+
+def _fmu_available() -> bool:
+    try:
+        import lagrangian.export  # noqa: F401  (the FMU writer, when this version has it)
+    except ImportError:
+        return False
+    return True
+
+
+class _Base(tornado.web.RequestHandler):
+    settings_: Settings
+
+    def initialize(self, settings: Settings):
+        self.settings_ = settings
+
+    def set_default_headers(self):
+        self.set_header("X-Content-Type-Options", "nosniff")
+        self.set_header("Referrer-Policy", "no-referrer")
+        self.set_header("Cache-Control", "no-store")
+
+    def check_host(self) -> bool:
+        """When bound to the loopback address, refuse requests whose Host is not a loopback name:
+        a web page elsewhere cannot reach this server through a DNS name that points here."""
+        if not self.settings_.check_host:
+            return True
+        host = self.request.host_name
+        if host in LOOPBACK:
+            return True
+        self.reply(errors_reply(403, [f"this server answers requests for 127.0.0.1 and localhost only, not for "
+                                      f"'{host}'; open http://127.0.0.1:{self.request.host.rsplit(':', 1)[-1]}/ "
+                                      "(or start it with --host to serve other addresses)"]))
+        return False
+
+    def reply(self, r: Reply) -> None:
+        self.set_status(r.status)
+        self.set_header("Content-Type", r.content_type)
+        for k, v in r.headers.items():
+            self.set_header(k, v)
+        self.finish(r.body)
+
+    def write_error(self, status_code, **kwargs):
+        reason = self._reason or "error"
+        if status_code == 405:
+            message = f"{self.request.method} is not allowed on {self.request.path}"
+        else:
+            message = f"{status_code} {reason}"
+        self.set_header("Content-Type", "application/json")
+        self.finish(json.dumps({"errors": [{"line": None, "key": None, "message": message}]}))
+
+
+@tornado.web.stream_request_body
+class _Api(_Base):
+    """A POST endpoint whose body (at most `max_body` bytes) goes to a task in a worker."""
+
+    task = ""
+    what = "request"
+
+    def prepare(self):
+        self._chunks: list[bytes] = []
+        self._size = 0
+        self._too_large = False
+        if not self.check_host():
+            return
+        if self.request.method != "POST":
+            return
+        limit = self.settings_.max_body
+        length = self.request.headers.get("Content-Length")
+        if length is not None and length.isdigit() and int(length) > limit:
+            self._refuse_size(int(length))
+            return
+        self.request.connection.set_max_body_size(limit + 1)
+
+    def _refuse_size(self, size: int) -> None:
+        limit = self.settings_.max_body
+        self.reply(errors_reply(413, [f"the request body has {size} bytes, more than the limit of {limit} bytes "
+                                      f"({limit // 1024} KiB): a model file is a few kilobytes"]))
+
+    def data_received(self, chunk: bytes) -> None:
+        self._size += len(chunk)
+        if self._size > self.settings_.max_body:
+            self._too_large = True
+            self._chunks.clear()
+        elif not self._too_large:
+            self._chunks.append(chunk)
+
+    def args(self) -> tuple:
+        return ()
+
+    async def post(self):
+        if self._too_large:
+            self._refuse_size(self._size)
+            return
+        body = b"".join(self._chunks)
+        if not body.strip():
+            self.reply(errors_reply(400, [self.empty_message]))
+            return
+        self.reply(await self.settings_.pool.run(self.task, body, *self.args(), what=self.what))
+
+    empty_message = "the request body is empty: send the model file's text"
+
+
+class DeriveHandler(_Api):
+    task, what = "derive", "derivation"
+
+
+class AnalysisHandler(_Api):
+    task, what = "analysis", "analysis"
+
+
+class EquilibriaHandler(_Api):
+    task, what = "equilibria", "search for equilibria"
+    empty_message = 'the request body is empty: send a JSON object {"model": "...", "params": {...}}'
+
+
+class SimulateHandler(_Api):
+    what = "simulation"
+    empty_message = 'the request body is empty: send a JSON object {"model": "...", "t_end": 5, ...}'
+
+    @property
+    def task(self):
+        fmt = self.get_query_argument("format", "json")
+        return "simulate_csv" if fmt == "csv" else "simulate"
+
+    async def post(self):
+        fmt = self.get_query_argument("format", "json")
+        if fmt not in ("json", "csv"):
+            self.reply(errors_reply(400, [f"format '{fmt}': choose json (the default) or csv"]))
+            return
+        await super().post()
+
+
+class ReportHandler(_Api):
+    task, what = "report", "report"
+
+    def args(self):
+        return (self.get_query_argument("format", "html"),)
+
+
+class InfoHandler(_Base):
+    def get(self):
+        if not self.check_host():
+            return
+        from .. import __version__
+        from ._tasks import MAX_FRAMES, MAX_ROWS
+
+        pool = self.settings_.pool
+        self.reply(Reply(200, json.dumps({
+            "version": __version__, "workers": pool.size, "time_limit_s": pool.time_limit,
+            "max_body_bytes": self.settings_.max_body, "max_rows": MAX_ROWS, "max_frames": MAX_FRAMES,
+            "fmu": _fmu_available(), "model": self.settings_.model}).encode()))
+
+
+class ExamplesHandler(_Base):
+    def get(self, name=None):
+        if not self.check_host():
+            return
+        from ..examples import example_descriptions, example_source
+
+        if name is None:
+            self.reply(Reply(200, json.dumps(example_descriptions()).encode()))
+            return
+        text = example_source(name)
+        if text is None:
+            self.reply(errors_reply(404, [unknown_example(name)]))
+            return
+        self.reply(Reply(200, json.dumps({"name": name, "text": text}).encode()))
+
+
+def unknown_example(name: str) -> str:
+    import difflib
+
+    from ..examples import example_names
+
+    close = difflib.get_close_matches(name, example_names(), n=1, cutoff=0.5)
+    hint = f" Did you mean '{close[0]}'?" if close else ""
+    return (f"there is no built-in example '{name}'.{hint} Choose one in the Examples menu "
+            "(pendulum-chain-<n> and spring-mass-damper-chain-<n> take n from 1 to 200).")
+
+
+class PageHandler(_Base):
+    """The page, with the model it opens with: ?example=NAME, else the server's MODEL, else the
+    default example. A MODEL file is read anew at each visit, so a reload shows its latest text."""
+
+    DEFAULT = "cart-pendulum"
+
+    def get(self):
+        if not self.check_host():
+            return
+        from ..examples import example_source
+
+        example = self.get_query_argument("example", None)
+        initial = {"name": None, "text": "", "file": None, "error": None}
+        status = 200
+        if example is not None:
+            text = example_source(example)
+            if text is None:
+                initial["error"] = unknown_example(example)
+                status = 404
+            else:
+                initial.update(name=example, text=text)
+        elif self.settings_.model is not None:
+            initial.update(self._served_model())
+        else:
+            initial.update(name=self.DEFAULT, text=example_source(self.DEFAULT))
+        self.set_status(status)
+        self.set_header("Content-Type", "text/html; charset=utf-8")
+        self.render("index.html", initial_json=_script_json(initial), fmu=_fmu_available())
+
+    def _served_model(self) -> dict:
+        from ..examples import example_source
+
+        model = self.settings_.model
+        text = example_source(model)
+        if text is not None:
+            return {"name": model, "text": text}
+        path = Path(model)
+        try:
+            return {"name": path.stem, "text": path.read_bytes().decode("utf-8-sig"), "file": str(path)}
+        except (OSError, UnicodeDecodeError) as exc:
+            why = getattr(exc, "strerror", None) or str(exc)
+            return {"name": path.stem, "file": str(path),
+                    "error": f"cannot read the model file {model}: {why}"}
+
+
+def _script_json(obj) -> str:
+    """JSON safe inside a <script> element."""
+    return json.dumps(obj).replace("</", "<\\/").replace("<!--", "<\\!--")
+
+
+class NotFoundHandler(_Base):
+    def prepare(self):
+        if self.request.path.startswith("/api/"):
+            self.reply(errors_reply(404, [f"no such API endpoint: {self.request.method} {self.request.path}; "
+                                          "see GET /api/info and docs/conventions.md"]))
+        else:
+            self.set_status(404)
+            self.set_header("Content-Type", "text/html; charset=utf-8")
+            self.finish(f"<!DOCTYPE html><title>Not found</title><p>No page at {html.escape(self.request.path)}. "
+                        '<a href="/">Open the playground</a>.</p>')
+
+
+def make_app(settings: Settings) -> tornado.web.Application:
+    """The Tornado application of the playground."""
+    logging.getLogger("tornado.access").setLevel(logging.ERROR)
+    s = {"settings": settings}
+    return tornado.web.Application([
+        (r"/", PageHandler, s),
+        (r"/api/info", InfoHandler, s),
+        (r"/api/examples", ExamplesHandler, s),
+        (r"/api/examples/([A-Za-z0-9_<>-]+)", ExamplesHandler, s),
+        (r"/api/derive", DeriveHandler, s),
+        (r"/api/analysis", AnalysisHandler, s),
+        (r"/api/equilibria", EquilibriaHandler, s),
+        (r"/api/simulate", SimulateHandler, s),
+        (r"/api/report", ReportHandler, s),
+    ], static_path=str(STATIC), template_path=str(TEMPLATES), default_handler_class=NotFoundHandler,
+        default_handler_args=s, compress_response=True, autoreload=False, debug=False, serve_traceback=False)
