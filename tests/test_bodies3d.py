@@ -33,7 +33,7 @@ def _top_model(rotation=None):
 
 def test_heavy_top_from_a_body_in_space_equals_the_textbook_energies():
     ours = lg.derive(_top_model())
-    textbook = lg.derive(lg.load("heavy-top"))
+    textbook = lg.derive(lg.load("heavy-top-energy"))
     for a, b in zip(ours.equations, textbook.equations):
         assert sp.simplify(a - b) == 0
     I1, I3, th = S("I1"), S("I3"), S("theta")
@@ -163,6 +163,181 @@ def test_heavy_top_precesses_steadily_as_the_closed_form_says():
     theta, I1, I3 = s.coordinates["theta"], 0.02, 0.01
     omega3 = 50.0 + 2.0 * math.cos(theta)
     assert I1 * 4 * math.cos(theta) - I3 * omega3 * 2 + 0.981 == pytest.approx(0, abs=1e-12)
+
+
+# ----------------------------------------------------------------------------- model files
+TOP_FILE = """\
+name = "top-file"
+coordinates = ["theta", "phi", "psi"]
+inputs = ["tau", "F"]
+
+[parameters]
+m = 1.0
+l = 0.1
+g = 9.81
+I1 = 0.02
+I3 = 0.01
+
+[[frames]]
+name = "spin"
+parent = "tilt"
+rotation = [["z", "psi"]]
+
+[[frames]]
+name = "tilt"
+rotation = [["z", "phi"], ["x", "theta"]]
+
+[[bodies]]
+name = "top"
+mass = "m"
+frame = "spin"
+inertia = {xx = "I1 - m*l**2", yy = "I1 - m*l**2", zz = "I3"}
+center = ["0", "0", "l"]
+
+[[points]]
+name = "rim"
+frame = "spin"
+position = ["l", "0", "l"]
+
+[gravity]
+g = "g"
+
+[[loads]]
+torque = ["0", "0", "tau"]
+body = "top"
+
+[[loads]]
+force = ["0", "F", "0"]
+at = "rim"
+frame = "spin"
+"""
+
+
+def test_model_file_with_frames_equals_the_python_model(tmp_path):
+    path = tmp_path / "top.toml"
+    path.write_text(TOP_FILE)
+    from_file = lg.derive(lg.load(str(path)))
+    m = _top_model([("z", "phi"), ("x", "theta")])  # the frame of the tilt; the spin frame below it
+    m2 = lg.Model("top-api")
+    th, ph, ps = m2.coordinate("theta", "phi", "psi")
+    for k, v in m.parameters.items():
+        m2.parameter(k.name, v)
+    tau, F = m2.input("tau"), m2.input("F")
+    m2.add_frame("tilt", rotation=[("z", ph), ("x", th)])
+    m2.add_frame("spin", parent="tilt", rotation=[("z", ps)])
+    M, l, I1, I3 = (S(n) for n in ("m", "l", "I1", "I3"))
+    m2.add_rigid_body(M, (I1 - M * l**2, I1 - M * l**2, I3), frame="spin", center=(0, 0, l), name="top")
+    m2.add_point("rim", (l, 0, l), frame="spin")
+    m2.add_gravity(S("g"))
+    m2.add_torque((0, 0, tau), body="top")
+    m2.add_force((0, F, 0), at="rim", frame="spin")
+    from_api = lg.derive(m2)
+    for a, b in zip(from_file.equations, from_api.equations):
+        assert sp.expand(a - b) == 0
+    # the torque about the symmetry axis: Q = tau d(omega_z)/d(q_dot), omega_z = phi_dot cos(theta) + psi_dot
+    assert from_file.input_matrix[:, 0] == sp.Matrix([0, sp.cos(S("theta")), 1])
+    # the push along the body's y axis at the rim, at the distance l from the axis: a spin torque F l
+    assert from_file.input_matrix[2, 1] == S("l")
+
+
+def test_the_zoo_top_from_elements_equals_the_one_from_energies():
+    a, b = lg.derive(lg.load("heavy-top")), lg.derive(lg.load("heavy-top-energy"))
+    assert all(sp.expand(x - y) == 0 for x, y in zip(a.equations, b.equations))
+
+
+def test_the_top_of_the_model_files_page_is_a_model_file():
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "model-files.md").read_text()
+    (block,) = [b for b in re.findall(r"```toml\n(.*?)```", page, re.S) if "[[frames]]" in b]
+    eqs = lg.derive(lg.io.loads_model(block))
+    assert eqs.input_matrix[:, 0] == sp.Matrix([0, sp.cos(S("theta")), 1])
+    top = lg.derive(lg.load("heavy-top"))
+    assert sp.expand(eqs.mass_matrix - top.mass_matrix) == sp.zeros(3, 3)
+
+
+BAD_FILE = """\
+coordinates = ["q"]
+[parameters]
+m = 1.0
+[[frames]]
+name = "a"
+parent = "b"
+[[frames]]
+name = "b"
+parent = "a"
+[[frames]]
+name = "c"
+parent = "wrold"
+[[frames]]
+name = "d"
+rotation = [["w", "q"]]
+[[frames]]
+name = "e"
+matrix = [["1", "0", "0"], ["0", "1", "0"], ["0", "0", "-1"]]
+[[frames]]
+name = "f"
+rotation = [["z", "q"]]
+[[bodies]]
+name = "x"
+mass = "m"
+frame = "ff"
+inertia = ["1", "1", "1"]
+[[bodies]]
+name = "y"
+mass = "m"
+frame = "f"
+inertia = ["1", "1", "5"]
+position = ["0", "0", "0"]
+[[bodies]]
+name = "z"
+mass = "m"
+frame = "f"
+inertia = ["1", "2", "-1"]
+[[particles]]
+name = "p"
+mass = "m"
+frame = "f"
+position = ["0", "1"]
+[[loads]]
+torque = "3"
+body = "z"
+[[bodies]]
+name = "w"
+mass = "m"
+frame = "a"
+inertia = ["1", "1", "1"]
+"""
+
+
+def test_model_file_frame_errors_all_at_once_with_their_lines(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text(BAD_FILE)
+    with pytest.raises(lg.ModelFileError) as info:
+        lg.load(str(path))
+    lines = str(info.value).splitlines()
+    assert lines[0].endswith("9 problems in " + str(path) + ":")
+    expected = [
+        ':6 [frames[0].parent]: the frames a, b form a cycle of parents (a -> b -> a): every frame must hang, '
+        'through its parents, from "world"',
+        ":12 [frames[2].parent]: no frame is named 'wrold' (did you mean 'world'?); use \"world\" (the inertial "
+        "frame) or the name of a [[frames]] table",
+        ":15 [frames[3].rotation[0][0]]: 'w' is not an axis: use \"x\", \"y\", \"z\" or a list of 3 numbers such as "
+        "[1, 1, 0]",
+        ":18 [frames[4].matrix]: the matrix is not a rotation: its determinant is -1, not 1 (a reflection)",
+        ":25 [bodies[0].frame]: no frame is named 'ff' (did you mean 'f'?); the frames are world, e, f",
+        ":32 [bodies[1].position]: a body in space (it has a frame) takes its orientation from its frame",
+        ":37 [bodies[2].inertia]: the inertia tensor is not positive definite (principal moments -1, 1, 2)",
+        ":42 [particles[0].position]: a position in the frame 'f' has 3 components (x, y, z), got 2",
+        ':44 [loads[0].torque]: the body \'z\' is in space: its torque is a list of 3 expressions, torque = '
+        '["0", "0", "tau"]',
+    ]
+    text = str(info.value)
+    for item in expected:
+        assert item.replace('\\"', '"') in text, item
+    # the body in the frame caught in the cycle is not reported again: its frame's problem says it all
+    assert "bodies[3]" not in text and "[bodies[3].frame]" not in text
 
 
 # ----------------------------------------------------------------------------- errors

@@ -48,6 +48,26 @@ their velocities ``<coordinate>_dot``, the parameters, the inputs and the time `
     position = ["l/2*sin(theta)", "-l/2*cos(theta)"]
     angle = "theta"
 
+    [[frames]]                           # reference frames, chained from the inertial frame "world"
+    name = "body"
+    parent = "world"                     # optional, default "world"
+    origin = ["0", "0", "0"]             # optional: in the parent's axes, default 0
+    rotation = [["z", "phi"], ["x", "theta"], ["z", "psi"]]   # about the frame's own axes, in turn
+    # matrix = [["cos(q)", "-sin(q)", "0"], ["sin(q)", "cos(q)", "0"], ["0", "0", "1"]]  # or this
+
+    [[bodies]]                           # a rigid body in space: it has a frame
+    name = "top"
+    mass = "m"
+    frame = "body"                       # its orientation
+    inertia = ["I1", "I1", "I3"]         # centroidal, in the frame's axes: 3 principal values, the
+                                         # 6 components [xx, yy, zz, xy, yz, zx], or a 3x3 list
+    center = ["0", "0", "l"]             # optional: its centre of mass in the frame, default 0
+    center_frame = "body"                # optional: the frame of center ("world" for world axes)
+
+Points, particles and loads take an optional ``frame = "body"``: their position (a force's
+components) are then given in that frame. A torque on a body in space is a list of 3 expressions,
+in the axes of ``frame`` (default: the body's own frame).
+
     [[springs]]                          # linear springs, V = k (length - rest_length)^2 / 2
     stiffness = "k"
     between = ["pivot", "bob"]           # two point/particle/body names, or two position lists
@@ -78,7 +98,8 @@ their velocities ``<coordinate>_dot``, the parameters, the inputs and the time `
     initial = { q2 = 0.5, q2_dot = 0.0 } # coordinate and velocity names -> numbers
     inputs = { F = "0.5*sin(3*t)" }      # input name -> expression of t and parameters, or number
 
-Elements are built in the order points, particles, bodies, springs, dampers, gravity, loads, so
+Frames are built first (in the order of their parents); elements in the order points, particles,
+bodies, springs, dampers, gravity, loads, so
 a spring, a damper or a load may refer to any named point, particle or body. Element names must
 be unique across all elements. The validated ``[simulation]`` table is stored in
 ``model.simulation`` as a plain dict ``{"t_end": float, "dt": float, "rtol": float,
@@ -121,6 +142,7 @@ _TOP_LEVEL: dict[str, str] = {
     "points": "[[points]] tables",
     "particles": "[[particles]] tables",
     "bodies": "[[bodies]] tables",
+    "frames": "[[frames]] tables",
     "springs": "[[springs]] tables",
     "dampers": "[[dampers]] tables",
     "gravity": "a table [gravity] with g and direction",
@@ -130,13 +152,16 @@ _TOP_LEVEL: dict[str, str] = {
 
 #: Keys of each kind of element table: required ones first, then optional ones.
 _ELEMENT_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "points": (("position",), ("name",)),
-    "particles": (("mass", "position"), ("name",)),
+    "points": (("position",), ("name", "frame")),
+    "particles": (("mass", "position"), ("name", "frame")),
     "bodies": (("mass", "inertia", "position", "angle"), ("name",)),
     "springs": (("stiffness",), ("name", "between", "length", "rest_length")),
     "dampers": (("coefficient",), ("name", "between", "length")),
-    "loads": ((), ("name", "force", "at", "torque", "angle", "body")),
+    "loads": ((), ("name", "force", "at", "torque", "angle", "body", "frame")),
 }
+#: Keys of a body in space (a [[bodies]] table with a frame).
+_BODY3D_KEYS = (("mass", "inertia", "frame"), ("name", "center", "center_frame"))
+_FRAME_KEYS = ("name", "parent", "origin", "rotation", "matrix")
 _ENERGY_KEYS = ("T", "V", "D")
 _GRAVITY_KEYS = ("g", "direction")
 _SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs")
@@ -151,6 +176,7 @@ _EXAMPLES = {
     "position": 'position = ["x", "0"] (2 or 3 expressions)',
     "inertia": 'inertia = "m*l**2/12" (the centroidal moment of inertia)',
     "angle": 'angle = "theta" (its rotation angle)',
+    "frame": 'frame = "body" (the name of a [[frames]] table)',
     "stiffness": 'stiffness = "k" (and k = 100.0 under [parameters])',
     "coefficient": 'coefficient = "c" (and c = 0.5 under [parameters])',
 }
@@ -517,6 +543,8 @@ class _Reader:
         self.names = self.model.names(accelerations=True)
         self.read_energy(data.get("energy"))
         self.read_forces(data.get("forces"))
+        self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
+        self.read_frames(data.get("frames"))
         self.read_elements(data)
         self.read_simulation(data.get("simulation"))
         self.check_model()
@@ -773,6 +801,147 @@ class _Reader:
                 except ModelError as exc:
                     self.model_error(key, exc)
 
+    # -- frames ---------------------------------------------------------------------------------
+    def read_frames(self, value: object) -> None:
+        """[[frames]] tables: checked, then built parents first (a cycle of parents is reported)."""
+        from ..model._frames import WORLD
+
+        tables = self.element_tables("frames", value)
+        named: dict[str, _Entry] = {}
+        self.frame_names = {t.table.get("name") for t in tables if isinstance(t.table.get("name"), str)}
+        for entry in tables:
+            key = entry.key
+            for name in entry.table:
+                if name not in _FRAME_KEYS:
+                    self.unknown_key(f"{key}.{name}", name, _FRAME_KEYS, "[[frames]]")
+            name = entry.table.get("name")
+            if not isinstance(name, str) or not name.isidentifier():
+                self.problem(f"{key}.name", "a frame needs a name, an identifier such as name = \"body\""
+                             + ("" if "name" not in entry.table else f", got {_describe(name)}"))
+                continue
+            if name == WORLD or name in named:
+                self.problem(f"{key}.name", f"the name '{name}' is taken ("
+                             + ("the inertial frame" if name == WORLD else f"by {named[name].key}")
+                             + "): give each frame its own name")
+                continue
+            entry.name = name
+            named[name] = entry
+        # parents first; a parent that is unknown or in a cycle stops its children
+        built: set[str] = {WORLD}
+        pending = list(named.values())
+        while pending:
+            progress = [e for e in pending if e.table.get("parent", WORLD) in built]
+            for entry in progress:
+                self.build_frame(entry)
+                built.add(entry.name)
+            pending = [e for e in pending if e not in progress]
+            if progress:
+                continue
+            in_reported_cycle: set[str] = set()
+            for entry in pending:
+                parent = entry.table.get("parent", WORLD)
+                if not isinstance(parent, str):
+                    self.problem(f"{entry.key}.parent", f"expected a frame's name, got {_describe(parent)}; "
+                                                        "write parent = \"world\" or the name of a [[frames]] table")
+                elif parent not in named:
+                    self.problem(f"{entry.key}.parent", f"no frame is named '{parent}'"
+                                 f"{_did_you_mean(parent, [WORLD, *named])}; use \"world\" (the inertial frame) "
+                                 "or the name of a [[frames]] table")
+                elif _cycle(named, entry.name) and entry.name not in in_reported_cycle:
+                    loop = _cycle(named, entry.name)
+                    in_reported_cycle.update(loop)
+                    self.problem(f"{entry.key}.parent", f"the frames {', '.join(loop[:-1])} form a cycle of "
+                                 f"parents ({' -> '.join(loop)}): every frame must hang, through its parents, "
+                                 "from \"world\"")
+            break
+
+    def build_frame(self, entry: _Entry) -> None:
+        key, table = entry.key, entry.table
+        origin = self.vector(table["origin"], f"{key}.origin") if "origin" in table else (0, 0, 0)
+        if origin is not None and len(origin) != 3:
+            self.problem(f"{key}.origin", f"a frame's origin has 3 components (x, y, z), got {len(origin)}")
+            origin = None
+        rotation = None
+        if "rotation" in table and "matrix" in table:
+            self.problem(f"{key}.matrix", "give the rotation either as rotation = [[axis, angle], ...] or as "
+                                          "matrix = [[...], [...], [...]], not both: remove one of them")
+            return
+        if "rotation" in table:
+            rotation = self.rotation_steps(table["rotation"], f"{key}.rotation")
+        elif "matrix" in table:
+            rotation = self.matrix3(table["matrix"], f"{key}.matrix", "rotation matrix")
+        if origin is None or (rotation is None and ("rotation" in table or "matrix" in table)):
+            return
+        try:
+            self.model.add_frame(entry.name, parent=table.get("parent", "world"), origin=origin, rotation=rotation)
+        except ModelError as exc:
+            self.model_error(key, exc)
+            return
+        self.frame_keys[entry.name] = key
+        self.key_map[f"frame '{entry.name}'"] = (key, {"rotation": "matrix"})
+
+    def rotation_steps(self, value: object, key: str) -> list | None:
+        example = 'rotation = [["z", "phi"], ["x", "theta"]]'
+        if not isinstance(value, list) or not value:
+            self.problem(key, f"expected a list of [axis, angle] pairs, got {_describe(value)}; write {example}")
+            return None
+        steps = []
+        for i, step in enumerate(value):
+            k = f"{key}[{i}]"
+            if not isinstance(step, list) or len(step) != 2:
+                self.problem(k, f"expected [axis, angle] such as [\"z\", \"phi\"], got {_describe(step)}")
+                return None
+            axis, angle = step
+            if isinstance(axis, str):
+                if axis not in ("x", "y", "z"):
+                    self.problem(f"{k}[0]", f"'{axis}' is not an axis: use \"x\", \"y\", \"z\" or a list of 3 "
+                                            "numbers such as [1, 1, 0]")
+                    return None
+            elif isinstance(axis, list) and len(axis) == 3 and all(_is_number(a) for a in axis):
+                if not any(axis):
+                    self.problem(f"{k}[0]", "the zero vector is not an axis; give its direction, e.g. [0, 0, 1]")
+                    return None
+            else:
+                self.problem(f"{k}[0]", f"expected an axis: \"x\", \"y\", \"z\" or a list of 3 numbers, got "
+                                        f"{_describe(axis)}")
+                return None
+            e = self.expr(angle, f"{k}[1]")
+            if e is None:
+                return None
+            steps.append((axis, e))
+        return steps
+
+    def matrix3(self, value: object, key: str, what: str) -> list | None:
+        if not (isinstance(value, list) and len(value) == 3
+                and all(isinstance(r, list) and len(r) == 3 for r in value)):
+            self.problem(key, f"expected a {what}: 3 rows of 3 expressions, [[\"1\", \"0\", \"0\"], "
+                              f"[\"0\", \"1\", \"0\"], [\"0\", \"0\", \"1\"]], got {_describe(value)}")
+            return None
+        rows = [[self.expr(x, f"{key}[{i}][{j}]") for j, x in enumerate(r)] for i, r in enumerate(value)]
+        return None if any(x is None for r in rows for x in r) else rows
+
+    def frame_of(self, entry: _Entry, name: str = "frame") -> str | None:
+        """The frame an element names (None after a problem, or when its frame had problems)."""
+        from ..model._frames import WORLD
+
+        value = entry.table[name]
+        if isinstance(value, str) and (value == WORLD or value in self.frame_keys):
+            return value
+        if isinstance(value, str) and self.model_has_frame_problem(value):
+            entry.ok = False
+            return None
+        known = [WORLD, *self.frame_keys]
+        self.problem(f"{entry.key}.{name}", (f"no frame is named '{value}'{_did_you_mean(value, known)}"
+                                             if isinstance(value, str) else f"expected a frame's name, got "
+                                             f"{_describe(value)}")
+                     + f"; the frames are {', '.join(known)} (add a [[frames]] table with this name)")
+        entry.ok = False
+        return None
+
+    def model_has_frame_problem(self, name: str) -> bool:
+        """Whether `name` is a [[frames]] table that was not built because of its own problems."""
+        return any(p.key and p.key.startswith("frames[") for p in self.problems) and name in self.frame_names
+
     # -- elements -------------------------------------------------------------------------------
     def read_elements(self, data: Mapping[str, Any]) -> None:
         entries: list[_Entry] = []
@@ -848,9 +1017,10 @@ class _Reader:
             if entry.ok:
                 self.entries[entry.name] = entry
 
-    def check_keys(self, entry: _Entry, required: Sequence[str] | None = None) -> bool:
+    def check_keys(self, entry: _Entry, required: Sequence[str] | None = None,
+                   keys: tuple[tuple[str, ...], tuple[str, ...]] | None = None) -> bool:
         """Unknown and missing keys of an element table; False when a required key is missing."""
-        req, opt = _ELEMENT_KEYS[entry.kind]
+        req, opt = keys or _ELEMENT_KEYS[entry.kind]
         required = req if required is None else required
         allowed = req + opt
         for name in entry.table:
@@ -901,20 +1071,84 @@ class _Reader:
         entry.element = element
         self.key_map[f"{element.kind} '{element.name}'"] = (entry.key, dict(fields or {}))
 
+    def placed(self, entry: _Entry) -> str | None:
+        """The frame of a point or particle given in one (its position then has 3 components)."""
+        if "frame" not in entry.table:
+            return None
+        frame = self.frame_of(entry)
+        if frame is not None and entry.dimension not in (None, 3):
+            self.problem(f"{entry.key}.position", f"a position in the frame '{frame}' has 3 components "
+                                                  f"(x, y, z), got {entry.dimension}")
+            entry.ok = False
+        entry.dimension = 3
+        return frame
+
     def build_points(self, entry: _Entry) -> None:
         complete = self.check_keys(entry)
         position = self.position(entry)
+        frame = self.placed(entry)
         if complete and entry.ok and position is not None:
-            self.record(entry, self.model.add_point(entry.name, position))
+            self.record(entry, self.model.add_point(entry.name, position, frame=frame))
 
     def build_particles(self, entry: _Entry) -> None:
         complete = self.check_keys(entry)
         mass = self.field(entry, "mass", "mass")
         position = self.position(entry)
+        frame = self.placed(entry)
         if complete and entry.ok and mass is not None and position is not None:
-            self.record(entry, self.model.add_particle(mass, position, name=entry.name))
+            self.record(entry, self.model.add_particle(mass, position, frame=frame, name=entry.name))
+
+    def build_body_in_space(self, entry: _Entry) -> None:
+        for name in ("position", "angle"):
+            if name in entry.table:
+                self.problem(f"{entry.key}.{name}", f"a body in space (it has a frame) takes its orientation from "
+                                                    f"its frame and its centre from center = [...] in the frame's "
+                                                    f"axes: remove '{name}'")
+                entry.ok = False
+        complete = self.check_keys(entry, keys=(_BODY3D_KEYS[0], _BODY3D_KEYS[1] + ("position", "angle")))
+        mass = self.field(entry, "mass", "mass")
+        inertia = self.inertia3(entry.table.get("inertia"), f"{entry.key}.inertia") if "inertia" in entry.table else None
+        frame = self.frame_of(entry) if "frame" in entry.table else None
+        center = (0, 0, 0)
+        if "center" in entry.table:
+            center = self.vector(entry.table["center"], f"{entry.key}.center", "centre of mass")
+            if center is not None and len(center) != 3:
+                self.problem(f"{entry.key}.center", f"the centre of mass of a body in space has 3 components, "
+                                                    f"got {len(center)}")
+                center = None
+        center_frame = self.frame_of(entry, "center_frame") if "center_frame" in entry.table else None
+        entry.dimension = 3
+        if complete and entry.ok and None not in (mass, inertia, frame, center) and (
+                "center_frame" not in entry.table or center_frame is not None):
+            body = self.model.add_rigid_body(mass, inertia, frame=frame, center=center, center_frame=center_frame,
+                                             name=entry.name)
+            self.record(entry, body, {"position": "center"})
+
+    def inertia3(self, value: object, key: str):
+        """A body's inertia in space: [I1, I2, I3], [xx, yy, zz, xy, yz, zx], {xx = ..., ...} or 3 rows."""
+        if isinstance(value, dict):
+            allowed = ("xx", "yy", "zz", "xy", "yz", "zx")
+            bad = [k for k in value if k not in allowed]
+            if bad or not {"xx", "yy", "zz"} <= set(value):
+                self.problem(key, "expected the inertia tensor's components xx, yy, zz (required) and xy, yz, zx "
+                                  f"(default 0), got {', '.join(map(str, value)) or 'none'}")
+                return None
+            out = {k: self.expr(v, f"{key}.{k}") for k, v in value.items()}
+            return None if any(v is None for v in out.values()) else out
+        if isinstance(value, list) and len(value) == 3 and all(isinstance(r, list) for r in value):
+            return self.matrix3(value, key, "3x3 inertia tensor")
+        if isinstance(value, list) and len(value) in (3, 6):
+            out = [self.expr(v, f"{key}[{i}]") for i, v in enumerate(value)]
+            return None if any(v is None for v in out) else out
+        self.problem(key, "a body in space needs its inertia in body axes: 3 principal moments [\"I1\", \"I2\", "
+                          "\"I3\"], the 6 components [xx, yy, zz, xy, yz, zx], a table {xx = ..., yy = ..., "
+                          f"zz = ...}} or 3 rows of 3; got {_describe(value)}")
+        return None
 
     def build_bodies(self, entry: _Entry) -> None:
+        if "frame" in entry.table or "center" in entry.table:
+            self.build_body_in_space(entry)
+            return
         complete = self.check_keys(entry)
         mass = self.field(entry, "mass", "mass")
         inertia = self.field(entry, "inertia", "inertia")
@@ -1087,11 +1321,14 @@ class _Reader:
         if force is None or at is None or not entry.ok:
             return
         where, n = at
+        frame = self.frame_of(entry) if "frame" in table else None
+        if "frame" in table and frame is None:
+            return
         if n is not None and len(force) != n:
             self.problem(f"{entry.key}.force", f"the force has {len(force)} components but the point "
                                                f"it acts at has {n}: give them the same dimension")
             return
-        element = self.model.add_force(force, where, name=entry.name)
+        element = self.model.add_force(force, where, frame=frame, name=entry.name)
         self.record(entry, element, {"force": "force",
                                      "position": "at" if isinstance(where, str) else "at[]"})
 
@@ -1101,7 +1338,9 @@ class _Reader:
             self.problem(f"{entry.key}.at", "'at' belongs to a force, but this load is a torque: "
                                             "give angle = \"theta\" or body = \"rod\" instead")
             entry.ok = False
-        torque = self.expr(table["torque"], f"{entry.key}.torque")
+        spatial = isinstance(table["torque"], list)
+        torque = (self.vector(table["torque"], f"{entry.key}.torque", "torque vector") if spatial
+                  else self.expr(table["torque"], f"{entry.key}.torque"))
         has_angle, has_body = "angle" in table, "body" in table
         if has_angle == has_body:
             self.problem(f"{entry.key}.angle",
@@ -1131,9 +1370,25 @@ class _Reader:
                 return
             if target.element is None:
                 return
+            in_space = "frame" in target.table or "center" in target.table
+            if in_space != spatial:
+                self.problem(f"{entry.key}.torque", f"the body '{body}' is {'in space' if in_space else 'planar'}: "
+                             + ("its torque is a list of 3 expressions, torque = [\"0\", \"0\", \"tau\"], in "
+                                "the axes of frame = ... (default: the body's frame)" if in_space else
+                                "its torque is one expression, torque = \"tau\" (about the plane's normal)"))
+                return
+        frame = None
+        if "frame" in table:
+            if not spatial:
+                self.problem(f"{entry.key}.frame", "only a torque on a body in space has axes: remove frame, or "
+                                                   "give the torque as a list of 3 expressions on such a body")
+                return
+            frame = self.frame_of(entry)
+            if frame is None:
+                return
         if torque is None or not entry.ok:
             return
-        element = self.model.add_torque(torque, angle=angle, body=body, name=entry.name)
+        element = self.model.add_torque(torque, angle=angle, body=body, frame=frame, name=entry.name)
         self.record(entry, element, {"angle": "body" if body is not None else "angle"})
 
     # -- [simulation] ------------------------------------------------------------------------
@@ -1236,3 +1491,17 @@ class _Reader:
                     k and k.startswith("coordinates") for k in taken)):
                 continue
             self.problem(key, p.message)
+
+
+def _cycle(frames: Mapping[str, _Entry], start: str) -> list[str] | None:
+    """The cycle of parents that `start` belongs to, as [start, ..., start], or None."""
+    seen = [start]
+    name = frames[start].table.get("parent", "world")
+    while isinstance(name, str) and name in frames:
+        if name == start:
+            return seen + [start]
+        if name in seen:
+            return None  # a cycle above start, reported for its own members
+        seen.append(name)
+        name = frames[name].table.get("parent", "world")
+    return None

@@ -775,6 +775,7 @@ def _rotation_problems(matrix, values, where: str) -> list[Problem]:
             det = np.linalg.det(R)
             why = "its columns are not orthonormal (R^T R is not the identity)" if not np.allclose(
                 R.T @ R, np.eye(3), atol=1e-9) else f"its determinant is {det:.3g}, not 1 (a reflection)"
-            return [Problem(f"the matrix is not a rotation: {why}; write it as elementary rotations, e.g. "
-                            "[(\"z\", \"phi\"), (\"x\", \"theta\")], or check its entries", key=where)]
+            return [Problem(f"the matrix is not a rotation: {why}; check its entries, or write the rotation as "
+                            "successive rotations about axes (rotation = [[\"z\", \"phi\"], [\"x\", \"theta\"]] in a "
+                            "model file)", key=where)]
     return []
