@@ -30,8 +30,27 @@ Whitespace (spaces, tabs, newlines) between tokens is ignored::
   ``atan2(y, x) sinh cosh tanh exp log sqrt abs sign`` (``log`` is the natural
   logarithm, ``abs`` is ``sympy.Abs``).
 
-Anything else (strings, comparisons, ``==``, ``and``, ``lambda``, attribute access,
-indexing, keyword arguments, ...) is rejected with an
+Feedback laws
+-------------
+With ``feedback=True`` (inputs and events: expressions that a simulation evaluates, never
+differentiates) the language also has the functions of :data:`FEEDBACK_FUNCTIONS`,
+``min(a, b, ...)``, ``max(a, b, ...)``, ``clip(x, lo, hi)`` and ``where(condition, a, b)``,
+and conditions::
+
+    condition  := conjunction ("or" conjunction)*
+    conjunction:= negation ("and" negation)*
+    negation   := "not" negation | comparison
+    comparison := sum (("<" | "<=" | ">" | ">=") sum)*
+
+A condition is true or false, not a number: it may only be the first argument of ``where``
+(``where(abs(q2 - pi/2) < 0.3, -K*x, 0)``), and a comparison anywhere else is an error that
+says so. Chained comparisons read as in mathematics (``-1 < x < 1``). ``==`` and ``!=`` are
+refused: a simulated value meets an exact equality almost never. ``where`` is
+``sympy.Piecewise``, ``min``/``max`` are ``sympy.Min``/``Max`` and ``clip(x, lo, hi)`` is
+``Min(Max(x, lo), hi)``.
+
+Anything else (strings, ``==``, ``lambda``, attribute access, indexing, keyword arguments,
+and, outside feedback laws, comparisons and ``and``) is rejected with an
 :class:`~lagrangian.errors.ExpressionError` that says what is wrong, where, and how to
 fix it. Names that are not defined are all reported together in one
 :class:`~lagrangian.errors.UnknownNameError`, once the syntax is known to be correct.
@@ -59,6 +78,7 @@ from lagrangian.errors import ExpressionError, UnknownNameError
 
 __all__ = [
     "ALLOWED_FUNCTIONS",
+    "FEEDBACK_FUNCTIONS",
     "MAX_BITS",
     "MAX_DEPTH",
     "MAX_LENGTH",
@@ -98,6 +118,31 @@ _FUNCTIONS: dict[str, tuple[Callable[..., sympy.Expr], int, str]] = {
 #: The functions an expression may call, in the order they are documented.
 ALLOWED_FUNCTIONS: tuple[str, ...] = tuple(_FUNCTIONS)
 
+
+def _clip(x, lo, hi):
+    return sympy.Min(sympy.Max(x, lo), hi)
+
+
+def _where(condition, a, b):
+    return sympy.Piecewise((a, condition), (b, True))
+
+
+# The functions of feedback laws (inputs and events): name -> (sympy function, number of
+# arguments (-2: two or more), example of a call).
+_FEEDBACK_FUNCTIONS: dict[str, tuple[Callable[..., sympy.Expr], int, str]] = {
+    "min": (sympy.Min, -2, "min(x, 10)"),
+    "max": (sympy.Max, -2, "max(x, -10)"),
+    "clip": (_clip, 3, "clip(x, -10, 10)"),
+    "where": (_where, 3, "where(q1 > 0, -1, 1)"),
+}
+
+#: The functions that only inputs and events (``feedback=True``) may call.
+FEEDBACK_FUNCTIONS: tuple[str, ...] = tuple(_FEEDBACK_FUNCTIONS)
+
+_COMPARISONS = {"<": sympy.StrictLessThan, "<=": sympy.LessThan, ">": sympy.StrictGreaterThan,
+                ">=": sympy.GreaterThan}
+_LOGIC_WORDS = ("and", "or", "not")
+
 # Common spellings of the allowed functions in other languages and libraries.
 _FUNCTION_ALIASES = {
     "ln": "log",
@@ -128,6 +173,8 @@ _OP = "operator"
 _LPAREN = "("
 _RPAREN = ")"
 _COMMA = ","
+_CMP = "comparison"
+_LOGIC = "logic"
 _EOF = "end"
 
 _WHITESPACE = frozenset(" \t\n\r\f\v")
@@ -150,8 +197,10 @@ _BAD_CHARACTERS = {
          "use parentheses ( ) for grouping",
     "{": "unexpected '{': braces are not allowed; use parentheses ( ) for grouping",
     "}": "unexpected '}': braces are not allowed; use parentheses ( ) for grouping",
-    "<": "unexpected '<': comparisons are not allowed, an expression must be a single value",
-    ">": "unexpected '>': comparisons are not allowed, an expression must be a single value",
+    "<": "unexpected '<': comparisons are not allowed, an expression must be a single value "
+         "(a switch, where(condition, a, b), belongs in an input or an event)",
+    ">": "unexpected '>': comparisons are not allowed, an expression must be a single value "
+         "(a switch, where(condition, a, b), belongs in an input or an event)",
     "!": "unexpected '!': comparisons and factorials are not allowed",
     "%": "unexpected '%': the modulo operator is not allowed",
     "&": "unexpected '&': logical and bitwise operators are not allowed",
@@ -188,7 +237,8 @@ def _check_length(text: str) -> None:
                     "introduce parameters", None)
 
 
-def _tokenize(text: str, known: Mapping[str, object] | None = None) -> list[_Token]:
+def _tokenize(text: str, known: Mapping[str, object] | None = None,
+              feedback: bool = False) -> list[_Token]:
     """Split `text` into tokens, ending with an end-of-text token.
 
     Parameters
@@ -198,6 +248,8 @@ def _tokenize(text: str, known: Mapping[str, object] | None = None) -> list[_Tok
     known : mapping or None
         The defined names. Python keywords that are not among them are rejected;
         ``None`` accepts every keyword as a plain name.
+    feedback : bool
+        Read the comparisons ``< <= > >=`` and the words ``and or not`` of feedback laws.
 
     Raises
     ------
@@ -225,8 +277,12 @@ def _tokenize(text: str, known: Mapping[str, object] | None = None) -> list[_Tok
             match = _NAME_RE.match(text, i)
             assert match is not None
             name = match.group()
+            if feedback and name in _LOGIC_WORDS and (known is None or name not in known):
+                tokens.append(_Token(_LOGIC, name, i))
+                i = match.end()
+                continue
             if known is not None and keyword.iskeyword(name) and name not in known:
-                _fail(text, _keyword_reason(name), i)
+                _fail(text, _keyword_reason(name, feedback), i)
             tokens.append(_Token(_NAME, name, i))
             i = match.end()
         elif text.startswith("**", i):
@@ -246,6 +302,18 @@ def _tokenize(text: str, known: Mapping[str, object] | None = None) -> list[_Tok
         elif c == ",":
             tokens.append(_Token(_COMMA, c, i))
             i += 1
+        elif feedback and c in "<>":
+            op = text[i:i + 2] if text.startswith("=", i + 1) else c
+            tokens.append(_Token(_CMP, op, i))
+            i += len(op)
+        elif feedback and (text.startswith("==", i) or text.startswith("!=", i)):
+            _fail(text, f"unexpected '{text[i:i + 2]}': a simulated value meets an exact equality "
+                        "almost never, so '==' and '!=' are not allowed; compare with <, <=, > "
+                        "or >=, as in where(x >= 0, a, b)", i)
+        elif feedback and c in "&|":
+            word = "and" if c == "&" else "or"
+            _fail(text, f"unexpected '{c}': write '{word}' to join two conditions, as in "
+                        f"where(x > 0 {word} v > 0, a, b)", i)
         elif c == "=":
             if text.startswith("==", i):
                 _fail(text, "unexpected '==': comparisons are not allowed, an expression "
@@ -274,9 +342,12 @@ def _tokenize(text: str, known: Mapping[str, object] | None = None) -> list[_Tok
     return tokens
 
 
-def _keyword_reason(name: str) -> str:
+def _keyword_reason(name: str, feedback: bool = False) -> str:
     if name in ("True", "False", "None"):
         return f"'{name}' is not allowed: an expression stands for a number; write a number"
+    if feedback and name in ("if", "else"):
+        return (f"'{name}' is not allowed: write a switch as where(condition, a, b), as in "
+                "where(q1 > 0, -1, 1)")
     if name in ("and", "or", "not", "is", "in", "if", "else"):
         return (f"'{name}' is not allowed: logical operators, comparisons and conditions "
                 "are not part of an expression, which must be a single formula")
@@ -352,7 +423,43 @@ class _Call:
     pos: int
 
 
-_Node = Union[_Num, _Name, _Neg, _Sum, _Product, _Pow, _Call]
+@dataclass(frozen=True, slots=True)
+class _Compare:
+    """a < b <= c ...: the operators with their positions, and the operands."""
+    ops: tuple[tuple[str, int], ...]
+    operands: tuple["_Node", ...]
+    start: int
+    end: int
+
+    @property
+    def pos(self) -> int:
+        return self.ops[0][1]
+
+
+@dataclass(frozen=True, slots=True)
+class _Logic:
+    """c1 and c2 ..., or c1 or c2 ...: `word` at the positions `positions`."""
+    word: str
+    operands: tuple["_Node", ...]
+    positions: tuple[int, ...]
+    start: int
+    end: int
+
+    @property
+    def pos(self) -> int:
+        return self.positions[0]
+
+
+@dataclass(frozen=True, slots=True)
+class _Not:
+    operand: "_Node"
+    pos: int
+    start: int
+    end: int
+
+
+_Node = Union[_Num, _Name, _Neg, _Sum, _Product, _Pow, _Call, _Compare, _Logic, _Not]
+_CONDITIONS = (_Compare, _Logic, _Not)
 
 _OPERAND_START = (_NUM, _NAME, _LPAREN)
 
@@ -364,10 +471,13 @@ class _Parser:
     syntax error is reported first and all unknown names together.
     """
 
-    def __init__(self, text: str, tokens: list[_Token], known: Mapping[str, object]):
+    def __init__(self, text: str, tokens: list[_Token], known: Mapping[str, object],
+                 feedback: bool = False):
         self.text = text
         self.tokens = tokens
         self.known = known
+        self.feedback = feedback
+        self.functions = {**_FUNCTIONS, **_FEEDBACK_FUNCTIONS} if feedback else _FUNCTIONS
         self.index = 0
         self.depth = 0
         self.unknown: dict[str, int] = {}
@@ -404,7 +514,8 @@ class _Parser:
         if self.peek().kind == _EOF:
             self.fail("empty expression: write a formula such as 'm*g*h' or "
                       "'1/2*m*x_dot**2'", None)
-        node = self.sum()
+        node = self.condition() if self.feedback else self.sum()
+        self.number(node)
         token = self.peek()
         if token.kind == _RPAREN:
             self.fail("unexpected ')': it has no matching '('; remove it or add the "
@@ -414,6 +525,80 @@ class _Parser:
         assert token.kind == _EOF, token
         return node
 
+    # -- conditions (feedback laws only) -------------------------------------
+
+    def number(self, node: _Node) -> _Node:
+        """`node`, which must stand for a number: a condition there is an error with a fix."""
+        if isinstance(node, _CONDITIONS):
+            shown = self.text[node.start:node.end].strip()
+            self.fail(f"the condition '{shown}' is true or false, not a number: use it as the "
+                      f"condition of where({shown}, a, b), as in where({shown}, 1, 0) for 1 "
+                      "where it holds and 0 elsewhere", node.pos)
+        return node
+
+    def condition_operand(self, node: _Node, word: str, pos: int, shown: str) -> _Node:
+        """`node` (source text `shown`), an operand of and, or, not: it must be a condition."""
+        if not isinstance(node, _CONDITIONS):
+            self.fail(f"'{word}' joins conditions such as q1 > 0, but '{shown}' is a number; "
+                      f"compare it with something, as in {shown} > 0", pos)
+        return node
+
+    def previous_end(self) -> int:
+        token = self.previous()
+        return token.pos + len(token.text) if token is not None else 0
+
+    def spanned(self, parse: Callable[[], _Node]) -> tuple[_Node, str]:
+        """The node `parse` reads and its source text."""
+        start = self.peek().pos
+        node = parse()
+        return node, self.text[start:self.previous_end()].strip()
+
+    def condition(self) -> _Node:
+        return self.logic("or", self.conjunction)
+
+    def conjunction(self) -> _Node:
+        return self.logic("and", self.negation)
+
+    def logic(self, word: str, operand: Callable[[], _Node]) -> _Node:
+        start = self.peek().pos
+        first, shown = self.spanned(operand)
+        if not (self.peek().kind == _LOGIC and self.peek().text == word):
+            return first
+        operands, positions = [first], []
+        while self.peek().kind == _LOGIC and self.peek().text == word:
+            token = self.advance()
+            positions.append(token.pos)
+            self.condition_operand(operands[-1], word, token.pos, shown)
+            node, shown = self.spanned(operand)
+            operands.append(node)
+        self.condition_operand(operands[-1], word, positions[-1], shown)
+        return _Logic(word, tuple(operands), tuple(positions), start, self.previous_end())
+
+    def negation(self) -> _Node:
+        token = self.peek()
+        if token.kind == _LOGIC and token.text == "not":
+            self.advance()
+            self.enter(token)
+            operand, shown = self.spanned(self.negation)
+            self.condition_operand(operand, "not", token.pos, shown)
+            self.depth -= 1
+            return _Not(operand, token.pos, token.pos, self.previous_end())
+        return self.comparison()
+
+    def comparison(self) -> _Node:
+        start = self.peek().pos
+        first = self.sum()
+        if self.peek().kind != _CMP:
+            return first
+        operands, ops = [self.number(first)], []
+        while self.peek().kind == _CMP:
+            token = self.advance()
+            ops.append((token.text, token.pos))
+            operands.append(self.number(self.sum()))
+        return _Compare(tuple(ops), tuple(operands), start, self.previous_end())
+
+    # -- arithmetic -----------------------------------------------------------
+
     def sum(self) -> _Node:
         terms = [(False, self.product())]
         while self.peek().kind == _OP and self.peek().text in "+-":
@@ -421,6 +606,8 @@ class _Parser:
             terms.append((negated, self.product()))
         if len(terms) == 1:
             return terms[0][1]
+        for _negated, term in terms:
+            self.number(term)
         return _Sum(tuple(terms))
 
     def product(self) -> _Node:
@@ -431,6 +618,8 @@ class _Parser:
             factors.append((op.text == "/", self.unary(), op.pos))
         if len(factors) == 1:
             return first
+        for _divided, factor, _pos in factors:
+            self.number(factor)
         return _Product(tuple(factors))
 
     def unary(self) -> _Node:
@@ -438,15 +627,16 @@ class _Parser:
         while self.peek().kind == _OP and self.peek().text in "+-":
             negated ^= self.advance().text == "-"
         node = self.power()
-        return _Neg(node) if negated else node
+        return _Neg(self.number(node)) if negated else node
 
     def power(self) -> _Node:
         base = self.atom()
         token = self.peek()
         if token.kind == _OP and token.text in ("**", "^"):
+            self.number(base)
             self.advance()
             self.enter(token)
-            exponent = self.unary()
+            exponent = self.number(self.unary())
             self.depth -= 1
             return _Pow(base, exponent, token.pos)
         if token.kind in _OPERAND_START:
@@ -468,8 +658,8 @@ class _Parser:
             if self.peek().kind == _LPAREN:
                 return self.call(token)
             if not self.is_known(name):
-                if name in _FUNCTIONS:
-                    example = _FUNCTIONS[name][2]
+                if name in self.functions:
+                    example = self.functions[name][2]
                     self.fail(f"'{name}' is a function: write its argument in "
                               f"parentheses, as in {example}", token.pos)
                 self.unknown.setdefault(name, token.pos)
@@ -482,7 +672,7 @@ class _Parser:
                           token.pos)
             if self.peek().kind == _EOF:
                 self.missing_close(token)
-            node = self.sum()
+            node = self.condition() if self.feedback else self.sum()
             close = self.peek()
             if close.kind == _COMMA:
                 self.comma_outside_call(close)
@@ -496,12 +686,16 @@ class _Parser:
     def call(self, name_token: _Token) -> _Node:
         name = name_token.text
         open_paren = self.advance()
-        if name not in _FUNCTIONS:
+        if name not in self.functions:
             if self.is_known(name):
                 self.fail(f"'{name}' is not a function and cannot be called: write "
                           f"'{name}*(...)' to multiply", name_token.pos)
-            self.fail(_unknown_function_reason(name), name_token.pos)
-        function, arity, example = _FUNCTIONS[name]
+            if name in _FEEDBACK_FUNCTIONS:
+                self.fail(f"'{name}' may only be used in an input or an event (a feedback law or "
+                          "a switch, which a simulation evaluates), not in the model's energies, "
+                          "forces or positions, whose derivatives are taken", name_token.pos)
+            self.fail(_unknown_function_reason(name, self.feedback), name_token.pos)
+        function, arity, example = self.functions[name]
         self.enter(open_paren)
         if self.peek().kind == _RPAREN:
             plural = "argument" if arity == 1 else "arguments"
@@ -520,17 +714,28 @@ class _Parser:
                           f"there or remove the ',', as in {example}", comma.pos)
             if token.kind == _EOF:
                 self.missing_close(open_paren)
-            args.append(self.sum())
+            args.append(self.condition() if self.feedback else self.sum())
             token = self.advance()
             if token.kind == _RPAREN:
                 break
             if token.kind != _COMMA:
                 self.missing_close(open_paren)
         self.depth -= 1
-        if len(args) != arity:
+        if arity == -2 and len(args) < 2:
+            self.fail(f"wrong number of arguments: {name} takes two or more arguments, as in "
+                      f"{example}, but got {len(args)}", name_token.pos)
+        if arity >= 0 and len(args) != arity:
             plural = "argument" if arity == 1 else "arguments"
             self.fail(f"wrong number of arguments: {name} takes {arity} {plural}, as in "
                       f"{example}, but got {len(args)}", name_token.pos)
+        if name == "where":
+            if not isinstance(args[0], _CONDITIONS):
+                self.fail("the first argument of where(condition, a, b) must be a condition "
+                          "such as q1 > 0 or abs(q2) < 0.3 and q2_dot > 0, not a number",
+                          name_token.pos)
+            args[1:] = [self.number(a) for a in args[1:]]
+        else:
+            args = [self.number(a) for a in args]
         return _Call(name, tuple(args), name_token.pos)
 
     # -- error reasons ------------------------------------------------------
@@ -561,16 +766,21 @@ class _Parser:
         self.fail(f"missing operand: {hint}", token.pos)  # pragma: no cover
 
 
-def _unknown_function_reason(name: str) -> str:
+def _unknown_function_reason(name: str, feedback: bool = False) -> str:
+    allowed = ALLOWED_FUNCTIONS + (FEEDBACK_FUNCTIONS if feedback else ())
     suggestion = _FUNCTION_ALIASES.get(name)
-    if suggestion is None and name.lower() in _FUNCTIONS:
+    if suggestion is None and name.lower() in allowed:
         suggestion = name.lower()
+    if suggestion is None and feedback:
+        suggestion = {"ifelse": "where", "select": "where", "if_else": "where", "piecewise": "where",
+                      "clamp": "clip", "sat": "clip", "saturate": "clip", "fmin": "min",
+                      "fmax": "max", "minimum": "min", "maximum": "max"}.get(name.lower())
     if suggestion is None:
-        close = difflib.get_close_matches(name, ALLOWED_FUNCTIONS, n=1, cutoff=0.6)
+        close = difflib.get_close_matches(name, allowed, n=1, cutoff=0.6)
         suggestion = close[0] if close else None
     hint = f" (did you mean '{suggestion}'?)" if suggestion else ""
     return (f"unknown function '{name}'{hint}: the allowed functions are "
-            + ", ".join(ALLOWED_FUNCTIONS))
+            + ", ".join(allowed))
 
 
 # ---------------------------------------------------------------------------
@@ -631,7 +841,22 @@ class _Evaluator:
             return self.product(node)
         if isinstance(node, _Pow):
             return self.power(node)
+        if isinstance(node, _Compare):
+            return self.compare(node)
+        if isinstance(node, _Logic):
+            parts = [self.build(a) for a in node.operands]
+            join = sympy.And if node.word == "and" else sympy.Or
+            return join(*(p for p, _ in parts)), sum(b for _, b in parts)
+        if isinstance(node, _Not):
+            value, bits = self.build(node.operand)
+            return sympy.Not(value), bits
         return self.call(node)
+
+    def compare(self, node: _Compare) -> tuple[sympy.Basic, int]:
+        values = [self.build(a) for a in node.operands]
+        links = [_COMPARISONS[op](values[k][0], values[k + 1][0])
+                 for k, (op, _pos) in enumerate(node.ops)]
+        return (links[0] if len(links) == 1 else sympy.And(*links)), sum(b for _, b in values)
 
     def name(self, node: _Name) -> tuple[sympy.Expr, int]:
         if node.name in self.names:
@@ -682,13 +907,16 @@ class _Evaluator:
         return result, bits
 
     def call(self, node: _Call) -> tuple[sympy.Expr, int]:
-        function, _arity, _example = _FUNCTIONS[node.function]
+        function, _arity, _example = {**_FUNCTIONS, **_FEEDBACK_FUNCTIONS}[node.function]
         args: list[sympy.Expr] = []
         total = 0
         for arg in node.args:
             value, bits = self.build(arg)
             args.append(value)
             total += bits
+        if node.function == "clip" and args[1].is_number and args[2].is_number and args[1] > args[2]:
+            self.fail(f"clip(x, lo, hi) needs lo <= hi, got lo = {args[1]} > hi = {args[2]}; "
+                      "swap them", node.pos)
         result = function(*args)
         if result in _UNDEFINED:
             self.fail(f"undefined value: {node.function}(...) has no finite value for "
@@ -701,7 +929,8 @@ class _Evaluator:
 # Public API
 # ---------------------------------------------------------------------------
 
-def parse_expression(text: str, names: Mapping[str, sympy.Basic]) -> sympy.Expr:
+def parse_expression(text: str, names: Mapping[str, sympy.Basic], *,
+                     feedback: bool = False) -> sympy.Expr:
     """Parse a model-file expression into a sympy expression, safely.
 
     Parameters
@@ -713,6 +942,10 @@ def parse_expression(text: str, names: Mapping[str, sympy.Basic]) -> sympy.Expr:
         Every name the expression may use, with the sympy object it stands for
         (coordinates, velocities such as ``q1_dot``, parameters, inputs, ``t``).
         ``pi`` is always available as ``sympy.pi`` unless `names` defines it.
+    feedback : bool
+        Read the language of inputs and events: with the functions of
+        :data:`FEEDBACK_FUNCTIONS` (min, max, clip, where) and conditions (comparisons joined
+        by and, or, not) as the first argument of where.
 
     Returns
     -------
@@ -741,8 +974,8 @@ def parse_expression(text: str, names: Mapping[str, sympy.Basic]) -> sympy.Expr:
     m*x**2/2
     """
     _check_length(text)
-    tokens = _tokenize(text, names)
-    parser = _Parser(text, tokens, names)
+    tokens = _tokenize(text, names, feedback)
+    parser = _Parser(text, tokens, names, feedback)
     try:
         tree = parser.parse()
         if parser.unknown:
