@@ -21,6 +21,8 @@ Sections
                KanesMethod script as whole processes, derive + readable M and f of a 10-link chain
                in process against KanesMethod, the report of pendulum-chain-4 and the check of
                pendulum-chain-20 (benchmarks/display.py; the targets of issue 10)
+  bodies       M and f of serial arms of rigid bodies in space (robot-arm-3, robot-arm-6) against
+               KanesMethod (benchmarks/derive_arm.py; the arm target of the bodies-in-space issue)
 """
 
 from __future__ import annotations
@@ -396,6 +398,14 @@ def display(quick: bool) -> None:
     RESULTS["display"] = readable_display.run(repeat=3 if quick else 5)
 
 
+# --------------------------------------------------------------------------------- bodies
+def bodies(quick: bool) -> None:
+    import derive_arm
+
+    header("Bodies in space: robot arms against KanesMethod (median CPU time)")
+    RESULTS["arm"] = derive_arm.run((3, 6), repeat=3 if quick else 5)
+
+
 # --------------------------------------------------------------------------------- summary
 def summary() -> None:
     header("Targets")
@@ -440,17 +450,21 @@ def summary() -> None:
 
         for target, measured, ok in readable_display.targets(R["display"]):
             print(f"| {target} | {measured} | {mark(ok)} |")
+    if "arm" in R and 6 in R["arm"]:
+        ours, kane = R["arm"][6]
+        print(f"| a 6-joint arm in space derived >= 20x faster than KanesMethod | {kane / ours:.0f}x | "
+              f"{mark(kane / ours >= 20)} |")
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats; skip the slowest peers")
     ap.add_argument("--only", nargs="*", choices=["derivation", "simulation", "batch", "new-model", "forty",
-                                                  "display"],
+                                                  "display", "bodies"],
                     help="run only these sections")
     args = ap.parse_args(argv)
     sections = {"derivation": derivation, "simulation": simulation, "batch": batch, "new-model": new_model,
-                "forty": forty, "display": display}
+                "forty": forty, "display": display, "bodies": bodies}
     import platform
 
     print(f"# lagrangian benchmarks ({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "

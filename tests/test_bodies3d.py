@@ -165,6 +165,40 @@ def test_heavy_top_precesses_steadily_as_the_closed_form_says():
     assert I1 * 4 * math.cos(theta) - I3 * omega3 * 2 + 0.981 == pytest.approx(0, abs=1e-12)
 
 
+def test_robot_arm_with_motor_torques_against_lagranges_method():
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from derive_arm import sympy_arm  # the arm the benchmark times, built with SymPy's mechanics
+
+    q, bodies, loads, N, _, _ = sympy_arm(3, "lagrange")
+    lm = LagrangesMethod(Lagrangian(N, *bodies), q, forcelist=loads, frame=N)
+    eqs = lg.derive(lg.load("robot-arm-3"))
+    check(eqs, lm, ["q1", "q2", "q3"], symbolic=False)
+    assert eqs.input_matrix == sp.eye(3)  # each motor drives its own joint (its reaction cancels on the others)
+
+
+def test_robot_arm_conserves_energy_without_torques():
+    eqs = lg.derive(lg.load("robot-arm-4"))
+    traj = lg.simulate(eqs, t_end=2.0, initial={"q1": 0.2, "q2": 0.4, "q3": -0.3, "q4": 0.1, "q1_dot": 1.0,
+                                                 "q4_dot": 2.0}, rtol=1e-11, atol=1e-11)
+    assert traj.conserved_drift()["energy"] < 1e-8 and np.ptp(traj["q2"]) > 0.1
+
+
+def test_gyroscope_precesses_with_its_axle_level_at_m_g_l_over_its_spin_momentum():
+    eqs = lg.derive(lg.load("gyroscope"))
+    m, R, l, g, p = 0.5, 0.05, 0.2, 9.81, 2.0
+    Omega = m * g * l / p
+    (level, *_) = [s for s in lg.steady_motions(eqs, {"phi_dot": Omega}, momenta={"p_psi": p})
+                   if 0 < s.coordinates["theta"] < 3]
+    assert level.coordinates["theta"] == pytest.approx(math.pi / 2, abs=1e-9)
+    assert level.stability == "stable"
+    # the fast nutation: about I3 omega3 / I1 (I1 about the pivot), the precession's correction small
+    I1 = m * R**2 / 4 + m * l**2
+    assert max(abs(z.imag) for z in level.eigenvalues) == pytest.approx(p / I1, rel=1e-3)
+
+
 # ----------------------------------------------------------------------------- model files
 TOP_FILE = """\
 name = "top-file"

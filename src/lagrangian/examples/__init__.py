@@ -1,9 +1,10 @@
 """The model zoo: built-in examples, shared by the CLI, the tests, the docs and the benchmarks.
 
-Fixed examples are TOML model files shipped beside this module. Two families are generated for
-any size n: ``pendulum-chain-<n>`` (n point masses on massless links) and
-``spring-mass-damper-chain-<n>`` (n masses between two walls). Every generated text is an
-ordinary model file, read by the same loader.
+Fixed examples are TOML model files shipped beside this module. Three families are generated for
+any size n: ``pendulum-chain-<n>`` (n point masses on massless links),
+``spring-mass-damper-chain-<n>`` (n masses between two walls) and ``robot-arm-<n>`` (a serial arm
+of n revolute joints in space, each link a rigid body in its own frame). Every generated text is
+an ordinary model file, read by the same loader.
 """
 
 from __future__ import annotations
@@ -13,15 +14,17 @@ import tomllib
 from importlib import resources
 
 __all__ = ["example_names", "example_descriptions", "example_source", "pendulum_chain_toml",
-           "spring_mass_damper_chain_toml", "GENERATED"]
+           "spring_mass_damper_chain_toml", "robot_arm_toml", "ARM_AXES", "GENERATED"]
 
 #: The generated families: pattern, name shown in listings, description.
 GENERATED = {
     "pendulum-chain": "Chain of n point masses on massless links (pendulum-chain-<n>, any n >= 1, e.g. pendulum-chain-5)",
     "spring-mass-damper-chain": "n masses in a row between two walls, joined by springs and dampers, force F on "
                                 "the last (spring-mass-damper-chain-<n>, e.g. spring-mass-damper-chain-3)",
+    "robot-arm": "Serial arm of n revolute joints in space (z, y, y, x, y, x, ...), each link a rigid body in its "
+                 "own frame, a motor torque at each joint (robot-arm-<n>, e.g. robot-arm-3)",
 }
-_GENERATED = re.compile(r"(pendulum-chain|spring-mass-damper-chain)-([0-9]+)\Z")
+_GENERATED = re.compile(r"(pendulum-chain|spring-mass-damper-chain|robot-arm)-([0-9]+)\Z")
 _MAX_N = 200
 
 
@@ -56,7 +59,8 @@ def example_source(name: str) -> str | None:
         n = int(m.group(2))
         if not 1 <= n <= _MAX_N:
             return None
-        return (pendulum_chain_toml if m.group(1) == "pendulum-chain" else spring_mass_damper_chain_toml)(n)
+        return {"pendulum-chain": pendulum_chain_toml, "spring-mass-damper-chain": spring_mass_damper_chain_toml,
+                "robot-arm": robot_arm_toml}[m.group(1)](n)
     return None
 
 
@@ -94,4 +98,50 @@ def spring_mass_damper_chain_toml(n: int) -> str:
         lines += ["[[dampers]]", f'name = "damper{i}"', 'coefficient = "c"', f'length = "{s}"', ""]
     lines += ["[[loads]]", 'name = "drive"', 'force = ["F", "0"]', f'at = "mass{n}"', "",
               "[simulation]", "t_end = 10.0", "dt = 0.01", 'initial = { x1 = 0.1 }']
+    return "\n".join(lines) + "\n"
+
+
+#: The axes of the joints of robot-arm-<n>, in turn (then y and x alternate): a base that turns
+#: about the vertical, a shoulder and an elbow that pitch, a wrist that rolls, pitches and rolls.
+ARM_AXES = ("z", "y", "y", "x", "y", "x")
+
+
+def robot_arm_toml(n: int) -> str:
+    """Model file of a serial arm of n revolute joints in space. Joint k turns the frame of link k
+    about the axis ARM_AXES[k-1] of the frame of link k-1; the base column (link 1) stands
+    vertically, height h; every other link lies along its frame's x axis, length l, its joint at
+    the far end of the link before. Each link is a uniform rod of mass m and radius r (inertia
+    m r^2/2 about its axis, m (3 r^2 + L^2)/12 across), under gravity along -z, with a motor
+    torque tau<k> about its joint's axis (the reaction on the link before included)."""
+    axes = [ARM_AXES[k] if k < len(ARM_AXES) else ("y", "x")[k % 2] for k in range(n)]
+    lines = [f'name = "robot-arm-{n}"',
+             f'description = "Serial arm of {n} revolute joints in space, joint axes {", ".join(axes)}"',
+             "coordinates = [" + ", ".join(f'"q{k}"' for k in range(1, n + 1)) + "]",
+             "inputs = [" + ", ".join(f'"tau{k}"' for k in range(1, n + 1)) + "]",
+             "", "[parameters]", "m = 1.0", "h = 0.5", "l = 0.4", "r = 0.03", "g = 9.81", ""]
+    for k in range(1, n + 1):
+        parent = "world" if k == 1 else f"link{k - 1}"
+        origin = '["0", "0", "0"]' if k == 1 else ('["0", "0", "h"]' if k == 2 else '["l", "0", "0"]')
+        lines += ["[[frames]]", f'name = "link{k}"', f'parent = "{parent}"', f"origin = {origin}",
+                  f'rotation = [["{axes[k - 1]}", "q{k}"]]', ""]
+    for k in range(1, n + 1):
+        if k == 1:  # the column, along z
+            inertia, center = '["m*(3*r**2 + h**2)/12", "m*(3*r**2 + h**2)/12", "m*r**2/2"]', '["0", "0", "h/2"]'
+        else:  # a link along x
+            inertia, center = '["m*r**2/2", "m*(3*r**2 + l**2)/12", "m*(3*r**2 + l**2)/12"]', '["l/2", "0", "0"]'
+        lines += ["[[bodies]]", f'name = "link{k}"', 'mass = "m"', f'frame = "link{k}"', f"inertia = {inertia}",
+                  f"center = {center}", ""]
+    tip = '["0", "0", "h"]' if n == 1 else '["l", "0", "0"]'
+    lines += ["[[points]]", 'name = "base"', 'position = ["0", "0", "0"]', "",
+              "[[points]]", 'name = "tip"', f'frame = "link{n}"', f"position = {tip}", "",
+              "[gravity]", 'g = "g"', ""]
+    for k in range(1, n + 1):
+        axis = {"x": '["tau{k}", "0", "0"]', "y": '["0", "tau{k}", "0"]', "z": '["0", "0", "tau{k}"]'}[axes[k - 1]]
+        lines += ["[[loads]]", f'name = "motor{k}"', f"torque = {axis.format(k=k)}", f'body = "link{k}"', ""]
+        if k > 1:  # the reaction on the link before, about the same axis (written in link k's axes)
+            reaction = axis.format(k=k).replace(f'"tau{k}"', f'"-tau{k}"')
+            lines += ["[[loads]]", f'name = "reaction{k}"', f"torque = {reaction}", f'body = "link{k - 1}"',
+                      f'frame = "link{k}"', ""]
+    lines += ["[simulation]", "t_end = 5.0", "dt = 0.01",
+              "initial = { " + ", ".join(f"q{k} = 0.3" for k in range(1, n + 1)) + " }"]
     return "\n".join(lines) + "\n"
