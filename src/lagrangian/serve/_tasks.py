@@ -16,6 +16,7 @@ for a fault of ours.
 from __future__ import annotations
 
 import difflib
+import html
 import json
 import math
 import numbers
@@ -176,7 +177,7 @@ def analysis_task(body: bytes) -> Reply:
     model = _load(_model_text(body))
     eqs = derive(model)
     page = report(eqs, equilibria=False).to_html()
-    sections = [{"key": k, "title": title, "html": inner} for k, title, inner in _SECTION.findall(page)]
+    sections = [{"key": k, "title": html.unescape(title), "html": inner} for k, title, inner in _SECTION.findall(page)]
     try:
         check_drawable(model)
         not_drawable = None
@@ -221,8 +222,6 @@ def equilibria_task(body: bytes) -> Reply:
 
 
 def _equilibria_html(eqs, shown, notes) -> str:
-    import html
-
     import sympy
 
     from ..analysis._equilibria import condition_text

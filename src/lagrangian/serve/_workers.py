@@ -63,7 +63,6 @@ class _Worker:
         self.process.start()
         child.close()
         self.ready = False
-        self.jobs = 0
 
     def call(self, message, time_limit: float):
         """Send one request and wait for its reply (in a thread of the pool): raises _Timeout past
@@ -75,7 +74,6 @@ class _Worker:
                 raise EOFError("the worker did not start")
             self.ready = True
         self.conn.send(message)
-        self.jobs += 1
         if not self.conn.poll(time_limit):
             raise _Timeout()
         return self.conn.recv()
@@ -163,7 +161,7 @@ class WorkerPool:
                 "make the model or the simulation smaller (a shorter t_end, a larger dt, looser rtol and atol), "
                 "or start the server with a larger --time-limit"])
         except (EOFError, OSError) as exc:
-            code = worker.process.exitcode
+            code = await loop.run_in_executor(self._threads, _exit_code, worker.process)
             worker = await loop.run_in_executor(self._threads, self._replace, worker)
             why = f"exit status {code}" if code is not None and code >= 0 else \
                 f"signal {-code}" if code is not None else str(exc) or type(exc).__name__
@@ -179,6 +177,12 @@ class WorkerPool:
             w.stop(kill=not w.ready)
         self._workers.clear()
         self._threads.shutdown(wait=False, cancel_futures=True)
+
+
+def _exit_code(process) -> int | None:
+    """The exit code of a process that has just died (reaped first)."""
+    process.join(2.0)
+    return process.exitcode
 
 
 def default_workers() -> int:

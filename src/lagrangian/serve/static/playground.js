@@ -129,7 +129,7 @@ async function analyse(text, seq) {
 }
 
 function renderSections(box, sections) {
-  box.innerHTML = sections.map((s) => `<section id="section-${s.key}" data-key="${s.key}"><h2>${s.title}</h2>${s.html}</section>`).join("");
+  box.innerHTML = sections.map((s) => `<section id="section-${s.key}" data-key="${s.key}"><h2>${lgEscape(s.title)}</h2>${s.html}</section>`).join("");
 }
 
 // ------------------------------------------------------------------ sliders and fields
@@ -174,25 +174,29 @@ function buildControls(a) {
   state.values = {};
   if (sim.t_end != null) $("t-end").value = sim.t_end;
   $("dt").value = sim.dt != null ? sim.dt : 0.01;
-  const head = (text) => { const h = document.createElement("h3"); h.textContent = text; box.appendChild(h); };
+  const group = (text) => {
+    const div = document.createElement("div"), h = document.createElement("h3");
+    h.textContent = text; div.appendChild(h); box.appendChild(div);
+    return div;
+  };
   const params = Object.entries(a.parameters);
-  if (params.length) head("Parameters");
-  for (const [name, value] of params) { state.values[name] = value; addSlider(box, name, value, "param"); }
-  head("Initial values");
+  const pbox = params.length ? group("Parameters") : null;
+  for (const [name, value] of params) { state.values[name] = value; addSlider(pbox, name, value, "param"); }
+  const ibox = group("Initial values");
   const initial = sim.initial || {};
   for (const name of [...a.coordinates, ...a.velocities]) {
     const v = initial[name] || 0;
     state.values[name] = v;
-    addSlider(box, name, v, a.coordinates.includes(name) ? "q" : "qdot");
+    addSlider(ibox, name, v, a.coordinates.includes(name) ? "q" : "qdot");
   }
   if (a.inputs.length) {
-    head("Inputs (expressions of t)");
+    const ubox = group("Inputs (expressions of t)");
     for (const name of a.inputs) {
       const value = (sim.inputs || {})[name];
       const row = document.createElement("div");
       row.className = "slider input-row";
       row.innerHTML = `<label for="input-${name}">${lgEscape(name)}</label><input type="text" id="input-${name}" value="${lgEscape(value == null ? "0" : String(value))}">`;
-      box.appendChild(row);
+      ubox.appendChild(row);
       row.children[1].addEventListener("change", () => scheduleRun(false));
     }
   }
@@ -268,7 +272,11 @@ function showTrajectory(s) {
   const series = (names) => names.map((name) => ({ name, values: s.columns[name] }));
   plots.q.set(t, series(s.state_names.slice(0, n)), "coordinates");
   plots.qdot.set(t, series(s.state_names.slice(n)), "velocities");
-  if (s.energy_name) plots.energy.set(t, series([s.energy_name]), s.energy_name === "energy" ? "energy T* + V" : "Jacobi integral h");
+  if (s.energy_name) {
+    const title = (s.energy_name === "energy" ? "energy T* + V" : "Jacobi integral h") +
+      (s.conservative && s.energy_drift != null ? ` (drift ${s.energy_drift.toExponential(1)})` : "");
+    plots.energy.set(t, series([s.energy_name]), title, 0.02);
+  }
   else plots.energy.clear("No energy: L depends explicitly on t.");
   const note = $("not-drawable");
   if (s.geometry) {

@@ -37,12 +37,14 @@ class LgPlot {
     this.data = null;
   }
 
-  // series: [{name, values}], t: times; title: string
-  set(t, series, title) {
+  // series: [{name, values}], t: times; title: string; minSpan: the least height of the y range, as a
+  // fraction of the largest |value| (a conserved energy's round-off is then drawn as the flat line it is)
+  set(t, series, title, minSpan = 0) {
     this.data = { t, series, title };
     let lo = Infinity, hi = -Infinity;
     for (const s of series) for (const v of s.values) { if (v < lo) lo = v; if (v > hi) hi = v; }
-    if (!(hi > lo)) { const mid = isFinite(lo) ? lo : 0, d = Math.max(Math.abs(mid) * 0.1, 1e-9); lo = mid - d; hi = mid + d; }
+    const least = Math.max(minSpan * Math.max(Math.abs(lo), Math.abs(hi), 1), 1e-9);
+    if (!(hi - lo >= least)) { const mid = isFinite(lo) ? (lo + hi) / 2 : 0; lo = mid - least / 2; hi = mid + least / 2; }
     const pad = (hi - lo) * 0.06;
     this.yRange = [lo - pad, hi + pad];
     this.draw(null);

@@ -1,0 +1,376 @@
+"""The playground's HTTP API, against the real server (`lagrangian serve`, one for this module): the
+same results as the library and the CLI, every error a user can hit as a JSON body with the CLI's
+message, and a server that stays up and responsive through bad models, runaway requests and a
+crashed worker."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+import lagrangian as lg
+from lagrangian.examples import example_descriptions, example_source
+from lagrangian.io import loads_model
+from lagrangian.errors import ModelFileError
+
+from serve_support import Server, wait_until
+
+OSCILLATOR = 'name = "osc"\ncoordinates = ["x"]\n\n[parameters]\nm = 1.0\nk = 4.0\n\n[energy]\nT = "m*x_dot**2/2"\nV = "k*x**2/2"\n'
+#: docs/model-files.md's file with three mistakes
+BAD = ('coordinates = ["q1", "q2"]\n\n[parameters]\nm = "2"\ng = 9.81\n\n[energy]\n'
+       'T = "1/2*m*q1_dot**2 + 1/2*m*q2_dot**2"\nV = "m*g*q3 + 1/2*k*q1_dot**2"\nD = "c*"\n')
+
+
+@pytest.fixture(scope="module")
+def server():
+    s = Server(workers=2, time_limit=60)
+    yield s
+    code, out, err = s.stop()
+    assert code == 0 and "lagrangian serve: stopped" in out, (code, out, err)
+    assert "Traceback" not in err, err
+
+
+# ------------------------------------------------------------------ derive
+def test_derive_returns_the_json_of_derive_json(server):
+    text = example_source("cart-pendulum")
+    status, headers, body = server.request("POST", "/api/derive", text)
+    assert status == 200 and headers["Content-Type"] == "application/json"
+    cli = subprocess.run([sys.executable, "-m", "lagrangian", "derive", "cart-pendulum", "--json"],
+                         capture_output=True, text=True, check=True).stdout
+    assert body.decode() == cli  # the same bytes as `lagrangian derive --json`
+    assert json.loads(body)["mass_matrix"] == [["M1 + M2", "-L*M2*sin(q2)"], ["-L*M2*sin(q2)", "L**2*M2"]]
+
+
+def test_derive_reports_every_problem_at_its_line_with_the_cli_message(server):
+    status, data = server.post_json("/api/derive", BAD)
+    assert status == 400
+    with pytest.raises(ModelFileError) as exc:
+        loads_model(BAD)
+    assert data == {"errors": [{"line": p.line, "key": p.key, "message": p.message} for p in exc.value.problems]}
+    lines = [(e["line"], e["key"]) for e in data["errors"]]
+    assert lines == [(4, "parameters.m"), (9, "energy.V"), (10, "energy.D")]
+    assert data["errors"][0]["message"] == "expected a number, got the string '2'; write m = 2 (a number, without quotes)"
+    assert data["errors"][1]["message"].startswith("unknown names 'q3' (did you mean 'q2'?), 'k' in the expression at position 5")
+    assert data["errors"][2]["message"].startswith("malformed expression at position 2: missing operand after '*'")
+
+
+@pytest.mark.parametrize("body, message", [
+    (b"", "the request body is empty: send the model file's text"),
+    (b"\xff\xfe not text", "the request body is not UTF-8 text (the byte at offset 0 cannot be decoded)"),
+    (b"coordinates = [", "line 1"),
+])
+def test_derive_refuses_bodies_that_are_not_model_files(server, body, message):
+    status, data = server.post_json("/api/derive", body)
+    assert status == 400
+    assert message in data["errors"][0]["message"] or data["errors"][0]["line"] == 1, data
+
+
+def test_a_body_over_the_size_limit_is_refused_with_413(server):
+    status, data = server.post_json("/api/derive", "#" * (1024 * 1024 + 10))
+    assert status == 413
+    assert data["errors"][0]["message"] == ("the request body has 1048586 bytes, more than the limit of 1048576 bytes "
+                                            "(1024 KiB): a model file is a few kilobytes")
+    assert server.request("GET", "/api/info")[0] == 200  # still serving
+
+
+def test_a_foreign_host_header_is_refused(server):
+    status, data = server.post_json("/api/derive", OSCILLATOR, headers={"Host": "evil.example:80"})
+    assert status == 403
+    assert data["errors"][0]["message"].startswith("this server answers requests for 127.0.0.1 and localhost only, "
+                                                   "not for 'evil.example'")
+    assert server.post_json("/api/derive", OSCILLATOR, headers={"Host": f"localhost:{server.port}"})[0] == 200
+
+
+def test_unknown_endpoints_and_methods_answer_json(server):
+    status, data = server.post_json("/api/solve", OSCILLATOR)
+    assert status == 404 and data["errors"][0]["message"].startswith("no such API endpoint: POST /api/solve")
+    status, headers, body = server.request("GET", "/api/derive")
+    assert status == 405 and json.loads(body)["errors"][0]["message"] == "GET is not allowed on /api/derive"
+
+
+# ------------------------------------------------------------------ simulate
+def _simulate_body(**kw):
+    return {"model": example_source("cart-pendulum"), "t_end": 2.0, "dt": 0.05, "initial": {"q2": "pi/3"},
+            "inputs": {"F": "0.5*sin(3*t)"}, "params": {"M1": 2.0}, **kw}
+
+
+def test_simulate_returns_the_trajectory_of_simulate(server):
+    status, data = server.post_json("/api/simulate", _simulate_body(initial={"q2": 1.0, "q2_dot": -0.5}))
+    assert status == 200
+    traj = lg.simulate(lg.derive(lg.load("cart-pendulum")), 2.0, {"q2": 1.0, "q2_dot": -0.5}, dt=0.05,
+                       inputs={"F": "0.5*sin(3*t)"}, params={"M1": 2.0})
+    assert data["names"] == list(traj.columns) == ["t", "q1", "q2", "q1_dot", "q2_dot", "F", "energy"]
+    for name in traj.columns:
+        assert data["columns"][name] == traj[name].tolist()
+    assert data["parameters"]["M1"] == 2.0 and data["energy_name"] == "energy"
+    g = data["geometry"]
+    assert [n["name"] for n in g["nodes"]] == ["cart", "pendulum", "pendulum pivot"]
+    assert len(g["positions"]) == len(g["t"]) == 41 and len(g["positions"][0]) == 3
+    # the pendulum's bob is where the model puts it: (q1 + L cos q2, L + L sin q2)
+    q1, q2 = data["columns"]["q1"][20], data["columns"]["q2"][20]
+    assert g["positions"][20][1] == pytest.approx([q1 + __import__("math").cos(q2), 1 + __import__("math").sin(q2)])
+
+
+def test_simulate_csv_is_the_csv_of_lagrangian_simulate(server, tmp_path):
+    status, headers, body = server.request("POST", "/api/simulate?format=csv", _simulate_body())
+    assert status == 200 and headers["Content-Type"].startswith("text/csv")
+    assert headers["Content-Disposition"] == 'attachment; filename="cart-pendulum.csv"'
+    out = tmp_path / "out.csv"
+    subprocess.run([sys.executable, "-m", "lagrangian", "simulate", "cart-pendulum", "--t-end", "2", "--dt", "0.05",
+                    "--initial", "q2=pi/3", "--input", "F=0.5*sin(3*t)", "--param", "M1=2", "-o", str(out)],
+                   check=True, capture_output=True)
+    assert body.decode() == out.read_text()
+
+
+def test_a_model_with_energies_only_simulates_and_says_why_it_is_not_drawn(server):
+    status, data = server.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "initial": {"x": 1}})
+    assert status == 200 and data["geometry"] is None
+    assert data["not_drawable"].startswith("model 'osc' cannot be drawn: it is described by its energies")
+    assert data["columns"]["x"][-1] == pytest.approx(__import__("math").cos(2.0), abs=1e-7)
+
+
+@pytest.mark.parametrize("body, status, message", [
+    ("not json", 400, "the request body is not valid JSON (Expecting value at line 1, column 1)"),
+    ([1, 2], 400, "the request body must be a JSON object with the fields model, t_end"),
+    ({"t_end": 1}, 400, "the field 'model' is missing"),
+    ({"model": 3}, 400, "the field 'model' must be the model file's text (a string), got int"),
+    ({"model": OSCILLATOR, "t_ned": 1}, 400, "unknown field 't_ned' (did you mean 't_end'?)"),
+    ({"model": OSCILLATOR, "t_end": -1}, 400, "t_end: expected a positive number, got -1.0"),
+    ({"model": OSCILLATOR, "t_end": "soon"}, 400, "t_end: 'soon' is not a number"),
+    ({"model": OSCILLATOR, "initial": [1]}, 400, "initial: expected an object {name: value}, got [1]"),
+    ({"model": OSCILLATOR, "initial": {"x": True}}, 400, "initial.x: expected a number, got true"),
+    ({"model": OSCILLATOR, "initial": {"y": 1}, "t_end": 1}, 400, "'y'"),
+    ({"model": OSCILLATOR, "params": {"kk": 1}, "t_end": 1}, 400, "'kk'"),
+    ({"model": OSCILLATOR, "inputs": {"F": [1]}, "t_end": 1}, 400, "inputs.F: expected an expression of t"),
+    ({"model": OSCILLATOR, "method": "Euler", "t_end": 1}, 400, "unknown method 'Euler'"),
+    ({"model": OSCILLATOR, "t_end": 1000, "dt": 0.001}, 400,
+     "the simulation would output 1000001 rows (t_end / dt + 1), more than the limit of 100000 per request"),
+    ({"model": OSCILLATOR}, 400, "t_end is needed"),
+    ({"model": BAD, "t_end": 1}, 400, "expected a number, got the string '2'"),
+])
+def test_simulate_errors(server, body, status, message):
+    got, data = server.post_json("/api/simulate", body)
+    assert got == status, data
+    assert any(message in e["message"] for e in data["errors"]), data
+
+
+def test_a_simulation_that_reaches_a_singular_mass_matrix_is_a_422_with_the_diagnosis(server):
+    status, data = server.post_json("/api/simulate", {"model": example_source("cart-pendulum-massless"), "t_end": 5})
+    assert status == 422
+    message = data["errors"][0]["message"]
+    assert message.startswith("the mass matrix became singular at t = 0.549")
+    assert "det M = L**2*M**2*cos(q2)**2" in message
+
+
+def test_simulate_format_must_be_json_or_csv(server):
+    status, data = server.post_json("/api/simulate?format=xml", _simulate_body())
+    assert status == 400 and data["errors"][0]["message"] == "format 'xml': choose json (the default) or csv"
+
+
+# ------------------------------------------------------------------ analysis, equilibria, report
+def test_analysis_gives_the_reports_sections_as_mathml(server):
+    status, data = server.post_json("/api/analysis", example_source("double-pendulum"))
+    assert status == 200
+    keys = [s["key"] for s in data["sections"]]
+    assert keys == [s.key for s in lg.report("double-pendulum", equilibria=False).sections]
+    equations = next(s for s in data["sections"] if s["key"] == "equations")
+    assert equations["title"] == "8. Lagrange's equations" and equations["html"].count("<math") >= 2
+    assert data["simulation"] == {"t_end": 20.0, "dt": 0.01, "initial": {"theta1": 2.0, "theta2": 2.5}}
+    assert data["drawable"] and data["parameters"] == {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
+
+
+def test_equilibria_with_slider_values_and_the_modes_of_the_stable_ones(server):
+    status, data = server.post_json("/api/equilibria", {"model": example_source("rotating-pendulum"),
+                                                        "params": {"Omega": 6.0}})
+    assert status == 200
+    found = lg.equilibria(lg.derive(lg.load("rotating-pendulum")), params={"Omega": 6.0})
+    assert data["equilibria"] == [e.to_dict() for e in found]
+    assert [e["stable"] for e in data["equilibria"]] == [True, False, True, False]
+    stable = found[0]
+    assert data["modes"][0] == lg.modes(stable.linear_model).to_dict() and data["modes"][1] is None
+    assert "acos" not in data["html"] and "<math" in data["html"] and "exists when g &lt;= Omega**2*l" in data["html"]
+    assert data["html"].count("Modes about equilibrium") == 2
+
+
+def test_a_model_without_equilibrium_says_why(server):
+    status, data = server.post_json("/api/equilibria", {"model": example_source("kepler")})
+    assert status == 200 and data["equilibria"] == []
+    assert "There is no equilibrium" in data["html"] and "SymPy finds no solution" in data["html"]
+
+
+@pytest.mark.parametrize("fmt", ["html", "md", "tex"])
+def test_report_is_the_cli_report(server, fmt, tmp_path):
+    status, headers, body = server.request("POST", f"/api/report?format={fmt}", example_source("mck"))
+    assert status == 200
+    assert headers["Content-Disposition"] == f'attachment; filename="mck.{fmt}"'
+    out = tmp_path / f"mck.{fmt}"
+    subprocess.run([sys.executable, "-m", "lagrangian", "report", "mck", "-o", str(out)], check=True,
+                   capture_output=True)
+    assert body.decode() == out.read_text()
+
+
+def test_report_format_is_checked(server):
+    status, data = server.post_json("/api/report?format=pdf", OSCILLATOR)
+    assert status == 400 and data["errors"][0]["message"] == "format 'pdf': choose html, md or tex"
+
+
+# ------------------------------------------------------------------ the page and the examples
+def test_examples(server):
+    status, headers, body = server.request("GET", "/api/examples")
+    assert status == 200 and json.loads(body) == example_descriptions()
+    status, headers, body = server.request("GET", "/api/examples/pendulum-chain-3")
+    assert json.loads(body) == {"name": "pendulum-chain-3", "text": example_source("pendulum-chain-3")}
+    status, data = server.request("GET", "/api/examples/double-pendulm")[0], json.loads(
+        server.request("GET", "/api/examples/double-pendulm")[2])
+    assert status == 404
+    assert data["errors"][0]["message"].startswith("there is no built-in example 'double-pendulm'. Did you mean "
+                                                   "'double-pendulum'?")
+
+
+def test_the_page_opens_with_an_example_and_ships_its_assets(server):
+    status, headers, body = server.request("GET", "/?example=mck")
+    page = body.decode()
+    assert status == 200 and headers["Content-Type"].startswith("text/html")
+    initial = json.loads(page.split('<script id="initial" type="application/json">')[1].split("</script>")[0])
+    assert initial["name"] == "mck" and initial["text"] == example_source("mck")
+    assert "http" not in page.replace("http://www.w3.org", "")  # nothing fetched from elsewhere
+    for asset in ("playground.js", "editor.js", "plots.js", "mechanism.js", "playground.css"):
+        path = page.split(f"/static/{asset}")[1].split('"')[0]
+        status, headers, body = server.request("GET", f"/static/{asset}{path}")
+        assert status == 200 and len(body) > 1000
+        assert b"https://" not in body and b"http://" not in body.replace(b"http://www.w3.org", b"")
+    status, headers, body = server.request("GET", "/?example=nope")
+    assert status == 404 and b"there is no built-in example 'nope'." in body
+
+
+def test_info_says_the_limits_and_whether_an_fmu_can_be_downloaded(server):
+    status, headers, body = server.request("GET", "/api/info")
+    info = json.loads(body)
+    try:
+        import lagrangian.export  # noqa: F401
+        fmu = True
+    except ImportError:
+        fmu = False
+    assert info == {"version": lg.__version__, "workers": 2, "time_limit_s": 60.0, "max_body_bytes": 1048576,
+                    "max_rows": 100000, "max_frames": 4000, "fmu": fmu, "model": None}
+
+
+# ------------------------------------------------------------------ robustness
+def test_the_server_answers_while_workers_are_busy(server):
+    slow = {"model": example_source("double-pendulum"), "t_end": 40, "dt": 0.01, "method": "RK45", "rtol": 1e-11,
+            "atol": 1e-11}
+    done = {}
+    thread = threading.Thread(target=lambda: done.update(r=server.post_json("/api/simulate", slow)))
+    thread.start()
+    time.sleep(0.5)
+    start = time.monotonic()
+    assert server.request("GET", "/api/info")[0] == 200
+    assert server.request("GET", "/?example=mck")[0] == 200
+    assert server.post_json("/api/derive", OSCILLATOR)[0] == 200  # on the other worker
+    assert time.monotonic() - start < 5 and "r" not in done
+    thread.join()
+    assert done["r"][0] == 200
+
+
+def test_a_runaway_request_is_stopped_at_the_time_limit_and_a_crash_is_survived():
+    s = Server(workers=1, time_limit=3)
+    try:
+        assert s.post_json("/api/derive", OSCILLATOR)[0] == 200
+        before = s.worker_pids()
+        slow = {"model": example_source("double-pendulum"), "t_end": 5000, "dt": 1, "method": "RK45", "rtol": 1e-12,
+                "atol": 1e-12}
+        start = time.monotonic()
+        status, data = s.post_json("/api/simulate", slow)
+        assert status == 422 and time.monotonic() - start < 30
+        assert data["errors"][0]["message"].startswith(
+            "the simulation took longer than the limit of 3 s per request and was stopped: make the model or the "
+            "simulation smaller")
+        assert s.post_json("/api/derive", OSCILLATOR)[0] == 200  # a new worker took its place
+        after = s.worker_pids()
+        assert len(after) == 1 and after != before
+        # a worker killed in the middle of a request (a crash): that request fails, the server goes on
+        result = {}
+        thread = threading.Thread(target=lambda: result.update(r=s.post_json("/api/simulate", slow)))
+        thread.start()
+        time.sleep(1.0)
+        os.kill(after[0], signal.SIGKILL)
+        thread.join()
+        status, data = result["r"]
+        assert status == 500
+        assert "stopped unexpectedly (signal 9)" in data["errors"][0]["message"]
+        assert s.post_json("/api/derive", OSCILLATOR)[0] == 200
+    finally:
+        code, out, err = s.stop()
+    assert code == 0 and "Traceback" not in err
+    assert wait_until(lambda: not s.worker_pids(), 10)
+
+
+# ------------------------------------------------------------------ the command
+def test_serve_stops_cleanly_on_ctrl_c_and_takes_its_workers_along():
+    s = Server("double-pendulum", workers=1)
+    assert s.first_line == f"lagrangian serve: the playground is at {s.url} (press Ctrl-C to stop)\n"
+    assert s.url.startswith("http://127.0.0.1:")
+    page = s.request("GET", "/")[2].decode()
+    assert '"name": "double-pendulum"' in page
+    pids = wait_until(s.worker_pids, 10)
+    code, out, err = s.stop(signal.SIGINT)
+    assert code == 0 and out == "lagrangian serve: stopped\n" and err == ""
+    assert not any(os.path.exists(f"/proc/{p}") and open(f"/proc/{p}/stat").read().split()[2] != "Z" for p in pids)
+
+
+def test_serve_reads_a_model_file_anew_at_each_visit(tmp_path):
+    path = tmp_path / "osc.toml"
+    path.write_text(OSCILLATOR)
+    s = Server(str(path), workers=1)
+    try:
+        first = s.request("GET", "/")[2].decode()
+        assert '"file": "' + str(path) in first and "k = 4.0" in first
+        path.write_text(OSCILLATOR.replace("k = 4.0", "k = 9.0"))
+        assert "k = 9.0" in s.request("GET", "/")[2].decode()
+        assert json.loads(s.request("GET", "/api/info")[2])["model"] == str(path)
+    finally:
+        s.stop()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["nope-model"], "lagrangian serve: error: 'nope-model' is neither a model file nor a built-in example."),
+    (["missing.toml"], "lagrangian serve: error: missing.toml: no such model file 'missing.toml': check the path"),
+    (["--port", "70000"], "lagrangian serve: error: --port 70000: expected a port number from 1 to 65535"),
+    (["--workers", "0"], "lagrangian serve: error: --workers 0: expected at least 1"),
+    (["--time-limit", "0"], "lagrangian serve: error: --time-limit 0: expected a positive number of seconds"),
+])
+def test_serve_errors(argv, message, tmp_path):
+    run = subprocess.run([sys.executable, "-m", "lagrangian", "serve", "--no-browser", *argv], capture_output=True,
+                         text=True, timeout=60, cwd=tmp_path)
+    assert run.returncode == 2 and run.stderr.startswith(message), run.stderr
+    assert "Traceback" not in run.stderr
+
+
+def test_a_port_in_use_is_an_error_that_says_what_to_do():
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        run = subprocess.run([sys.executable, "-m", "lagrangian", "serve", "--no-browser", "--port", str(port)],
+                             capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2
+    assert run.stderr == (f"lagrangian serve: error: port {port} on 127.0.0.1 is in use (another `lagrangian "
+                          "serve`?): choose another with --port, or --port 0 for a free one\n")
+
+
+def test_another_host_needs_saying_so_and_prints_a_warning():
+    s = Server("--host", "0.0.0.0", workers=1)
+    try:
+        assert len(s.lines) == 2
+        assert s.lines[0].startswith("lagrangian serve: warning: serving on 0.0.0.0, reachable from other machines")
+        assert s.lines[1].startswith("lagrangian serve: the playground is at http://0.0.0.0:")
+    finally:
+        s.stop()
