@@ -137,7 +137,9 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         Parameter values that override the model's: a number for every run, or one per run
         (see :func:`grid` for every combination of several parameters).
     inputs : mapping of str to float or str
-        Each input as a constant or an expression of t and the parameters (per run's values).
+        Each input as a constant or an expression of t, the coordinates, velocities and
+        parameters (per run's values), a feedback law included (its runs are integrated one at
+        a time, without lanes).
     dt, t_eval
         Output times, as in :func:`simulate`; ``t_eval=[t_end]`` keeps only the final states.
     rtol, atol : float
@@ -171,7 +173,8 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         Arrays: ``x[run, time, state]``; a run that fails does not stop the others: its
         `status` says why and its states are NaN from then on.
     """
-    from ._simulate import (_Names, _as_numeric, _closest, _input_function, _parameters, requested_times)
+    from ._simulate import (_Names, _as_numeric, _closest, _input_function, _input_programs, _parameters,
+                            requested_times)
     from ._fast import BACKENDS, CompiledModel
 
     nm = _as_numeric(system)
@@ -255,10 +258,9 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     times = requested_times(t_end, dt, t_eval)
 
     from ._compiled import compile_equations
-    from ._inputs import programs
 
     cm = nm if isinstance(nm, CompiledModel) else compile_equations(eq, "numba" if backend == "auto" else backend)
-    prog = programs(u_exprs, eq.t, list(eq.parameters))
+    prog = _input_programs(eq, u_exprs)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)
     X = np.full((B, len(times), 2 * names.n), np.nan)
     INFO = np.zeros((B, 2 + 2 * names.n))
@@ -266,6 +268,8 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     STATUS_ = np.zeros(B, dtype=np.int64)
     if lanes is None:
         lanes = default_lanes(names.n, B)
+    if prog.reads_state or prog.nswitch:  # feedback laws and switches: one run at a time (see dop853)
+        lanes = 1
     rcl = cm.rhs_lanes_address(lanes) if lanes > 1 and B >= lanes else None
     if chunk_size is None:
         chunk_size = max(64, -(-B // 50))

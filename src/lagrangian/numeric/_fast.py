@@ -170,7 +170,7 @@ class CompiledModel:
         prog = constant_programs(u[:m])
         out, U = np.empty(1), np.empty((1, m))
         kernels().energies(self.energy_address, np.array([t]), x[None, :], p, prog.ops, prog.args, prog.starts,
-                           prog.nstack, out, U)
+                           prog.nstack, out, U, np.zeros(max(1, m), np.int64))
         return float(out[0])
 
 
@@ -260,6 +260,8 @@ class RawRun:
     event_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # event crossings: times,
     event_k: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # which event,
     event_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # states
+    nswitch: int = 0  # switches located
+    held: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # sampled inputs at the sample times
 
 
 _TABLE = None
@@ -328,12 +330,31 @@ def _no_events(n: int):
 _MIN_RTOL = 100 * 2.220446049250313e-16
 
 
+@dataclass(frozen=True)
+class Sampling:
+    """Sampled inputs (internal): hold[i] = 1 for a sampled input; its values are computed at
+    the times `samples` where which[s, i] = 1 and held in between."""
+
+    hold: np.ndarray
+    samples: np.ndarray
+    which: np.ndarray
+
+
+def no_sampling(m: int) -> Sampling:
+    return Sampling(np.zeros(max(1, m), np.int64), np.zeros(0), np.zeros((1, max(1, m)), np.int64))
+
+
 def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
-               first_step: float = 0.0, events=None, terminal=(), progress: bool | None = None) -> RawRun:
+               first_step: float = 0.0, events=None, terminal=(), progress: bool | None = None,
+               sampling: Sampling | None = None) -> RawRun:
     """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `events`:
     the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it.
-    `progress`: draw a progress bar (default: when stderr is a terminal and it takes over 1 s)."""
+    `progress`: draw a progress bar (default: when stderr is a terminal and it takes over 1 s).
+    `sampling`: the sampled inputs (default: none)."""
     n = cm.n
+    m = len(prog.starts) - 1
+    sampling = sampling or no_sampling(m)
+    hist = np.zeros((max(1, len(sampling.samples)), max(1, m)))
     if events is None:  # no events: the kernel only reads these arrays, so they are shared
         events, eterm, ev_t, ev_k, ev_x, ev_n = _no_events(n)
         nev = 0
@@ -346,7 +367,7 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     times = np.ascontiguousarray(times, dtype=float)
     X = np.empty((len(times), 2 * n))
     info = np.zeros(2 + 2 * n)
-    stats = np.zeros(4, dtype=np.int64)
+    stats = np.zeros(5, dtype=np.int64)
     rtol = max(float(rtol), _MIN_RTOL)
 
     def call():
@@ -354,14 +375,16 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
                                 _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts,
                                 max(prog.nstack, events.nstack), rtol, float(atol), float(max_step),
                                 float(first_step), X, info, stats, *stage_table(), events.ops, events.args,
-                                events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
+                                events.starts, eterm, ev_t, ev_k, ev_x, ev_n, sampling.hold, sampling.samples,
+                                sampling.which, hist)
 
     status = call() if progress is False else _with_progress(call, stats, len(times), progress)
     k = int(stats[3])
     m = int(ev_n[0]) if nev else 0
     order = np.argsort(ev_t[:m], kind="stable") if m else slice(None)
     return RawRun(int(status), times[:k], X[:k], float(info[0]), float(info[1]), info[2:].copy(),
-                  int(stats[0]), int(stats[1]), int(stats[2]), ev_t[:m][order], ev_k[:m][order], ev_x[:m][order])
+                  int(stats[0]), int(stats[1]), int(stats[2]), ev_t[:m][order], ev_k[:m][order], ev_x[:m][order],
+                  int(stats[4]), hist)
 
 
 def run_variational(cm: CompiledModel, x0, h: float, nsteps: int, every: int, p, prog) -> RawRun:
@@ -380,13 +403,18 @@ def run_variational(cm: CompiledModel, x0, h: float, nsteps: int, every: int, p,
                   info[2:].copy(), int(stats[0]), int(stats[1]), 0)
 
 
-def inputs_and_energy(cm: CompiledModel, times, X, p, prog) -> tuple[np.ndarray, np.ndarray]:
-    """(U, energy) at the rows of (times, X), computed in compiled code."""
+def inputs_and_energy(cm: CompiledModel, times, X, p, prog, held=None) -> tuple[np.ndarray, np.ndarray]:
+    """(U, energy) at the rows of (times, X), computed in compiled code. `held`: (hold, U0) for
+    sampled inputs: hold[i] = 1 where U0[:, i] holds the values of input i at the times."""
     times = np.ascontiguousarray(times, dtype=float)
-    U = np.empty((len(times), len(cm.input_names)))
+    m = len(cm.input_names)
+    U = np.empty((len(times), m))
+    hold = np.zeros(max(1, m), np.int64)
+    if held is not None:
+        hold, U[:] = held
     energy = np.empty(len(times))
     kernels().energies(cm.energy_address, times, np.ascontiguousarray(X, dtype=float), _nonempty(np.ascontiguousarray(p, dtype=float)),
-                       prog.ops, prog.args, prog.starts, prog.nstack, energy, U)
+                       prog.ops, prog.args, prog.starts, prog.nstack, energy, U, hold)
     return U, energy
 
 

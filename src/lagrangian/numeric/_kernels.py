@@ -25,7 +25,7 @@ dense output) are read from SciPy's table at generation time, so that this integ
 
 from __future__ import annotations
 
-__all__ = ["kernel_source", "STATUS", "OPCODES", "SINGULAR_RATIO", "EVENT_RATIO"]
+__all__ = ["kernel_source", "STATUS", "OPCODES", "SWITCH_OPCODES", "SINGULAR_RATIO", "EVENT_RATIO"]
 
 #: inertia measure of M at or below which the mass matrix counts as singular (stops at once).
 SINGULAR_RATIO = 1e-12
@@ -49,7 +49,12 @@ OPCODES = {
     "sin": 10, "cos": 11, "tan": 12, "exp": 13, "log": 14, "sqrt": 15, "abs": 16, "sign": 17,
     "asin": 18, "acos": 19, "atan": 20, "sinh": 21, "cosh": 22, "tanh": 23, "heaviside": 24,
     "floor": 25, "ceiling": 26, "x": 27, "u": 28,
+    # switches (argument: the switch's index) and logic: see _inputs.py
+    "gt": 29, "ge": 30, "and": 31, "or": 32, "where": 33, "not": 34, "sign_switch": 35,
+    "heaviside_switch": 36,
 }
+#: Opcodes whose argument is the index of a switch.
+SWITCH_OPCODES = (29, 30, 35, 36)
 
 
 def _coefficients():
@@ -89,7 +94,7 @@ _STAGE_LOOP = """{i}for st in range({first}, {last}):
 {i}        xs[i] = y[i] + h * acc
 {i}    ts = t + cc[st] * h
 {i}    if nin:
-{i}        eval_inputs(ts, p, ops, args, starts, stack, u)
+{i}        eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
 {i}    r = _rc(rc, ts, pxs, pu, pp, _ptr(K, st * nx), pw)"""
 
 
@@ -104,15 +109,18 @@ def _unrolled(first: int, last: int, indent: str, lanes: bool = False) -> list[s
         if lanes:
             body = ["for w in range(W):", f"    xs[w] = y[w] + HW[w] * ({_lincomb(enumerate(A[s, :s]), 'K', 'w')})",
                     "for k in range(L):", f"    TS[k] = T[k] + {c!r} * H[k]",
-                    "if nin:", "    _lane_inputs(TS, P, ops, args, starts, stack, u1, U)",
+                    "if nin:", "    _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)",
                     f"r = _rl(rc, pts, pxs, pu, pp, _ptr(K, {s} * W), pw, L)"]
             check = ["if r < EVENT_RATIO:", "    return 1"]
         else:
             body = ["for i in range(nx):", f"    xs[i] = y[i] + h * ({_lincomb(enumerate(A[s, :s]), 'K')})",
                     f"ts = t + {c!r} * h",
-                    "if nin:", "    eval_inputs(ts, p, ops, args, starts, stack, u)",
+                    "if nin:", "    eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)",
                     f"r = _rc(rc, ts, pxs, pu, pp, _ptr(K, {s} * nx), pw)"]
             check = ["nfev += 1", "if r < 0.0 or r <= SINGULAR_RATIO:",
+                     "    if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:",
+                     "        live = True           # take this step again with the switches live",
+                     "        continue",
                      "    return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)"]
         lines += [indent + line for line in body + (check if s < 13 else [])]
     return lines
@@ -261,8 +269,12 @@ def _heaviside(a):
 
 
 @njit(cache=True)
-def _run(ops, args, lo, hi, t, x, u, p, stack):
-    """The value of the postfix program ops[lo:hi] (see lagrangian.numeric._inputs)."""
+def _run(ops, args, lo, hi, t, x, u, p, stack, modes, live):
+    """The value of the postfix program ops[lo:hi] (see lagrangian.numeric._inputs).
+
+    A switch (a comparison, or sign) with index s writes its value to modes[s] when `live`,
+    and reads it from there when not: the integrator freezes the switches during a step and
+    locates where they change."""
     top = 0
     for c in range(lo, hi):
         op = ops[c]
@@ -297,7 +309,7 @@ def _run(ops, args, lo, hi, t, x, u, p, stack):
                 stack[top - 1] = max(a, b)
             else:
                 stack[top - 1] = min(a, b)
-        else:
+        elif op < 27:
             a = stack[top - 1]
             if op == 10:
                 a = math.sin(a)
@@ -334,21 +346,74 @@ def _run(ops, args, lo, hi, t, x, u, p, stack):
             else:
                 a = math.ceil(a)
             stack[top - 1] = a
+        elif op < 33:  # gt, ge (switches), and, or
+            b = stack[top - 1]
+            a = stack[top - 2]
+            top -= 1
+            if op == 29 or op == 30:
+                k = int(args[c])
+                if live:
+                    v = 1.0 if ((a > b) if op == 29 else (a >= b)) else 0.0
+                    modes[k] = v
+                else:
+                    v = modes[k]
+            elif op == 31:
+                v = 1.0 if (a != 0.0 and b != 0.0) else 0.0
+            else:
+                v = 1.0 if (a != 0.0 or b != 0.0) else 0.0
+            stack[top - 1] = v
+        elif op == 33:  # where(condition, a, b)
+            b = stack[top - 1]
+            a = stack[top - 2]
+            top -= 2
+            stack[top - 1] = a if stack[top - 1] != 0.0 else b
+        elif op == 34:
+            stack[top - 1] = 1.0 if stack[top - 1] == 0.0 else 0.0
+        else:  # sign and heaviside as switches
+            k = int(args[c])
+            if live:
+                a = stack[top - 1]
+                modes[k] = _sign(a) if op == 35 else _heaviside(a)
+            stack[top - 1] = modes[k]
     return stack[0]
 
 
 @njit(cache=True)
-def eval_inputs(t, p, ops, args, starts, stack, u):
-    """u[i] = program i (postfix, see lagrangian.numeric._inputs) at t with parameters p."""
+def eval_inputs(t, x, p, ops, args, starts, stack, u, modes, live, hold, held):
+    """u[i] = program i (postfix, see lagrangian.numeric._inputs) at (t, x) with parameters p;
+    a sampled input (hold[i] = 1) keeps its held value held[i]."""
     for k in range(starts.shape[0] - 1):
-        u[k] = _run(ops, args, starts[k], starts[k + 1], t, p, p, p, stack)
+        if hold[k]:
+            u[k] = held[k]
+        else:
+            u[k] = _run(ops, args, starts[k], starts[k + 1], t, x, u, p, stack, modes, live)
 
 
 @njit(cache=True)
-def eval_events(t, x, u, p, ops, args, starts, stack, out):
-    """out[k] = event function k at (t, x, u, p)."""
+def _sample(t, x, p, ops, args, starts, stack, u, modes, hold, held, which, hist, row):
+    """A sample instant: held[i] = input i at (t, x) for the sampled inputs with which[row, i];
+    hist[row] = held."""
     for k in range(starts.shape[0] - 1):
-        out[k] = _run(ops, args, starts[k], starts[k + 1], t, x, u, p, stack)
+        if hold[k] and which[row, k]:
+            held[k] = _run(ops, args, starts[k], starts[k + 1], t, x, u, p, stack, modes, True)
+        hist[row, k] = held[k]
+
+
+@njit(cache=True)
+def switch_count(ops, args):
+    """The number of switches of a program (the largest switch index + 1)."""
+    m = 0
+    for c in range(ops.shape[0]):
+        if ops[c] == 29 or ops[c] == 30 or ops[c] == 35 or ops[c] == 36:
+            m = max(m, int(args[c]) + 1)
+    return m
+
+
+@njit(cache=True)
+def eval_events(t, x, u, p, ops, args, starts, stack, out, emodes):
+    """out[k] = event function k at (t, x, u, p) (its switches live)."""
+    for k in range(starts.shape[0] - 1):
+        out[k] = _run(ops, args, starts[k], starts[k + 1], t, x, u, p, stack, emodes, True)
 
 
 @njit(cache=True)
@@ -402,9 +467,9 @@ def cholesky_solve(n, M, f, w, out, offset):
 
 
 @njit(cache=True)
-def _eval(rc, t, x, p, ops, args, starts, stack, u, dx, work):
+def _eval(rc, t, x, p, ops, args, starts, stack, u, dx, work, modes, live, hold, held):
     """dx = [q_dot, q_ddot] at (t, x); returns the inertia measure of M (-1.0: f not finite)."""
-    eval_inputs(t, p, ops, args, starts, stack, u)
+    eval_inputs(t, x, p, ops, args, starts, stack, u, modes, live, hold, held)
     return _rc(rc, t, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(dx, 0), _ptr(work, 0))
 
 
@@ -430,15 +495,21 @@ def mass_forcing(mf, n, t, x, u, p):
 
 
 @njit(cache=True)
-def energies(en, times, X, p, ops, args, starts, nstack, out, U):
-    """The Jacobi integral and the inputs at each row of (times, X)."""
+def energies(en, times, X, p, ops, args, starts, nstack, out, U, hold):
+    """The Jacobi integral and the inputs at each row of (times, X); the sampled inputs
+    (hold[i] = 1) are read from U, where the caller put their held values."""
     stack = np.empty(nstack)
-    u = np.empty(max(1, starts.shape[0] - 1))
+    m = starts.shape[0] - 1
+    u = np.empty(max(1, m))
+    modes = np.empty(max(1, ops.shape[0]))
     for k in range(times.shape[0]):
-        eval_inputs(times[k], p, ops, args, starts, stack, u)
-        for i in range(starts.shape[0] - 1):
-            U[k, i] = u[i]
         xk = np.ascontiguousarray(X[k])
+        for i in range(m):
+            if hold[i]:
+                u[i] = U[k, i]
+            else:
+                u[i] = _run(ops, args, starts[i], starts[i + 1], times[k], xk, u, p, stack, modes, True)
+                U[k, i] = u[i]
         out[k] = _en(en, times[k], _ptr(xk, 0), _ptr(u, 0), _ptr(p, 0))
 
 
@@ -480,7 +551,7 @@ def _dense(t, h, y, F, tq, out):
 
 @njit(cache=True)
 def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, aptr,
-                        aidx, aval, cc):
+                        aidx, aval, cc, modes, live, hold, held):
     """The three extra stages and the coefficients F of the order-7 interpolant."""
     nx = 2 * n
     nin = starts.shape[0] - 1
@@ -492,8 +563,8 @@ def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, st
 
 
 @njit(cache=True)
-def _measure(rc, t, x, p, ops, args, starts, stack, u, work, scratch):
-    eval_inputs(t, p, ops, args, starts, stack, u)
+def _measure(rc, t, x, p, ops, args, starts, stack, u, work, scratch, modes, live, hold, held):
+    eval_inputs(t, x, p, ops, args, starts, stack, u, modes, live, hold, held)
     return _rc(rc, t, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(scratch, 0), _ptr(work, 0))
 
 
@@ -507,15 +578,26 @@ def _rms(a, b):
 
 @njit(cache=True, nogil=True)
 def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_step, first_step,
-           X_out, info, stats, aptr, aidx, aval, cc, eops, eargs, estarts, eterm, ev_t, ev_k, ev_x, ev_n):
+           X_out, info, stats, aptr, aidx, aval, cc, eops, eargs, estarts, eterm, ev_t, ev_k, ev_x, ev_n,
+           hold, samples, which, hist):
     """Integrate x' = f(t, x, u, p) from (t0, x0) with DOP853; X_out[j] = x(t_out[j]).
 
     Returns the status (see lagrangian.numeric._kernels.STATUS); unless 0, info = [t, inertia
     measure (or, status 4, the event's index), x...] where it stopped; stats = [nfev, accepted
-    steps, rejected steps, outputs]. Event functions (programs eops/eargs/estarts of t, x, u, p)
-    are watched at each step: each zero crossing is located on the interpolant and recorded in
-    ev_t, ev_k (which event), ev_x (the state), ev_n[0] counting them (at most len(ev_t)); a
-    crossing of an event with eterm[k] = 1 stops the integration there (status 4)."""
+    steps, rejected steps, outputs(, located switches)]. Event functions (programs
+    eops/eargs/estarts of t, x, u, p) are watched at each step: each zero crossing is located on
+    the interpolant and recorded in ev_t, ev_k (which event), ev_x (the state), ev_n[0] counting
+    them (at most len(ev_t)); a crossing of an event with eterm[k] = 1 stops the integration
+    there (status 4).
+
+    Inputs are programs of (t, x, p). Their switches (comparisons in where, sign) are frozen
+    during a step, so that each step integrates a smooth right-hand side; after the step they
+    are evaluated live at its end, and when one has changed the change is located on the
+    interpolant (bisection) and the step ends there: a discontinuous law costs a step, not a
+    crawl. Where a switch changes back at once (a sliding mode), that step is taken again with
+    the switches live, under the error control alone. Sampled inputs (hold[i] = 1) are
+    evaluated at the times `samples` (those with which[s, i]) and held in between; no step
+    crosses a sample time; hist[s] receives the held values at samples[s]."""
     nx = 2 * n
     nout = t_out.shape[0]
     K = np.empty((16, nx))
@@ -524,10 +606,19 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
     ynew = np.empty(nx)
     xs = np.empty(nx)
     sc = np.empty(nx)
-    u = np.empty(max(1, starts.shape[0] - 1))
+    nin = starts.shape[0] - 1
+    u = np.empty(max(1, nin))
+    held = np.zeros(max(1, nin))
     stack = np.empty(nstack)
     work = np.empty(n * n + 2 * n)
-    nin = starts.shape[0] - 1
+    nsw = switch_count(ops, args)
+    modes = np.zeros(max(1, nsw))
+    mlive = np.zeros(max(1, nsw))
+    live = nsw == 0  # switches frozen during a step (when there are any)
+    flipped = False  # the switches changed at the start of the step being taken
+    nswitch = 0
+    ns = samples.shape[0]
+    si = 0
     pxs = _ptr(xs, 0)
     pu = _ptr(u, 0)
     pp = _ptr(p, 0)
@@ -542,7 +633,10 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
         for i in range(nx):
             X_out[j, i] = x0[i]
         j += 1
-    r = _eval(rc, t, y, p, ops, args, starts, stack, u, K[0], work)
+    if si < ns and samples[si] <= t0:
+        _sample(t0, y, p, ops, args, starts, stack, u, modes, hold, held, which, hist, si)
+        si += 1
+    r = _eval(rc, t, y, p, ops, args, starts, stack, u, K[0], work, modes, True, hold, held)
     nfev += 1
     if r < 0.0 or r <= SINGULAR_RATIO:
         return _fail(r, t, y, info, stats, nfev, nstep, nrej, j)
@@ -550,8 +644,9 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
     nev = estarts.shape[0] - 1
     eg_old = np.zeros(max(1, nev))
     eg_new = np.zeros(max(1, nev))
+    emodes = np.zeros(max(1, eops.shape[0]))
     if nev:
-        eval_events(t, y, u, p, eops, eargs, estarts, stack, eg_old)
+        eval_events(t, y, u, p, eops, eargs, estarts, stack, eg_old, emodes)
     if t_end <= t0:
         stats[0] = nfev
         stats[3] = j
@@ -568,7 +663,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
         h0 = min(h0, interval)
         for i in range(nx):
             xs[i] = y[i] + h0 * K[0, i]
-        r = _eval(rc, t + h0, xs, p, ops, args, starts, stack, u, K[1], work)
+        r = _eval(rc, t + h0, xs, p, ops, args, starts, stack, u, K[1], work, modes, live, hold, held)
         nfev += 1
         if r < 0.0 or r <= SINGULAR_RATIO:
             return _fail(r, t + h0, xs, info, stats, nfev, nstep, nrej, j)
@@ -601,6 +696,8 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
             tnew = t + h_abs
             if tnew > t_end:
                 tnew = t_end
+            if si < ns and tnew > samples[si]:
+                tnew = samples[si]
             h = tnew - t
             h_abs = abs(h)
 @STEP@
@@ -620,20 +717,77 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
             h_abs *= max(0.2, 0.9 * err ** (-1.0 / 8.0))
             rejected = True
             nrej += 1
+        dense = False
+        renew = False  # the right-hand side at the step's end must be evaluated again
+        if not live:  # did a switch change during the step?
+            for k in range(nsw):
+                mlive[k] = modes[k]
+            eval_inputs(tnew, ynew, p, ops, args, starts, stack, u, mlive, True, hold, held)
+            changed = False
+            for k in range(nsw):
+                if mlive[k] != modes[k]:
+                    changed = True
+            if changed:
+                _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, aptr,
+                                    aidx, aval, cc, modes, False, hold, held)
+                nfev += 3
+                dense = True
+                a = t
+                b = tnew
+                for _ in range(200):  # bisection on the interpolant for the first change
+                    if b - a <= 4.0 * 2.220446049250313e-16 * max(1.0, abs(b)):
+                        break
+                    c = 0.5 * (a + b)
+                    _dense(t, h, y, F, c, xs)
+                    for k in range(nsw):
+                        mlive[k] = modes[k]
+                    eval_inputs(c, xs, p, ops, args, starts, stack, u, mlive, True, hold, held)
+                    changed = False
+                    for k in range(nsw):
+                        if mlive[k] != modes[k]:
+                            changed = True
+                    if changed:
+                        b = c
+                    else:
+                        a = c
+                if b - t <= 1e-10 * max(1.0, abs(t)):  # it changes at the step's start
+                    nrej += 1
+                    if flipped:  # and changed back already: a sliding mode; this step again,
+                        live = True  # with the switches live, under the error control alone
+                        continue
+                    _dense(t, h, y, F, b, xs)  # switch at t, and take the step again
+                    eval_inputs(b, xs, p, ops, args, starts, stack, u, modes, True, hold, held)
+                    r = _eval(rc, t, y, p, ops, args, starts, stack, u, K[0], work, modes, False, hold, held)
+                    nfev += 1
+                    if r < 0.0 or r <= SINGULAR_RATIO:
+                        return _fail(r, t, y, info, stats, nfev, nstep, nrej, j)
+                    flipped = True
+                    nswitch += 1
+                    continue
+                if b < tnew:
+                    _dense(t, h, y, F, b, ynew)
+                    tnew = b
+                nswitch += 1
+                renew = True
         nstep += 1
+        if renew:  # the switches as they are at the end of the shortened step
+            rnew = _eval(rc, tnew, ynew, p, ops, args, starts, stack, u, K[12], work, modes, True, hold, held)
+            nfev += 1
+            if rnew < 0.0 or rnew <= SINGULAR_RATIO:
+                return _fail(rnew, tnew, ynew, info, stats, nfev, nstep, nrej, j)
         g_new = rnew - EVENT_RATIO
         event = g_old >= 0.0 and g_new <= 0.0 and g_old != g_new
-        dense = event or (j < nout and t_out[j] < tnew)
-        if dense:
+        if not dense and (event or (j < nout and t_out[j] < tnew)):
             _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, aptr,
-                                aidx, aval, cc)
+                                aidx, aval, cc, modes, live, hold, held)
             nfev += 3
+            dense = True
         t_stop = np.inf
         k_stop = -1
         if nev:
             if nin:
-                eval_inputs(tnew, p, ops, args, starts, stack, u)
-            eval_events(tnew, ynew, u, p, eops, eargs, estarts, stack, eg_new)
+                eval_inputs(tnew, ynew, p, ops, args, starts, stack, u, modes, live, hold, held)
+            eval_events(tnew, ynew, u, p, eops, eargs, estarts, stack, eg_new, emodes)
             for k in range(nev):
                 ga = eg_old[k]
                 gb = eg_new[k]
@@ -641,7 +795,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
                     continue
                 if not dense:
                     _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work,
-                                        aptr, aidx, aval, cc)
+                                        aptr, aidx, aval, cc, modes, live, hold, held)
                     nfev += 3
                     dense = True
                 a = t
@@ -652,8 +806,8 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
                     c = 0.5 * (a + b)
                     _dense(t, h, y, F, c, xs)
                     if nin:
-                        eval_inputs(c, p, ops, args, starts, stack, u)
-                    gc = _run(eops, eargs, estarts[k], estarts[k + 1], c, xs, u, p, stack)
+                        eval_inputs(c, xs, p, ops, args, starts, stack, u, modes, False, hold, held)
+                    gc = _run(eops, eargs, estarts[k], estarts[k + 1], c, xs, u, p, stack, emodes, True)
                     if (gc < 0.0) == (ga < 0.0) and gc != 0.0:
                         a = c
                     else:
@@ -677,7 +831,8 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
                     break
                 c = 0.5 * (a + b)
                 _dense(t, h, y, F, c, xs)
-                gc = _measure(rc, c, xs, p, ops, args, starts, stack, u, work, sc) - EVENT_RATIO
+                gc = _measure(rc, c, xs, p, ops, args, starts, stack, u, work, sc, modes, False, hold,
+                              held) - EVENT_RATIO
                 nfev += 1
                 if gc <= 0.0:
                     b = c
@@ -688,7 +843,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
                 j += 1
             _dense(t, h, y, F, b, xs)
             info[0] = b
-            info[1] = _measure(rc, b, xs, p, ops, args, starts, stack, u, work, sc)
+            info[1] = _measure(rc, b, xs, p, ops, args, starts, stack, u, work, sc, modes, False, hold, held)
             for i in range(nx):
                 info[2 + i] = xs[i]
             stats[0] = nfev
@@ -709,6 +864,8 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
             stats[1] = nstep
             stats[2] = nrej
             stats[3] = j
+            if stats.shape[0] > 4:
+                stats[4] = nswitch
             return 4
         while j < nout and t_out[j] <= tnew:
             if t_out[j] == tnew:
@@ -718,6 +875,17 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
                 _dense(t, h, y, F, t_out[j], X_out[j])
             j += 1
         stats[3] = j  # outputs done so far: read by a progress bar while this runs without the GIL
+        if si < ns and tnew >= samples[si]:  # a sample instant: new held inputs, a new f there
+            _sample(tnew, ynew, p, ops, args, starts, stack, u, modes, hold, held, which, hist, si)
+            si += 1
+            rnew = _eval(rc, tnew, ynew, p, ops, args, starts, stack, u, K[12], work, modes, True, hold, held)
+            nfev += 1
+            if rnew < 0.0 or rnew <= SINGULAR_RATIO:
+                return _fail(rnew, tnew, ynew, info, stats, nfev, nstep, nrej, j)
+        elif nsw and live:  # the switches as they are at the step's end
+            eval_inputs(tnew, ynew, p, ops, args, starts, stack, u, modes, True, hold, held)
+        live = nsw == 0
+        flipped = False
         t = tnew
         for i in range(nx):
             y[i] = ynew[i]
@@ -730,6 +898,8 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
     stats[1] = nstep
     stats[2] = nrej
     stats[3] = j
+    if stats.shape[0] > 4:
+        stats[4] = nswitch
     return 0
 
 
@@ -742,23 +912,26 @@ def dop853_batch(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
         ef = np.zeros(1)
         STATUS[b] = dop853(rc, n, X0[b], t0, t_out, P[b], ops, args, starts, nstack, rtol, atol,
                            max_step, 0.0, X_out[b], INFO[b], STATS[b], aptr, aidx, aval, cc, ei, ef, ei, ei,
-                           ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64))
+                           ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64),
+                           np.zeros(max(1, starts.shape[0] - 1), np.int64), np.zeros(0), np.zeros((1, 1), np.int64),
+                           np.zeros((1, max(1, starts.shape[0] - 1))))
 
 
 @njit(cache=True)
-def _lane_inputs(T, P, ops, args, starts, stack, u1, U):
-    """U[m * L + k] = input m of lane k at T[k] (its parameters P[k]), L = P.shape[0]."""
+def _lane_inputs(T, P, ops, args, starts, stack, u1, U, lm, lh):
+    """U[m * L + k] = input m of lane k at T[k] (its parameters P[k]), L = P.shape[0]; the
+    inputs are functions of t and p only (lm, lh: scratch for the switches and the holds)."""
     L = P.shape[0]
     nin = starts.shape[0] - 1
     for k in range(L):
-        eval_inputs(T[k], P[k], ops, args, starts, stack, u1)
+        eval_inputs(T[k], P[k], P[k], ops, args, starts, stack, u1, lm, True, lh, u1)
         for m in range(nin):
             U[m * L + k] = u1[m]
 
 
 @njit(cache=True)
 def _lane_dense_coefficients(rc, L, nx, T, H, HW, y, ynew, K, F, xs, TS, P, ops, args, starts, stack, u1, U,
-                             pts, pp, pw):
+                             pts, pp, pw, lm, lh):
     """_dense_coefficients of dop853_lanes: every lane's, each of its own step."""
     W = nx * L
     nin = starts.shape[0] - 1
@@ -824,6 +997,8 @@ def dop853_lanes(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
     nin = starts.shape[0] - 1
     u1 = np.empty(max(1, nin))
     U = np.empty(max(1, nin) * L)
+    lm = np.zeros(max(1, ops.shape[0]))
+    lh = np.zeros(max(1, nin), np.int64)
     stack = np.empty(nstack)
     work = np.empty(2 * L)
     pts = _ptr(TS, 0)
@@ -845,7 +1020,7 @@ def dop853_lanes(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
         STATS[k, 2] = 0
         TS[k] = t0
     if nin:
-        _lane_inputs(TS, P, ops, args, starts, stack, u1, U)
+        _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
     r = _rl(rc, pts, _ptr(y, 0), pu, pp, _ptr(K, 0), pw, L)
     if r < EVENT_RATIO:
         return 1
@@ -860,7 +1035,7 @@ def dop853_lanes(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
                 w = i * L + k
                 xs[w] = y[w] + H[k] * K[0, w]
         if nin:
-            _lane_inputs(TS, P, ops, args, starts, stack, u1, U)
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
         r = _rl(rc, pts, pxs, pu, pp, _ptr(K, W), pw, L)
         if r < EVENT_RATIO:
             return 1
@@ -920,7 +1095,7 @@ def dop853_lanes(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
                 STATS[k, 2] += 1
         if dense:
             _lane_dense_coefficients(rc, L, nx, T, H, HW, y, ynew, K, F, xs, TS, P, ops, args, starts, stack, u1,
-                                     U, pts, pp, pw)
+                                     U, pts, pp, pw, lm, lh)
         for k in range(L):
             if not accepted[k]:
                 continue
@@ -968,7 +1143,9 @@ def dop853_batch_lanes(rc, rcl, n, lanes, X0, t0, t_out, P, ops, args, starts, n
             ef = np.zeros(1)
             STATUS[q] = dop853(rc, n, X0[q], t0, t_out, P[q], ops, args, starts, nstack, rtol, atol,
                                max_step, 0.0, X_out[q], INFO[q], STATS[q], aptr, aidx, aval, cc, ei, ef, ei, ei,
-                               ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64))
+                               ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64),
+                               np.zeros(max(1, starts.shape[0] - 1), np.int64), np.zeros(0),
+                               np.zeros((1, 1), np.int64), np.zeros((1, max(1, starts.shape[0] - 1))))
 
 
 @njit(cache=True)
@@ -1003,7 +1180,13 @@ def variational(mf, lp, n, x0, t0, h, nsteps, every, p, ops, args, starts, nstac
     for i in range(n):
         q[i] = x0[i]
         v[i] = x0[n + i]
-    eval_inputs(t0, p, ops, args, starts, stack, u)
+    modes = np.zeros(max(1, ops.shape[0]))
+    hold = np.zeros(max(1, starts.shape[0] - 1), np.int64)
+    xdep = False  # whether the inputs read the state (feedback): then evaluated at each iterate
+    for c in range(ops.shape[0]):
+        if ops[c] == 27:
+            xdep = True
+    eval_inputs(t0, x0, p, ops, args, starts, stack, u, modes, True, hold, u)
     _vf(lp, t0, _ptr(x0, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pk, 0), _ptr(Fq, 0))
     for i in range(nx):
         X_out[0, i] = x0[i]
@@ -1014,7 +1197,8 @@ def variational(mf, lp, n, x0, t0, h, nsteps, every, p, ops, args, starts, nstac
     for k in range(nsteps):
         t = t0 + k * h
         tm = t + 0.5 * h
-        eval_inputs(tm, p, ops, args, starts, stack, u)
+        if not xdep:
+            eval_inputs(tm, x0, p, ops, args, starts, stack, u, modes, True, hold, u)
         if k > 0:  # first guess: extrapolate the last two mean velocities
             for i in range(n):
                 g = 2.0 * v[i] - vprev[i]
@@ -1025,6 +1209,8 @@ def variational(mf, lp, n, x0, t0, h, nsteps, every, p, ops, args, starts, nstac
             for i in range(n):
                 xm[i] = q[i] + 0.5 * h * v[i]
                 xm[n + i] = v[i]
+            if xdep:
+                eval_inputs(tm, xm, p, ops, args, starts, stack, u, modes, True, hold, u)
             _vf(lp, tm, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pm, 0), _ptr(Fq, 0))
             nfev += 1
             for i in range(n):
@@ -1055,6 +1241,8 @@ def variational(mf, lp, n, x0, t0, h, nsteps, every, p, ops, args, starts, nstac
         for i in range(n):
             xm[i] = q[i] + 0.5 * h * v[i]
             xm[n + i] = v[i]
+        if xdep:
+            eval_inputs(tm, xm, p, ops, args, starts, stack, u, modes, True, hold, u)
         _vf(lp, tm, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pm, 0), _ptr(Fq, 0))
         nfev += 1
         for i in range(n):
@@ -1062,9 +1250,11 @@ def variational(mf, lp, n, x0, t0, h, nsteps, every, p, ops, args, starts, nstac
             pk[i] = pm[i] + 0.5 * h * Fq[i]
         if (k + 1) % every == 0:
             t1 = t0 + (k + 1) * h
-            eval_inputs(t1, p, ops, args, starts, stack, u)
             for i in range(n):
                 xm[i] = q[i]
+                xm[n + i] = v[i]  # the inputs at the mean velocity of the last step
+            eval_inputs(t1, xm, p, ops, args, starts, stack, u, modes, True, hold, u)
+            for i in range(n):
                 xm[n + i] = 0.0
             _vf(lp, t1, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(pm, 0), _ptr(Fq, 0))
             _vf(mf, t1, _ptr(xm, 0), _ptr(u, 0), _ptr(p, 0), _ptr(M, 0), _ptr(f, 0))

@@ -130,8 +130,8 @@ def _initial_state(nm: NumericModel, initial, problems: list[Problem]) -> np.nda
 
 
 def _input_function(nm, inputs, pvalues, problems: list[Problem]):
-    """(u(t) as a Python function, the inputs as sympy expressions of t and the parameters for
-    compiled code, or None when one is a Python function)."""
+    """(u(t, x) as a Python function, the inputs as sympy expressions of t, the state and the
+    parameters for compiled code, or None when one is a Python function)."""
     m = len(nm.input_names)
     constant = np.zeros(m)
     funcs: list[tuple[int, Callable]] = []
@@ -149,25 +149,28 @@ def _input_function(nm, inputs, pvalues, problems: list[Problem]):
                 exprs[i] = sympy.Float(float(spec))
         elif isinstance(spec, (str, sympy.Basic)):
             try:
-                fun, expr = _expression_of_t(nm, spec, pvalues)
+                fun, expr = _input_expression(nm, spec, pvalues)
                 funcs.append((i, fun))
                 if exprs is not None:
                     exprs[i] = expr
             except ModelError as exc:
                 problems.extend(Problem(p.message, key=f"inputs.{name}") for p in exc.problems)
         elif callable(spec):
-            funcs.append((i, spec))
+            fun = _feedback_function(spec, name, problems)
+            if fun is not None:
+                funcs.append((i, fun))
             exprs = None
         else:
-            problems.append(Problem(f"input '{name}' must be a number, an expression of t (a string) or a "
-                                    f"function of t, got {spec!r}", key=f"inputs.{name}"))
+            problems.append(Problem(f"input '{name}' must be a number, an expression (a string) of t, the "
+                                    f"coordinates, velocities and parameters, or a function u(t) or u(t, x), got "
+                                    f"{spec!r}", key=f"inputs.{name}"))
     if not funcs:
-        return (lambda t: constant), exprs
+        return (lambda t, x: constant), exprs
 
-    def u(t: float) -> np.ndarray:
+    def u(t: float, x) -> np.ndarray:
         out = constant.copy()
         for i, f in funcs:
-            value = f(t)
+            value = f(t, x)
             try:
                 out[i] = float(value)
             except (TypeError, ValueError):
@@ -178,34 +181,104 @@ def _input_function(nm, inputs, pvalues, problems: list[Problem]):
     return u, exprs
 
 
-def _expression_of_t(nm, spec, pvalues) -> tuple[Callable[[float], float], sympy.Expr]:
+def _feedback_function(spec, name: str, problems: list[Problem]):
+    """A Python function u(t) or u(t, x) as u(t, x); None after a problem."""
+    import inspect
+
+    try:
+        params = [q for q in inspect.signature(spec).parameters.values()
+                  if q.kind in (q.POSITIONAL_ONLY, q.POSITIONAL_OR_KEYWORD) and q.default is q.empty]
+        varargs = any(q.kind == q.VAR_POSITIONAL for q in inspect.signature(spec).parameters.values())
+    except (TypeError, ValueError):  # a builtin without a signature: a function of t
+        return lambda t, x: spec(t)
+    if len(params) == 2 or (varargs and len(params) < 2):
+        return spec
+    if len(params) == 1:
+        return lambda t, x: spec(t)
+    problems.append(Problem(f"input '{name}': a function must take (t) or (t, x), the time and the state "
+                            f"[q, q_dot], but it takes {len(params)} arguments", key=f"inputs.{name}"))
+    return None
+
+
+def _input_names(eq: Equations) -> dict:
+    """The names an input's expression may use: t, the coordinates, velocities and parameters."""
+    return {"t": eq.t, **{s.name: s for s in (*eq.coordinates, *eq.velocities)},
+            **{p.name: p for p in eq.parameters}}
+
+
+def _input_expression(nm, spec, pvalues) -> tuple[Callable[[float, np.ndarray], float], sympy.Expr]:
     from ..io._expr import parse_expression
     from ..errors import ExpressionError
 
-    t = nm.equations.t
-    names = {"t": t, **{p.name: p for p in nm.equations.parameters}}
+    eq = nm.equations
+    names = _input_names(eq)
     if isinstance(spec, str):
         try:
-            expr = parse_expression(spec, names)
+            expr = parse_expression(spec, names, feedback=True)
         except ExpressionError as exc:
-            raise ModelError(f"{exc} (an input is an expression of t and the parameters)") from None
+            raise ModelError(f"{exc} (an input is an expression of t, the coordinates, velocities and "
+                             "parameters)") from None
     else:
         expr = spec
     extra = expr.free_symbols - set(names.values())
     if extra:
-        raise ModelError(f"an input may depend only on t and the parameters, not on "
+        raise ModelError(f"an input may depend on t, the coordinates, velocities and parameters, not on "
                          f"{', '.join(sorted(s.name for s in extra))}")
-    params = list(nm.equations.parameters)
-    f = sympy.lambdify([t, params], expr, "math")
+    f = sympy.lambdify([eq.t, list((*eq.coordinates, *eq.velocities)), list(eq.parameters)], expr, "math")
     pv = [float(v) for v in pvalues]
-    return (lambda time: f(time, pv)), expr
+    return (lambda time, x: f(time, x, pv)), expr
+
+
+def sample_times(sample_time, input_names: tuple[str, ...], t_end: float, problems: list[Problem]):
+    """The sampled inputs: (hold (m,) int, sample instants (S,), which (S, m) int), or None.
+    `sample_time`: a period for every input, or a mapping of input names to periods."""
+    if sample_time is None:
+        return None
+    m = len(input_names)
+    periods = np.zeros(m)
+    if isinstance(sample_time, Mapping):
+        items = sample_time.items()
+    else:
+        items = [(name, sample_time) for name in input_names]
+        if not m:
+            problems.append(Problem("sample_time is given but the model has no inputs to sample", key="sample_time"))
+    for name, value in items:
+        name = getattr(name, "name", name)
+        key = "sample_time" if not isinstance(sample_time, Mapping) else f"sample_time.{name}"
+        if name not in input_names:
+            problems.append(Problem(f"'{name}' is not an input of the model{_closest(name, input_names)}; "
+                                    f"its inputs are {', '.join(input_names) or 'none'}", key=key))
+        elif (not isinstance(value, numbers.Real) or isinstance(value, bool) or not value > 0
+              or not math.isfinite(value)):
+            problems.append(Problem(f"a sample time must be a positive number of seconds, got {value!r}", key=key))
+        else:
+            periods[input_names.index(name)] = float(value)
+    if problems or not np.any(periods > 0) or t_end is None:
+        return None
+    instants = {i: output_times(float(t_end), periods[i]) for i in range(m) if periods[i] > 0}
+    samples = np.unique(np.concatenate(list(instants.values())))
+    which = np.zeros((len(samples), max(1, m)), np.int64)
+    for i, times in instants.items():
+        which[:, i] = np.isin(samples, times)
+    hold = np.zeros(max(1, m), np.int64)
+    hold[:m] = periods > 0
+    from ._fast import Sampling
+
+    return Sampling(hold, samples, which)
+
+
+def held_inputs(sampling, values: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """The held values at `times`: those computed at the last sample instant at or before each."""
+    rows = np.searchsorted(sampling.samples, times, side="right") - 1
+    return values[np.clip(rows, 0, len(values) - 1)]
 
 
 def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mapping | None = None,
              params: Mapping | None = None, dt: float | None = None, t_eval=None,
              rtol: float | None = None, atol: float | None = None, method: str = "DOP853",
              max_step: float = math.inf, backend: str = "auto", step: float | None = None,
-             events: Mapping[str, str] | None = None, stop_on=(), progress: bool | None = None) -> Trajectory:
+             events: Mapping[str, str] | None = None, stop_on=(), progress: bool | None = None,
+             sample_time: float | Mapping[str, float] | None = None) -> Trajectory:
     """Integrate x' = f(t, x, u, p) from t = 0 to `t_end`.
 
     Parameters
@@ -217,8 +290,10 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         Initial coordinates and velocities by name (``{"q2": 0.5, "q2_dot": 0}``); those not
         given are 0. Default: the model's [simulation] initial values.
     inputs : mapping of str to float, str or callable
-        Each input as a constant, an expression of t and the parameters (``"1.5*sin(3*t)"``)
-        or a function of t. Inputs not given are 0.
+        Each input as a constant, an expression of t, the coordinates, velocities and parameters
+        (``"1.5*sin(3*t)"``, or a feedback law ``"-20*(q2 - pi/2) - 5*q2_dot"``, which may
+        switch with ``where``, ``min``, ``max``, ``clip``), or a Python function ``u(t)`` or
+        ``u(t, x)`` (x the state [q, q_dot]; these run on the SciPy path). Inputs not given are 0.
     params : mapping of str to float
         Parameter values that override the model's.
     dt : float
@@ -256,6 +331,11 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     progress : bool, optional
         Draw a progress bar on stderr; by default only when stderr is a terminal and the run
         takes more than a second (the results do not depend on it).
+    sample_time : float or mapping of str to float, optional
+        A sampled (digital) controller: each input is evaluated at t = 0, Ts, 2 Ts, ... and held
+        in between (zero-order hold); a number samples every input, a mapping only the named
+        ones (``{"F": 0.01}``; the others stay continuous). Default: the model's [simulation]
+        sample_time, or none.
 
     Returns
     -------
@@ -304,7 +384,13 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         problems.append(Problem(f"step must be a positive number, got {step!r}", key="step"))
     p = _parameters(nm, params, problems)
     x0 = _initial_state(nm, defaults.get("initial") if initial is None else initial, problems)
-    u_of_t, u_exprs = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
+    u_of, u_exprs = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
+    sample_time = defaults.get("sample_time") if sample_time is None else sample_time
+    sampling = sample_times(sample_time, nm.input_names, t_end if isinstance(t_end, numbers.Real) else None,
+                            problems)
+    if sample_time is not None and method == "variational":
+        problems.append(Problem("method 'variational' does not sample inputs: use method='DOP853' with "
+                                "sample_time", key="sample_time"))
     if method == "variational":
         if t_eval is not None:
             problems.append(Problem("method 'variational' outputs every dt: pass dt=... (--dt) instead of "
@@ -328,7 +414,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     fast = _compiled_model(nm, backend, method, u_exprs)
     if fast is not None:
         return _simulate_compiled(fast, method, x0, times, p, u_exprs, float(rtol), float(atol), max_step,
-                                  float(dt), step, event_exprs, tuple(stop_on), progress)
+                                  float(dt), step, event_exprs, tuple(stop_on), progress, sampling)
     if event_exprs:
         raise ModelError("events are watched by the compiled integrators: give inputs as expression strings "
                          "and use backend='auto', 'numba' or 'c'")
@@ -343,12 +429,20 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     bar = Progress(1000, "simulating", enabled=progress)
     per_time = 1000 / float(times[-1]) if times[-1] > 0 else 0.0
 
+    m = len(nm.input_names)
+    held = np.zeros(m)
+    hold = sampling.hold[:m].astype(bool) if sampling is not None else np.zeros(m, bool)
+
+    def u_at(t, x):
+        u = u_of(t, x)
+        return np.where(hold, held, u) if sampling is not None else u
+
     def rhs(t, x):
         nonlocal nfev
         nfev += 1
         if bar.enabled:
             bar.set(int(t * per_time))
-        qdd, last[2] = nm.solve(t, x, u_of_t(t), p)
+        qdd, last[2] = nm.solve(t, x, u_at(t, x), p)
         last[0], last[1] = t, x
         return np.concatenate((x[nm.n:], qdd))
 
@@ -356,17 +450,23 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         # the integrator has just evaluated the right-hand side at the end of the step: reuse it
         if t == last[0] and np.array_equal(x, last[1]):
             return last[2] - _EVENT_RATIO
-        return nm.singular_ratio(t, x, u_of_t(t), p) - _EVENT_RATIO
+        return nm.singular_ratio(t, x, u_at(t, x), p) - _EVENT_RATIO
 
     near_singular.terminal = True
     near_singular.direction = -1
+    history = np.zeros((len(sampling.samples) if sampling is not None else 0, m))
     try:
         if times[-1] == 0:  # t_end < dt: the initial state is the whole output
+            if sampling is not None:
+                held[:] = history[0] = u_of(0.0, x0)
             rhs(0.0, x0)  # still stops with a clear error when M is singular at the start
             sol = _Initial(times, x0)
-        else:
+        elif sampling is None:
             sol = solve_ivp(rhs, (0.0, float(times[-1])), x0, method=method, t_eval=times, rtol=rtol, atol=atol,
                             max_step=max_step, events=near_singular)
+        else:
+            sol = _solve_sampled(solve_ivp, rhs, near_singular, u_of, held, history, sampling, x0, times,
+                                 method=method, rtol=rtol, atol=atol, max_step=max_step)
     except _Singular as s:
         raise _singular_error(nm, s.t, s.x, s.ratio) from None
     except _NotFinite as s:
@@ -376,12 +476,12 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
                               time=float(s.t)) from None
     finally:
         bar.close()
-    if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_of_t, p) < 1e-6):
+    if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_at, p) < 1e-6):
         if sol.status == 1 and len(sol.t_events[0]):
             te, xe = sol.t_events[0][0], sol.y_events[0][0]
         else:
             te, xe = _last_state(sol)
-        raise _singular_error(nm, te, xe, nm.singular_ratio(te, xe, u_of_t(te), p))
+        raise _singular_error(nm, te, xe, nm.singular_ratio(te, xe, u_at(te, xe), p))
     if sol.status != 0:
         te, xe = _last_state(sol)
         raise SimulationError(f"the integrator stopped at t = {te:.6g}: {sol.message} "
@@ -391,14 +491,62 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     if not np.all(np.isfinite(sol.y)):
         raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
                               "and initial state", status=-1)
-    U = np.array([u_of_t(t) for t in sol.t]).reshape(len(sol.t), len(nm.input_names))
+    U = np.array([u_of(t, x) for t, x in zip(sol.t, sol.y.T)]).reshape(len(sol.t), m)
+    if sampling is not None:
+        U[:, hold] = held_inputs(sampling, history, sol.t)[:, hold]
     energy = name = None
     if not eq.explicit_time:
         energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(sol.t, sol.y.T, U)])
         name = "energy" if _is_natural(eq) else "jacobi_integral"
+    stats = {"backend": "scipy", "method": method, "nfev": nfev}
+    if sampling is not None:
+        stats["samples"] = int(np.searchsorted(sampling.samples, sol.t[-1], side="right"))
     return Trajectory(sol.t, sol.y.T, nm.state_names, U, nm.input_names, energy, name,
                       eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message,
-                      stats={"backend": "scipy", "method": method, "nfev": nfev}, model=eq.model)
+                      stats=stats, model=eq.model)
+
+
+def _solve_sampled(solve_ivp, rhs, near_singular, u_of, held, history, sampling, x0, times, **options):
+    """solve_ivp from one sample instant to the next, the sampled inputs held (in `held`, set at
+    each instant from u_of(t, x); `history` receives them); the outputs at `times` joined as one
+    solution."""
+    import types
+
+    hold = sampling.hold[:len(held)].astype(bool)
+    t_end = float(times[-1])
+    instants = [float(s) for s in sampling.samples if s < t_end] + [t_end]
+    x = np.array(x0, dtype=float)
+    ts, ys = [], []
+    status, message = 0, "The solver successfully reached the end of the integration interval."
+    t_events, y_events = np.zeros(0), np.zeros((0, len(x)))
+    for k in range(len(instants) - 1):
+        a, b = instants[k], instants[k + 1]
+        now = sampling.which[k, :len(held)].astype(bool) & hold
+        held[now] = np.asarray(u_of(a, x), dtype=float)[now]
+        history[k] = held
+        last = k == len(instants) - 2  # the last segment ends at the last output time
+        inside = times[(times >= a) & ((times <= b) if last else (times < b))]
+        sol = solve_ivp(rhs, (a, b), x, t_eval=inside if last else np.append(inside, b), events=near_singular,
+                        **options)
+        keep = np.ones(len(sol.t), bool) if last else sol.t < b
+        ts.append(sol.t[keep])
+        ys.append(sol.y[:, keep])
+        if sol.status != 0:
+            status, message = sol.status, sol.message
+            t_events, y_events = sol.t_events[0], sol.y_events[0]
+            break
+        x = sol.y[:, -1]
+    else:
+        x = sol.y[:, -1]
+        k = len(instants) - 1
+        if k < len(sampling.samples) and sampling.samples[k] == t_end:  # a sample instant at the end too
+            now = sampling.which[k, :len(held)].astype(bool) & hold
+            held[now] = np.asarray(u_of(t_end, x), dtype=float)[now]
+            history[k] = held
+    t = np.concatenate(ts) if ts else np.zeros(0)
+    y = np.concatenate(ys, axis=1) if ys else np.zeros((len(x), 0))
+    return types.SimpleNamespace(t=t, y=y, status=status, message=message, t_events=[t_events],
+                                 y_events=[y_events])
 
 
 class _Initial:
@@ -426,9 +574,9 @@ def _last_state(sol):
     return float(sol.t[-1]), sol.y[:, -1]
 
 
-def _last_ratio(nm, sol, u_of_t, p) -> float:
+def _last_ratio(nm, sol, u_at, p) -> float:
     te, xe = _last_state(sol)
-    return nm.singular_ratio(te, xe, u_of_t(te), p)
+    return nm.singular_ratio(te, xe, u_at(te, xe), p)
 
 
 def _state_text(nm: NumericModel, x) -> str:
@@ -463,7 +611,7 @@ def _compiled_model(nm, backend: str, method: str, u_exprs):
     try:
         if u_exprs is None:
             raise NotCompilable(_CALLABLE_INPUT)
-        programs(u_exprs, nm.equations.t, list(nm.equations.parameters))
+        _input_programs(nm.equations, u_exprs)
         return compile_equations(nm.equations, backend="numba" if backend == "auto" else backend)
     except (Unsupported, NotCompilable) as exc:
         if backend == "auto" and method != "variational":
@@ -471,8 +619,16 @@ def _compiled_model(nm, backend: str, method: str, u_exprs):
         raise ModelError(f"backend '{backend}' cannot run this model: {exc}; use backend='scipy'") from None
 
 
+def _input_programs(eq: Equations, u_exprs):
+    """The compiled programs of the inputs (expressions of t, the state and the parameters)."""
+    from ._inputs import programs
+
+    return programs(u_exprs, eq.t, list(eq.parameters), states=(*eq.coordinates, *eq.velocities))
+
+
 _CALLABLE_INPUT = ("an input is a Python function, which compiled code cannot call: give it as an expression "
-                   "string of t and the parameters (for example '1.5*sin(3*t)'), or use backend='scipy'")
+                   "string of t, the coordinates, velocities and parameters (for example '1.5*sin(3*t)' or "
+                   "'-20*(q2 - pi/2) - 5*q2_dot'), or use backend='scipy'")
 
 
 def _event_expressions(nm, events, stop_on, problems) -> dict:
@@ -504,13 +660,13 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
 
 
 def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, atol, max_step, dt,
-                       step, event_exprs=None, stop_on=(), progress=None) -> Trajectory:
+                       step, event_exprs=None, stop_on=(), progress=None, sampling=None) -> Trajectory:
     from ._fast import inputs_and_energy, run_dop853, run_variational
     from ._inputs import programs
     from ._kernels import STATUS
 
     eq = cm.equations
-    prog = programs(u_exprs, eq.t, list(eq.parameters))
+    prog = _input_programs(eq, u_exprs)
     if method == "variational":
         every = max(1, math.ceil(dt / (step if step is not None else min(dt, 1e-3)) - 1e-9))
         h = dt / every
@@ -519,10 +675,10 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
         eprog, terminal = None, ()
         if event_exprs:
             eprog = programs(list(event_exprs.values()), eq.t, list(eq.parameters),
-                             states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs)
+                             states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs, switches=False)
             terminal = [int(name in stop_on) for name in event_exprs]
         raw = run_dop853(cm, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal,
-                         progress=progress)
+                         progress=progress, sampling=sampling)
     if raw.status in (1, 2):
         raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure)
     if raw.status == 3:
@@ -543,6 +699,8 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
                               status=raw.status, time=raw.stop_t)
     stats = {"backend": cm.backend, "method": method, "nfev": raw.nfev, "nstep": raw.nstep,
              "nreject": raw.nreject}
+    if prog.nswitch:
+        stats["switches"] = raw.nswitch
     found = {}
     if event_exprs:
         names = list(event_exprs)
@@ -560,7 +718,13 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
     if not np.all(np.isfinite(raw.x)):
         raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
                               "and initial state", status=-1)
-    U, energy = inputs_and_energy(cm, times, raw.x, p, prog)
+    held = None
+    if sampling is not None:
+        U0 = np.zeros((len(times), len(cm.input_names)))
+        U0[:] = held_inputs(sampling, raw.held[:, :len(cm.input_names)], times)
+        held = (sampling.hold, U0)
+        stats["samples"] = int(np.searchsorted(sampling.samples, times[-1], side="right"))
+    U, energy = inputs_and_energy(cm, times, raw.x, p, prog, held)
     name = None
     if eq.explicit_time:
         energy = None
