@@ -27,7 +27,7 @@ def split_top_level(text: str) -> list[str]:
 
 
 _EXAMPLES = {"initial": "q2=0.5", "input": "F=1.5*sin(3*t)", "velocity": "phi_dot=4", "momentum": "p_phi=1",
-             "at": "q2=pi/2"}
+             "at": "q2=pi/2", "sample-time": "F=0.01"}
 
 
 def assignments(items: Sequence[str], what: str, *, split_commas: bool = True) -> dict[str, str]:
@@ -97,7 +97,12 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
     s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a parameter value (repeatable, or comma-separated)")
     s.add_argument("--input", action="append", default=[], metavar="NAME=EXPR",
-                   help="an input as an expression of t, e.g. \"F=1.5*sin(3*t)\" (repeatable); inputs not given are 0")
+                   help="an input as an expression of t, the coordinates, velocities and parameters, e.g. "
+                        "\"F=1.5*sin(3*t)\" or the feedback law \"F=-20*(q2-pi/2)-5*q2_dot\", which may switch: "
+                        "where(condition, a, b), min, max, clip (repeatable); inputs not given are 0")
+    s.add_argument("--sample-time", metavar="TS or NAME=TS",
+                   help="sample the inputs every TS seconds and hold them in between (a digital controller); "
+                        "NAME=TS,... samples only the named inputs")
     s.add_argument("--dt", type=float, help="output interval (default: the model's, or 0.01)")
     s.add_argument("--rtol", type=float, help="relative tolerance (default 1e-9)")
     s.add_argument("--atol", type=float, help="absolute tolerance (default 1e-9)")
@@ -136,8 +141,18 @@ def run_simulation(args, *, equations_to=None):
                     inputs={**defaults.get("inputs", {}), **inputs} or None, params=params,
                     dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method,
                     backend=getattr(args, "backend", "auto"), step=getattr(args, "step", None),
-                    events=events or None, stop_on=tuple(stop_on))
+                    events=events or None, stop_on=tuple(stop_on),
+                    sample_time=sample_time_option(getattr(args, "sample_time", None)))
     return model, eqs, traj
+
+
+def sample_time_option(text: str | None):
+    """--sample-time: a period (every input) or NAME=PERIOD,... (the named inputs), or None."""
+    if text is None:
+        return None
+    if "=" not in text:
+        return number(text, "--sample-time")
+    return {k: number(v, f"--sample-time {k}") for k, v in assignments([text], "sample-time").items()}
 
 
 def events_csv(traj) -> str:

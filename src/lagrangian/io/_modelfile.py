@@ -96,14 +96,18 @@ in the axes of ``frame`` (default: the body's own frame).
     rtol = 1e-9                          # > 0
     atol = 1e-9                          # > 0
     initial = { q2 = 0.5, q2_dot = 0.0 } # coordinate and velocity names -> numbers
-    inputs = { F = "0.5*sin(3*t)" }      # input name -> expression of t and parameters, or number
+    inputs = { F = "0.5*sin(3*t)" }      # input name -> expression of t, the coordinates, velocities
+                                         # and parameters (a feedback law), or number
+    sample_time = 0.01                   # optional, > 0: the inputs sampled and held (a digital
+                                         # controller); or { F = 0.01 } for the named inputs only
 
 Frames are built first (in the order of their parents); elements in the order points, particles,
 bodies, springs, dampers, gravity, loads, so
 a spring, a damper or a load may refer to any named point, particle or body. Element names must
 be unique across all elements. The validated ``[simulation]`` table is stored in
 ``model.simulation`` as a plain dict ``{"t_end": float, "dt": float, "rtol": float,
-"atol": float, "initial": {name: float}, "inputs": {name: str or float}}`` (only the keys given).
+"atol": float, "initial": {name: float}, "inputs": {name: str or float}, "sample_time": float or
+{name: float}}`` (only the keys given).
 """
 
 from __future__ import annotations
@@ -164,7 +168,7 @@ _BODY3D_KEYS = (("mass", "inertia", "frame"), ("name", "center", "center_frame")
 _FRAME_KEYS = ("name", "parent", "origin", "rotation", "matrix")
 _ENERGY_KEYS = ("T", "V", "D")
 _GRAVITY_KEYS = ("g", "direction")
-_SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs")
+_SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs", "sample_time")
 #: Default element names: particle1, body2, ...
 _DEFAULT_PREFIX = {"points": "point", "particles": "particle", "bodies": "body",
                    "springs": "spring", "dampers": "damper"}
@@ -716,7 +720,8 @@ class _Reader:
                 return sympy.Integer(value)
             return sympy.Rational(repr(value))
         try:
-            return parse_expression(value, self.names if names is None else names)
+            return parse_expression(value, self.names if names is None else names,
+                                    feedback=context == "signal")
         except UnknownNameError as exc:
             if context == "model":
                 fix = ("every name must be a coordinate, a velocity (<coordinate>_dot), an input, "
@@ -725,8 +730,9 @@ class _Reader:
                        + f" under [parameters] with a value ({exc.unknown[0][0]} = 1.0), or in "
                        "coordinates = [...] or inputs = [...]")
             else:
-                fix = ("an input's signal may use only t and the parameters: fix the spelling, or "
-                       f"declare it under [parameters] with a value ({exc.unknown[0][0]} = 1.0)")
+                fix = ("an input may use t, the coordinates, velocities (<coordinate>_dot) and "
+                       "parameters: fix the spelling, or declare it under [parameters] with a value "
+                       f"({exc.unknown[0][0]} = 1.0)")
             where = f" at position {exc.position + 1}" if exc.position is not None else ""
             reason = _with_suggestions(exc, self.names if names is None else names)
             self.problem(key, f"{reason} in the expression{where}; {fix}"
@@ -1414,6 +1420,10 @@ class _Reader:
                 inputs = self.read_input_signals(item)
                 if inputs is not None:
                     out["inputs"] = inputs
+            elif name == "sample_time":
+                sample_time = self.read_sample_time(item)
+                if sample_time is not None:
+                    out["sample_time"] = sample_time
             else:
                 self.unknown_key(key, name, _SIMULATION_KEYS, "[simulation]")
         self.model.simulation = out
@@ -1438,14 +1448,32 @@ class _Reader:
                 out[name] = number
         return out
 
+    def read_sample_time(self, value: object) -> float | dict[str, float] | None:
+        """sample_time = 0.01, or a table of input = period."""
+        inputs = [u.name for u in self.model.inputs]
+        if not isinstance(value, dict):
+            return self.number(value, "simulation.sample_time", "sample_time", minimum=0.0, strict=True,
+                               what="sample time (seconds)")
+        out: dict[str, float] = {}
+        for name, item in value.items():
+            key = f"simulation.sample_time.{name}"
+            if name not in inputs:
+                declared = f"the inputs are {', '.join(inputs)}" if inputs else "no input is declared"
+                self.problem(key, f"'{name}' is not an input{_did_you_mean(name, inputs, 0.5)}: {declared}; "
+                                  "sample_time names the inputs that are sampled")
+                continue
+            number = self.number(item, key, name, minimum=0.0, strict=True, what="sample time (seconds)")
+            if number is not None:
+                out[name] = number
+        return out
+
     def read_input_signals(self, value: object) -> dict[str, str | float] | None:
         if not isinstance(value, dict):
             self.problem("simulation.inputs", f"expected a table of input = expression, got "
                                               f"{_describe(value)}; write inputs = {{ F = \"sin(t)\" }}")
             return None
         inputs = [u.name for u in self.model.inputs]
-        names: dict[str, sympy.Basic] = {"t": t}
-        names.update({p.name: p for p in self.model.parameters})
+        names = {k: v for k, v in self.model.names().items() if k not in inputs}
         out: dict[str, str | float] = {}
         for name, item in value.items():
             key = f"simulation.inputs.{name}"
