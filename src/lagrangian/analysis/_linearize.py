@@ -219,6 +219,24 @@ class LinearModel:
                           states=list(self.state_names), inputs=list(self.input_names),
                           outputs=list(self.state_names))
 
+    def lqr(self, Q=None, R=None, *, sample_time: float | None = None):
+        """The linear-quadratic regulator u = u0 - K (x - x0) of this linearization (see
+        :func:`lagrangian.control.lqr`): Q weighs the states (by name, as a vector or a matrix),
+        R the inputs; `sample_time` designs for a sampled controller. Returns a
+        :class:`~lagrangian.control.StateFeedback`, whose ``inputs`` simulate the nonlinear
+        model with the law."""
+        from ..control import lqr
+
+        return lqr(self, Q, R, sample_time=sample_time)
+
+    def place(self, poles, *, sample_time: float | None = None):
+        """The state feedback u = u0 - K (x - x0) that puts the eigenvalues of A - B K at `poles`
+        (see :func:`lagrangian.control.place`). Returns a
+        :class:`~lagrangian.control.StateFeedback`."""
+        from ..control import place
+
+        return place(self, poles, sample_time=sample_time)
+
     def to_dict(self) -> dict:
         """The JSON contract: state_names, input_names, A, B, M, C, K (numeric lists), and G,
         input_matrix, operating_point, inputs, parameters, eigenvalues ([re, im]), stability."""
