@@ -129,7 +129,7 @@ async function analyse(text, seq) {
 }
 
 function renderSections(box, sections) {
-  box.innerHTML = sections.map((s) => `<section id="section-${s.key}" data-key="${s.key}"><h2>${lgEscape(s.title)}</h2>${s.html}</section>`).join("");
+  box.innerHTML = sections.map((s) => `<section data-key="${s.key}"><h2>${lgEscape(s.title)}</h2>${s.html}</section>`).join("");
 }
 
 // ------------------------------------------------------------------ sliders and fields
@@ -234,7 +234,7 @@ async function equilibria() {
   setDone("equilibria");
   if (seq !== state.eqSeq) return;
   const box = $("equilibria-math");
-  box.innerHTML = r.status === 200 ? `<section id="section-equilibria">${r.data.html}</section>`
+  box.innerHTML = r.status === 200 ? `<section data-key="equilibria">${r.data.html}</section>`
     : `<p class="note bad">${lgEscape(errorText(r.data))}</p>`;
 }
 
@@ -405,3 +405,4 @@ async function start() {
   check();
 }
 start();
+window.lagrangianPlayground = { state, editor };  // for the browser tests and the curious
