@@ -95,7 +95,7 @@ def run(model: str | None = None, *, host: str = "127.0.0.1", port: int = DEFAUL
         raise ModelError(f"--workers {workers}: expected at least 1")
     loopback = _is_loopback(host)
     try:
-        sockets = tornado.netutil.bind_sockets(port, host)
+        sockets = tornado.netutil.bind_sockets(port, host, backlog=1024)  # a class opening the page at once
     except OSError as exc:
         if exc.errno == errno.EADDRINUSE:
             raise ModelError(f"port {port} on {host} is in use (another `lagrangian serve`?): choose another with "
