@@ -15,6 +15,10 @@ when the tests are collected, so a command added to a page is run without touchi
   failure: that command must fail so, without a traceback;
 * each page's ```python blocks, in order, as one script (the README's as well as the docs').
 
+`lagrangian serve` runs until Ctrl-C: each one shown runs with `--no-browser --port 0`, gets SIGINT
+(Ctrl-C) after SERVE_SECONDS, and must have printed its address and stopped cleanly (the playground's
+own tests, tests/test_serve_*.py, drive the real server and page).
+
 A command that writes an .mp4 needs ffmpeg: it must succeed where ffmpeg is installed, and each is
 also run with ffmpeg off PATH, where it must exit 2 with one line that says how to install it.
 
@@ -47,6 +51,8 @@ EXCLUDED = {
         "installs the test extra and runs the whole test suite, this test included",
     "python benchmarks/bench.py":
         "the benchmark: minutes of timing runs against the peers, a measurement rather than an example",
+    "python benchmarks/serve_load.py --requests 1000 --concurrency 400":
+        "the playground's load test: a measurement (1000 requests against a server of its own), not an example",
 }
 
 #: Lines of the pages' Python blocks not run here (they need an optional extra), with the reason.
@@ -69,6 +75,7 @@ STAND_INS = {
 FENCE = re.compile(r"^```([\w-]*)[^\n]*\n(.*?)^```", re.S | re.M)
 SHELL = {"bash", "sh", "shell"}
 TIMEOUT = 300  # seconds, each command
+SERVE_SECONDS = 20  # how long each `lagrangian serve` runs before its Ctrl-C
 
 
 def pages() -> list[Path]:
@@ -90,6 +97,7 @@ class Case:
     python: bool = False
     error: str = ""       # the start of the error a transcript shows ("lagrangian simulate: error:")
     no_ffmpeg: bool = False
+    serves: bool = False  # `lagrangian serve`, stopped by SIGINT after SERVE_SECONDS
 
     @property
     def id(self) -> str:
@@ -191,7 +199,10 @@ def cases() -> list[Case]:
             run = " && ".join(parts)
             for old, (new, _) in REPLACED.items():
                 run = run.replace(old, new)
-            case = Case(rel(page), number, shown, run, error=error)
+            serves = run.startswith("lagrangian serve")
+            if serves:
+                run = f"timeout --preserve-status -s INT {SERVE_SECONDS} {run} --no-browser --port 0"
+            case = Case(rel(page), number, shown, run, error=error, serves=serves)
             out.append(case)
             if case.writes_mp4 and not error:
                 out.append(Case(rel(page), number, shown, run, no_ffmpeg=True))
@@ -217,6 +228,7 @@ def test_the_pages_commands_are_found():
     assert ("docs/getting-started.md", "lagrangian simulate cart-pendulum-massless --t-end 5 --output out.csv",
             "lagrangian simulate: error:") in {(c.page, c.run, c.error) for c in CASES}  # a transcript of a failure
     assert not any(c.error for c in CASES if c.page == "README.md")
+    assert any(c.serves for c in CASES if c.page == "README.md")  # `lagrangian serve`, with its Ctrl-C
     assert not any(c.run.startswith("lagrangian derive: error") for c in CASES)  # output, not a command
     assert {c.page for c in CASES if c.python} >= {"README.md", "docs/plots.md", "docs/getting-started.md"}
     assert model_files(ROOT / "README.md").keys() == {"cart.toml"}
@@ -336,6 +348,9 @@ def test_command_runs_on_the_default_install(case, results):
         assert re.match(r"lagrangian animate: error: cannot write '\S+\.mp4': MP4 needs ffmpeg, which is not "
                         r"installed \(not on PATH\): install it \(Debian/Ubuntu: `sudo apt-get install ffmpeg`;",
                         stderr), what
+    elif case.serves:
+        assert code == 0 and re.match(r"lagrangian serve: the playground is at http://127\.0\.0\.1:[0-9]+/ \(press "
+                                      r"Ctrl-C to stop\)\nlagrangian serve: stopped\n\Z", stdout), what
     elif case.error:
         assert code in (1, 2) and stderr.startswith(case.error), what
     else:
