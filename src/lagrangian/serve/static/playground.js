@@ -40,10 +40,15 @@ setInterval(() => { if (state.busy.size) showStatus(); }, 500);
 
 // ------------------------------------------------------------------ API
 async function api(path, body, json) {
-  const response = await fetch(path, {
-    method: "POST", body: json ? JSON.stringify(body) : body,
-    headers: { "Content-Type": json ? "application/json" : "text/plain; charset=utf-8" },
-  });
+  let response;
+  try {
+    response = await fetch(path, {
+      method: "POST", body: json ? JSON.stringify(body) : body,
+      headers: { "Content-Type": json ? "application/json" : "text/plain; charset=utf-8" },
+    });
+  } catch (err) {
+    return { status: 0, data: { errors: [{ line: null, message: `The server does not answer (${err.message}): is lagrangian serve still running?` }] } };
+  }
   const type = response.headers.get("Content-Type") || "";
   const data = type.startsWith("application/json") ? await response.json() : await response.blob();
   return { status: response.status, data };
@@ -86,10 +91,10 @@ function markStale(stale) {
 async function check() {
   const text = editor.text, seq = ++state.checkSeq;
   setBusy("check", "Deriving…");
-  let r;
-  try { r = await api("/api/derive", text, false); } catch (err) { setDone("check"); showStatus(`The server does not answer (${err.message}): is lagrangian serve still running?`); return; }
+  const r = await api("/api/derive", text, false);
   setDone("check");
   if (seq !== state.checkSeq) return;  // a newer edit is being checked
+  if (r.status === 0) { showStatus(errorText(r.data)); return; }
   if (r.status !== 200) {
     const errors = r.data.errors || [{ line: null, message: String(r.data) }];
     showErrors(errors);
@@ -245,8 +250,9 @@ async function simulate() {
   const first = state.simulation === null;
   setBusy("simulate", first ? "Simulating (a new model is compiled first: about a second; the very first run on this machine compiles the integrators, about 10 s)…" : "Simulating…");
   $("run").disabled = true;
-  let r;
-  try { r = await api("/api/simulate", body, true); } finally { setDone("simulate"); $("run").disabled = false; }
+  const r = await api("/api/simulate", body, true);
+  setDone("simulate");
+  $("run").disabled = false;
   if (seq !== state.simSeq) return;
   if (r.status !== 200) {
     $("sim-info").textContent = errorText(r.data);
@@ -348,11 +354,10 @@ function save(blob, name) {
 
 async function download(path, body, json, name, what) {
   setBusy("download", `Preparing the ${what}…`);
-  try {
-    const r = await api(path, body, json);
-    if (r.status !== 200) { showStatus(errorText(r.data)); return; }
-    save(r.data, name);
-  } finally { setDone("download"); }
+  const r = await api(path, body, json);
+  setDone("download");
+  if (r.status !== 200) { showStatus(errorText(r.data)); return; }
+  save(r.data, name);
 }
 
 $("download-model").addEventListener("click", () => save(new Blob([editor.text], { type: "application/toml" }), `${state.name}.toml`));
