@@ -54,14 +54,6 @@ class Settings:
         self.check_host = check_host
 
 
-def _fmu_available() -> bool:
-    try:
-        import lagrangian.export  # noqa: F401  (the FMU writer, when this version has it)
-    except ImportError:
-        return False
-    return True
-
-
 class _Base(tornado.web.RequestHandler):
     settings_: Settings
 
@@ -202,7 +194,7 @@ class InfoHandler(_Base):
         self.reply(Reply(200, json.dumps({
             "version": __version__, "workers": pool.size, "time_limit_s": pool.time_limit,
             "max_body_bytes": self.settings_.max_body, "max_rows": MAX_ROWS, "max_frames": MAX_FRAMES,
-            "fmu": _fmu_available(), "model": self.settings_.model}).encode()))
+            "model": self.settings_.model}).encode()))
 
 
 class ExamplesHandler(_Base):
@@ -259,7 +251,7 @@ class PageHandler(_Base):
             initial.update(name=self.DEFAULT, text=example_source(self.DEFAULT))
         self.set_status(status)
         self.set_header("Content-Type", "text/html; charset=utf-8")
-        self.render("index.html", initial_json=_script_json(initial), fmu=_fmu_available())
+        self.render("index.html", initial_json=_script_json(initial))
 
     def _served_model(self) -> dict:
         from ..examples import example_source
