@@ -195,7 +195,7 @@ function buildControls(a) {
     addSlider(ibox, name, v, a.coordinates.includes(name) ? "q" : "qdot");
   }
   if (a.inputs.length) {
-    const ubox = group("Inputs (expressions of t)");
+    const ubox = group("Inputs (expressions of t, or feedback laws of the state)");
     for (const name of a.inputs) {
       const value = (sim.inputs || {})[name];
       const row = document.createElement("div");
