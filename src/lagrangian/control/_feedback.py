@@ -354,7 +354,7 @@ def _uncontrollable(A, B, discrete: bool) -> list[complex]:
             continue
         M = np.hstack((A - z * np.eye(len(A)), B))
         s = np.linalg.svd(M, compute_uv=False)
-        if s[-1] <= 1e-9 * scale:
+        if s[-1] <= 1e-9 * scale and not any(abs(z - w) <= 1e-9 * scale for w in out):
             out.append(complex(z))
     return out
 
@@ -521,7 +521,7 @@ def place(linear_model, poles, *, sample_time: float | None = None) -> StateFeed
     if bad:
         raise _uncontrollable_error(lin, bad)
     try:
-        result = place_poles(A, B, targets, method="YT" if m > 1 else "KNV0", maxiter=100)
+        result = place_poles(A, B, targets, method="YT", maxiter=100)
     except (ValueError, np.linalg.LinAlgError) as exc:
         raise DesignError(f"the poles cannot be placed: {exc}") from None
     K = np.asarray(result.gain_matrix, dtype=float)

@@ -41,7 +41,12 @@ STATUS = {
     -1: "Required step size is less than spacing between numbers.",
     -3: "The implicit midpoint step of the variational integrator did not converge.",
     4: "An event stopped the integration.",
+    5: "The inputs switch at every step (chattering: a sliding mode).",
 }
+#: Consecutive steps, each ended by a switch and shorter than CHATTER_STEP of the time span, that
+#: stop the integration as chattering (status 5).
+CHATTER_STEPS = 100
+CHATTER_STEP = 1e-6
 
 #: Opcodes of the input programs (postfix; see _inputs.py).
 OPCODES = {
@@ -256,6 +261,8 @@ def _rl(typingctx, addr, t, x, u, p, dx, work, lanes):
 
 SINGULAR_RATIO = @SINGULAR@
 EVENT_RATIO = @EVENT@
+CHATTER_STEPS = @CHATTER_STEPS@
+CHATTER_STEP = @CHATTER_STEP@
 
 
 @njit(cache=True)
@@ -617,6 +624,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
     live = nsw == 0  # switches frozen during a step (when there are any)
     flipped = False  # the switches changed at the start of the step being taken
     nswitch = 0
+    chatter = 0  # consecutive short steps ended by a switch
     ns = samples.shape[0]
     si = 0
     pxs = _ptr(xs, 0)
@@ -769,6 +777,22 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
                     tnew = b
                 nswitch += 1
                 renew = True
+                if tnew - t < CHATTER_STEP * interval:
+                    chatter += 1
+                    if chatter >= CHATTER_STEPS:
+                        info[0] = tnew
+                        info[1] = tnew - t
+                        for i in range(nx):
+                            info[2 + i] = ynew[i]
+                        stats[0] = nfev
+                        stats[1] = nstep
+                        stats[2] = nrej
+                        stats[3] = j
+                        return 5
+                else:
+                    chatter = 0
+            else:
+                chatter = 0
         nstep += 1
         if renew:  # the switches as they are at the end of the shortened step
             rnew = _eval(rc, tnew, ynew, p, ops, args, starts, stack, u, K[12], work, modes, True, hold, held)
@@ -1277,6 +1301,7 @@ def variational(mf, lp, n, x0, t0, h, nsteps, every, p, ops, args, starts, nstac
 def kernel_source() -> str:
     """The kernels as Python source (see the module docstring)."""
     text = _TEMPLATE.replace("@SINGULAR@", repr(SINGULAR_RATIO)).replace("@EVENT@", repr(EVENT_RATIO))
+    text = text.replace("@CHATTER_STEPS@", repr(CHATTER_STEPS)).replace("@CHATTER_STEP@", repr(CHATTER_STEP))
     for key, value in _generated_parts().items():
         text = text.replace(key, value)
     return text

@@ -690,6 +690,12 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
         raise SimulationError(f"the variational integrator stopped at t = {raw.stop_t:.6g}: its implicit midpoint "
                               f"step did not converge (state {_state_text(cm, raw.stop_x)}); try a smaller step",
                               status=-1, time=raw.stop_t)
+    if raw.status == 5:
+        raise SimulationError(f"the inputs switch at every step near t = {raw.stop_t:.6g} (the last steps shorter than "
+                              f"{raw.stop_measure:.2g} s, state {_state_text(cm, raw.stop_x)}): the motion slides on a "
+                              "switching surface of the law (a sliding mode, which only infinitely fast switching "
+                              "follows); smooth the switch with a boundary layer, e.g. clip(s/0.01, -1, 1) instead of "
+                              "sign(s), or sample the law (sample_time=...)", status=5, time=raw.stop_t)
     if raw.status not in (0, 4):
         if raw.stop_measure < 1e-6:
             raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure)
