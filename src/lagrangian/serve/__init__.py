@@ -114,13 +114,13 @@ def run(model: str | None = None, *, host: str = "127.0.0.1", port: int = DEFAUL
 async def _serve(sockets, url, model, workers, time_limit, loopback, open_browser, say) -> None:
     import tornado.httpserver
 
-    from ._app import MAX_BODY, Settings, make_app
+    from ._app import DRAIN_LIMIT, Settings, make_app
     from ._workers import WorkerPool
 
     pool = WorkerPool(workers, time_limit=time_limit)
     pool.start()
     app = make_app(Settings(pool, model=model, check_host=loopback))
-    server = tornado.httpserver.HTTPServer(app, max_body_size=MAX_BODY + 1, idle_connection_timeout=60,
+    server = tornado.httpserver.HTTPServer(app, max_body_size=DRAIN_LIMIT, idle_connection_timeout=60,
                                           body_timeout=60)
     server.add_sockets(sockets)
     stop = asyncio.Event()

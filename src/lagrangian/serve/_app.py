@@ -40,6 +40,9 @@ STATIC = HERE / "static"
 TEMPLATES = HERE / "templates"
 #: The largest request body accepted (bytes): a model file is a few kilobytes.
 MAX_BODY = 1024 * 1024
+#: A larger body (up to this size) is read and dropped before the 413 answer, so that a client that
+#: sends its whole body before reading the answer gets the answer, not a broken connection.
+DRAIN_LIMIT = 16 * MAX_BODY
 LOOPBACK = ("127.0.0.1", "localhost", "::1", "[::1]")
 
 
@@ -110,12 +113,11 @@ class _Api(_Base):
             return
         if self.request.method != "POST":
             return
-        limit = self.settings_.max_body
         length = self.request.headers.get("Content-Length")
-        if length is not None and length.isdigit() and int(length) > limit:
-            self._refuse_size(int(length))
+        if length is not None and length.isdigit() and int(length) > DRAIN_LIMIT:
+            self._refuse_size(int(length))  # not worth reading: answered at once, the connection closed
             return
-        self.request.connection.set_max_body_size(limit + 1)
+        self.request.connection.set_max_body_size(DRAIN_LIMIT)
 
     def _refuse_size(self, size: int) -> None:
         limit = self.settings_.max_body
