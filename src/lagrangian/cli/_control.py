@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 
 from ..errors import ModelError
 from ._analysis import _at, _load, _numbers, _operating_point, _values
@@ -44,6 +45,27 @@ def register(sub, fmt) -> None:
                          "(write --poles=-1,... when the first is negative)")
     _design_options(pl)
     pl.set_defaults(handler=_cmd_place)
+
+    ex = sub.add_parser("export", help="export the model as an FMU (FMI 2.0), a Modelica model or C source",
+                        formatter_class=fmt,
+                        description="Write the model for other tools: an FMI 2.0 FMU with Model Exchange and "
+                        "Co-Simulation in one archive (the binary for this platform built with the machine's C "
+                        "compiler, the sources always included), a self-contained Modelica model, and/or C99 source "
+                        "with the right-hand side f(t, x, u, p), M, the forcing and the energy, a CMakeLists.txt "
+                        "and an example main.",
+                        epilog="Examples:\n  lagrangian export cart-pendulum --fmu cart.fmu\n"
+                               "  lagrangian export cart-pendulum --modelica cart.mo --c cart-c --param M2=0.8")
+    ex.add_argument("model", help=MODEL_HELP)
+    ex.add_argument("--fmu", metavar="FILE.fmu", help="write an FMI 2.0 FMU (Model Exchange and Co-Simulation)")
+    ex.add_argument("--modelica", metavar="FILE.mo", help="write a self-contained Modelica model")
+    ex.add_argument("--c", metavar="DIR", help="write C99 source, header, CMakeLists.txt and an example main into DIR")
+    ex.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                    help="a parameter value to export instead of the model's (repeatable, or comma-separated)")
+    ex.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE,...",
+                    help="the initial (start) state to export instead of the model's [simulation] initial values")
+    ex.add_argument("--no-binary", action="store_true",
+                    help="an FMU with its sources only (no binary for this platform)")
+    ex.set_defaults(handler=_cmd_export)
 
 
 def _design_options(p: argparse.ArgumentParser) -> None:
@@ -111,3 +133,30 @@ def _cmd_place(args: argparse.Namespace) -> int:
 
     lin = _linearization(args)
     return _report(args, place(lin, _poles(args.poles), sample_time=args.sample_time))
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    import sys
+
+    from .. import export as ex
+    from .. import load
+
+    if not (args.fmu or args.modelica or args.c):
+        raise ModelError("nothing to export: give --fmu FILE.fmu, --modelica FILE.mo and/or --c DIR")
+    from .. import derive
+
+    eqs = derive(load(args.model))
+    params, initial = _numbers(args.param, "param"), _numbers(args.initial, "initial")
+    if args.fmu:
+        result = ex.export_fmu(eqs, args.fmu, params=params, initial=initial, binary=not args.no_binary)
+        kind = f"binary for {result.binary}" if result.binary else "sources only"
+        print(f"wrote {args.fmu} (FMI 2.0 FMU, Model Exchange and Co-Simulation, {kind})")
+        for warning in result.warnings:
+            print(f"lagrangian export: warning: {warning}", file=sys.stderr)
+    if args.modelica:
+        ex.export_modelica(eqs, args.modelica, params=params, initial=initial)
+        print(f"wrote {args.modelica} (Modelica model {ex._modelica.class_name(eqs.model.name)})")
+    if args.c:
+        result = ex.export_c(eqs, args.c, params=params, initial=initial)
+        print(f"wrote {', '.join(os.path.basename(f) for f in result.files)} to {args.c}")
+    return 0

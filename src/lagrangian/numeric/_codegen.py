@@ -610,34 +610,48 @@ static double lg_solve_loop(int n, double *work, const double *x, double *dx) {
 """
 
 
-def c_source(equations: Equations) -> str:
+def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet: bool = False) -> str:
     """C source of `equations`' functions, with the signatures of C_DECLARATIONS (the same as the
-    numba cfuncs): lg_rhs, lg_energy, lg_mass_forcing (M row-major, n x n), lg_lagrange_parts."""
+    numba cfuncs): lg_rhs, lg_energy, lg_mass_forcing (M row-major, n x n), lg_lagrange_parts.
+
+    For lagrangian.export: `prefix` replaces "lg_" in the functions' names, `storage` is put
+    before each definition ("static "), and `quiet` marks the unpacked arguments as used
+    ((void)v_t;) so that -Wall stays silent."""
     n = equations.n
     Mlow, f, h, _, _ = _model_parts(equations)
     _, _, _, pm, F = _model_parts(equations, "variational")
     pr = _Printer(equations, "c")
+    loop = _C_SOLVE_LOOP.replace("@SINGULAR@", repr(SINGULAR)).replace("lg_solve_loop", f"{prefix}solve_loop")
     head = ("/* " + _header(equations).replace("*/", "* /") + "*/\n#include <math.h>\n"
-            + (_C_SOLVE_LOOP.replace("@SINGULAR@", repr(SINGULAR)) if n > UNROLL_MAX else "") + "\n")
-    body = ["double lg_rhs(double t, double *x, double *u, double *p, double *dx, double *work) {"]
-    body += pr.unpack()
+            + (loop if n > UNROLL_MAX else "") + "\n")
+
+    def unpack() -> list[str]:
+        lines = pr.unpack()
+        if quiet:
+            lines.append("    " + " ".join(f"(void){local};" for local, _, _ in pr.locals))
+        return lines
+
+    body = [f"{storage}double {prefix}rhs(double t, double *x, double *u, double *p, double *dx, double *work) {{"]
+    body += unpack()
     lines, exprs = pr.block(Mlow + f)
     body += lines
     body += _rhs_values(n, exprs, "double ", ";")
     if n <= UNROLL_MAX:
-        body += _ldl(n, "c", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
+        body += (["    (void)work;"] if quiet else []) + _ldl(n, "c", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
     else:
-        body.append(f"    return lg_solve_loop({n}, work, x, dx);")
-    body += ["}", "", "void lg_mass_forcing(double t, double *x, double *u, double *p, double *M, double *f) {"]
-    body += pr.unpack()
+        body.append(f"    return {prefix}solve_loop({n}, work, x, dx);")
+    body += ["}", "", f"{storage}void {prefix}mass_forcing(double t, double *x, double *u, double *p, double *M, "
+             "double *f) {"]
+    body += unpack()
     body += lines
     body += _stores(n, exprs, ("M", "f"), ";")
-    body += ["}", "", "double lg_energy(double t, double *x, double *u, double *p) {"]
-    body += pr.unpack()
+    body += ["}", "", f"{storage}double {prefix}energy(double t, double *x, double *u, double *p) {{"]
+    body += unpack()
     lines, exprs = pr.block([h])
     body += lines + [f"    return {exprs[0]};", "}", ""]
-    body += ["void lg_lagrange_parts(double t, double *x, double *u, double *p, double *pm, double *F) {"]
-    body += pr.unpack()
+    body += [f"{storage}void {prefix}lagrange_parts(double t, double *x, double *u, double *p, double *pm, "
+             "double *F) {"]
+    body += unpack()
     lines, exprs = pr.block(pm + F)
     body += lines
     body += _stores(n, exprs, ("pm", "F"), ";")

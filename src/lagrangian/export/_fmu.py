@@ -1,0 +1,273 @@
+"""export_fmu: an FMI 2.0 FMU, Model Exchange and Co-Simulation in one archive.
+
+The archive holds modelDescription.xml, ``sources/`` (the model's generated C code, the FMI
+interface fmu.c and the FMI 2.0 headers, always), ``binaries/<platform>/<id>.<so|dylib|dll>``
+built with the machine's C compiler (left out, with a warning, when there is none), and
+``documentation/licenses/`` (the license of the FMI headers)."""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+from typing import Mapping
+from xml.sax.saxutils import quoteattr
+
+from ..equations import Equations
+from ..errors import ModelError
+from ._c import c_files
+from ._common import ExportResult, energy_name, equations_of, identifier, parameter_values, start_state
+
+__all__ = ["export_fmu", "fmu_platform", "SOLVER_DEFAULTS"]
+
+_HERE = Path(__file__).resolve().parent
+_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+#: The Co-Simulation integrator's parameters and their default values.
+SOLVER_DEFAULTS = {"solver.rtol": 1e-8, "solver.atol": 1e-8, "solver.max_step": 0.0}
+
+
+def fmu_platform() -> tuple[str, str] | None:
+    """(FMI platform folder, shared library suffix) of this machine, or None when FMI 2.0 names
+    none for it (a 32-bit or non-x86 machine is still named by its OS: the binary is for it)."""
+    bits = "64" if sys.maxsize > 2**32 else "32"
+    if sys.platform.startswith("linux"):
+        return f"linux{bits}", ".so"
+    if sys.platform == "darwin":
+        return f"darwin{bits}", ".dylib"
+    if sys.platform in ("win32", "cygwin"):
+        return f"win{bits}", ".dll"
+    return None
+
+
+def _dop853_tables() -> str:
+    from scipy.integrate._ivp import dop853_coefficients as c
+
+    def row(values):
+        return "{" + ", ".join(repr(float(v)) for v in values) + "}"
+
+    A = c.A[:12, :12]
+    return "\n".join([
+        "/* DOP853's coefficients (Hairer, Norsett and Wanner), as in SciPy's dop853_coefficients */",
+        "static const double DOP853_A[12][12] = {" + ",\n    ".join(row(r) for r in A) + "};",
+        f"static const double DOP853_B[12] = {row(c.A[12, :12])};",
+        f"static const double DOP853_C[12] = {row(c.C[:12])};",
+        f"static const double DOP853_E3[13] = {row(c.E3)};",
+        f"static const double DOP853_E5[13] = {row(c.E5)};",
+    ])
+
+
+def _variables(eq: Equations, pvalues, x0) -> list[dict]:
+    """The FMU's variables in value-reference order (see fmu_template.c)."""
+    n = eq.n
+    out = []
+    for i, name in enumerate(eq.state_names):
+        what = (f"the coordinate {name}" if i < n else f"the velocity of {eq.state_names[i - n]}")
+        out.append(dict(name=name, causality="output", variability="continuous", initial="exact", start=x0[i],
+                        description=f"state: {what}"))
+    for i, name in enumerate(eq.state_names):
+        out.append(dict(name=f"der({name})", causality="local", variability="continuous", initial="calculated",
+                        derivative=i + 1, description=f"the derivative of {name}"))
+    for p, v in zip(eq.parameters, pvalues):
+        out.append(dict(name=p.name, causality="parameter", variability="tunable", initial="exact", start=v,
+                        description="parameter"))
+    for u in eq.inputs:
+        out.append(dict(name=u.name, causality="input", variability="continuous", start=0.0, description="input"))
+    energy = energy_name(eq)
+    out.append(dict(name=energy, causality="output", variability="continuous", initial="calculated",
+                    description="the Jacobi integral h = q_dot . dL/dq_dot - L (the energy T + V when T* = T2)"))
+    notes = {"solver.rtol": "relative tolerance of the Co-Simulation integrator (DOP853)",
+             "solver.atol": "absolute tolerance of the Co-Simulation integrator (DOP853)",
+             "solver.max_step": "largest step of the Co-Simulation integrator (0: no limit but the communication "
+                                "step)"}
+    for name, value in SOLVER_DEFAULTS.items():
+        out.append(dict(name=name, causality="parameter", variability="tunable", initial="exact", start=value,
+                        description=notes[name]))
+    return out
+
+
+def _model_description(eq: Equations, ident: str, guid: str, variables: list[dict], sources: list[str]) -> str:
+    from .. import __version__
+
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    n2 = 2 * eq.n
+    files = "".join(f'\n      <File name="{f}"/>' for f in sources)
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(eq.model.name)} guid="{guid}"',
+             f'  description={quoteattr((eq.model.description or f"{eq.model.name}: Lagrangian model").strip())}',
+             f'  generationTool="lagrangian {__version__}" generationDateAndTime="{now}"',
+             '  variableNamingConvention="structured" numberOfEventIndicators="0">',
+             f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true" canSerializeFMUstate="true"',
+             '    completedIntegratorStepNotNeeded="true" canNotUseMemoryManagementFunctions="false">',
+             f'    <SourceFiles>{files}\n    </SourceFiles>',
+             '  </ModelExchange>',
+             f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true"',
+             '    canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false"',
+             '    canGetAndSetFMUstate="true" canSerializeFMUstate="true" canNotUseMemoryManagementFunctions="false">',
+             f'    <SourceFiles>{files}\n    </SourceFiles>',
+             '  </CoSimulation>',
+             '  <LogCategories>',
+             '    <Category name="logStatusError" description="errors: a singular mass matrix, a failed step"/>',
+             '  </LogCategories>']
+    sim = eq.model.simulation
+    if sim.get("t_end"):
+        extra = f' tolerance="{sim["rtol"]!r}"' if sim.get("rtol") else ""
+        extra += f' stepSize="{sim["dt"]!r}"' if sim.get("dt") else ""
+        lines.append(f'  <DefaultExperiment startTime="0" stopTime="{float(sim["t_end"])!r}"{extra}/>')
+    lines.append('  <ModelVariables>')
+    for vr, v in enumerate(variables):
+        attrs = (f'name={quoteattr(v["name"])} valueReference="{vr}" description={quoteattr(v["description"])} '
+                 f'causality="{v["causality"]}" variability="{v["variability"]}"')
+        if "initial" in v:
+            attrs += f' initial="{v["initial"]}"'
+        real = []
+        if "start" in v:
+            real.append(f'start="{float(v["start"])!r}"')
+        if "derivative" in v:
+            real.append(f'derivative="{v["derivative"]}"')
+        lines.append(f'    <ScalarVariable {attrs}>')
+        lines.append(f'      <Real {" ".join(real)}/>'.replace("<Real />", "<Real/>"))
+        lines.append('    </ScalarVariable>')
+    lines.append('  </ModelVariables>')
+    energy_index = next(i for i, v in enumerate(variables) if v["causality"] == "output" and "start" not in v) + 1
+    outputs = [*range(1, n2 + 1), energy_index]
+    lines += ['  <ModelStructure>', '    <Outputs>']
+    lines += [f'      <Unknown index="{i}"/>' for i in outputs]
+    lines += ['    </Outputs>', '    <Derivatives>']
+    lines += [f'      <Unknown index="{n2 + i}"/>' for i in range(1, n2 + 1)]
+    lines += ['    </Derivatives>', '    <InitialUnknowns>']
+    lines += [f'      <Unknown index="{i}"/>' for i in [*range(n2 + 1, 2 * n2 + 1), energy_index]]
+    lines += ['    </InitialUnknowns>', '  </ModelStructure>', '</fmiModelDescription>', '']
+    return "\n".join(lines)
+
+
+def _build(sources: dict[str, str], ident: str, suffix: str, folder: Path) -> tuple[Path | None, str | None]:
+    """Compile the sources into a shared library; (its path, None) or (None, why not)."""
+    from ..numeric._cbackend import c_compiler
+
+    cc = c_compiler()
+    if cc is None:
+        return None, "no C compiler was found ($CC, cc or gcc)"
+    out = folder / f"{ident}{suffix}"
+    c_names = [folder / name for name in sources if name.endswith(".c")]
+    cmd = [*cc.split(), "-std=c99", "-O2", "-shared", "-fPIC", "-fvisibility=hidden", f"-I{folder}", "-o", str(out),
+           *map(str, c_names), "-lm"]
+    run = subprocess.run(cmd, capture_output=True, text=True)
+    if run.returncode != 0:
+        return None, f"the C compiler ({cc}) failed: {run.stderr.strip()[:1500]}"
+    return out, None
+
+
+def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping | None = None,
+               binary: bool = True) -> ExportResult:
+    """Write the model as an FMI 2.0 FMU (Model Exchange and Co-Simulation in one archive).
+
+    Variables: the states (coordinates and velocities, by their names) as outputs with the
+    model's initial values as start values, their derivatives ``der(<name>)``, the parameters
+    as tunable parameters with the model's values, the inputs as inputs (start 0), the energy
+    (``energy``, or ``jacobi_integral`` when T* has terms of degree 0 or 1 in the velocities)
+    as an output, and the Co-Simulation integrator's ``solver.rtol``, ``solver.atol`` (default
+    1e-8) and ``solver.max_step`` (default 0: no limit but the communication step) as tunable
+    parameters. Co-Simulation integrates with an embedded adaptive DOP853, the inputs held over
+    each communication step (``fmi2SetupExperiment``'s tolerance, when given, sets both
+    tolerances).
+
+    Parameters
+    ----------
+    system : Model, Equations or str
+    path : str or Path
+        The .fmu file to write.
+    params, initial : mapping of str to float, optional
+        Parameter values and initial state values that replace the model's (as start values).
+    binary : bool
+        Build the binary for this platform with the machine's C compiler (default). Without a
+        compiler, or with False, the FMU has its sources only (and ``warnings`` says so).
+
+    Returns
+    -------
+    ExportResult
+        ``files`` (the .fmu), ``binary`` (the platform built, or None) and ``warnings``.
+    """
+    from ..numeric._codegen import model_key
+
+    eq = equations_of(system)
+    path = Path(path)
+    if path.suffix.lower() != ".fmu":
+        raise ModelError(f"--fmu {path}: an FMU's file name ends in .fmu (for example {path.with_suffix('.fmu')})")
+    if path.is_dir():
+        raise ModelError(f"--fmu {path}: it is a folder; give a file name such as {path / (eq.model.name + '.fmu')}")
+    if not path.parent.resolve().is_dir():
+        raise ModelError(f"--fmu {path}: the folder {path.parent.resolve()} does not exist; create it or choose "
+                         "another path")
+    ident = identifier(eq.model.name)
+    pvalues = parameter_values(eq, params)
+    x0 = start_state(eq, initial)
+    variables = _variables(eq, pvalues, x0)
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"lagrangian:{model_key(eq, 'fmu')}:{pvalues}:{x0}")) + "}"
+    files = c_files(eq, params, initial)
+    template = (_HERE / "fmu_template.c").read_text()
+    names = ", ".join(f'"{v["name"]}"' for v in variables)
+    starts = ", ".join(repr(float(v.get("start", 0.0))) for v in variables)
+    fmu_c = (template.replace("@ID@", ident).replace("@NAME@", eq.model.name).replace("@NX@", str(2 * eq.n))
+             .replace("@NU@", str(len(eq.inputs))).replace("@NP@", str(len(eq.parameters))).replace("@GUID@", guid)
+             .replace("@START@", starts).replace("@NAMES@", names).replace("@DOP853@", _dop853_tables()))
+    sources = {f"{ident}.h": files[f"{ident}.h"], f"{ident}.c": files[f"{ident}.c"], "fmu.c": fmu_c}
+    for header in _HEADERS:
+        sources[header] = (_HERE / "fmi2" / header).read_text()
+    warnings: list[str] = []
+    built = None
+    with tempfile.TemporaryDirectory(prefix="lagrangian-fmu-") as tmp:
+        folder = Path(tmp)
+        for name, text in sources.items():
+            (folder / name).write_text(text)
+        where = fmu_platform()
+        library = None
+        if binary and where is None:
+            warnings.append(f"FMI 2.0 names no platform for {sys.platform} ({platform.machine()})")
+        elif binary:
+            library, why = _build(sources, ident, where[1], folder)
+            if library is None:
+                warnings.append(why)
+            else:
+                built = where[0]
+        if binary and built is None:
+            warnings[-1] = (f"the FMU has no binary, only its sources: {warnings[-1]}. An importing tool that "
+                            "compiles sources (fmpy: fmpy.util.compile_platform_binary) can build it, or install a "
+                            "C compiler (gcc) and export again")
+        description = _model_description(eq, ident, guid, variables, [f"{ident}.c", "fmu.c"])
+        fd, tmp_zip = tempfile.mkstemp(prefix=".lagrangian-", suffix=".fmu", dir=path.parent)
+        os.close(fd)
+        try:
+            with zipfile.ZipFile(tmp_zip, "w", zipfile.ZIP_DEFLATED) as z:
+                z.writestr("modelDescription.xml", description)
+                for name, text in sources.items():
+                    z.writestr(f"sources/{name}", text)
+                if library is not None:
+                    z.write(library, f"binaries/{built}/{library.name}")
+                z.write(_HERE / "fmi2" / "LICENSE.txt", "documentation/licenses/fmi2-headers-LICENSE.txt")
+                z.writestr("documentation/index.html", _documentation(eq, variables))
+            os.replace(tmp_zip, path)
+        except BaseException:
+            if os.path.exists(tmp_zip):
+                os.unlink(tmp_zip)
+            raise
+    return ExportResult((os.fspath(path),), built, tuple(warnings))
+
+
+def _documentation(eq: Equations, variables: list[dict]) -> str:
+    from html import escape
+
+    rows = "\n".join(f"<tr><td>{vr}</td><td>{escape(v['name'])}</td><td>{v['causality']}</td>"
+                     f"<td>{escape(str(v.get('start', '')))}</td><td>{escape(v['description'])}</td></tr>"
+                     for vr, v in enumerate(variables))
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{escape(eq.model.name)}</title></head><body>"
+            f"<h1>{escape(eq.model.name)}</h1><p>Generated by lagrangian from the model's Lagrange equations "
+            f"M(q, t) q_ddot = f(q, q_dot, t, u), x = [{', '.join(eq.state_names)}]. Co-Simulation integrates them with "
+            "an adaptive DOP853 (solver.rtol, solver.atol, solver.max_step), the inputs held over each communication "
+            f"step.</p><table border='1'><tr><th>value reference</th><th>name</th><th>causality</th><th>start</th>"
+            f"<th>description</th></tr>\n{rows}\n</table></body></html>\n")

@@ -1,0 +1,199 @@
+"""export_modelica: the model as one self-contained Modelica model (no library needed).
+
+The equations are written as the model has them, M(q, t) der(q_dot) = f(q, q_dot, t, u), one
+equation per coordinate, with der(q) = q_dot: the Modelica tool solves the linear system for the
+accelerations itself. Parameters keep their names and values, inputs are ``input Real``, the
+states are ``Real`` with ``fixed = true`` start values, and the energy is an ``output Real``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Mapping
+
+import sympy
+from sympy.printing.str import StrPrinter
+
+from ..equations import Equations
+from ..errors import ModelError
+from ._common import ExportResult, energy_name, equations_of, parameter_values, start_state
+
+__all__ = ["export_modelica", "modelica_source", "class_name"]
+
+# Modelica's reserved words (Modelica 3.6, section 2.3.3) and the names the model itself uses
+_KEYWORDS = frozenset("""algorithm and annotation block break class connect connector constant constrainedby der
+discrete each else elseif elsewhen encapsulated end enumeration equation expandable extends external false final
+flow for function if import impure in initial inner input loop model not operator or outer output package parameter
+partial protected public pure record redeclare replaceable return stream then true type when while within time pi
+StateSelect""".split())
+
+_FUNCTIONS = {"sin": "sin", "cos": "cos", "tan": "tan", "asin": "asin", "acos": "acos", "atan": "atan",
+              "atan2": "atan2", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "exp": "exp", "log": "log",
+              "Abs": "abs", "sign": "sign"}
+
+
+def modelica_name(name: str) -> str:
+    """A Modelica identifier: the name itself, or quoted ('end') when it is a reserved word."""
+    if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) and name not in _KEYWORDS:
+        return name
+    return "'" + name.replace("\\", "\\\\").replace("'", "\\'") + "'"
+
+
+def class_name(name: str) -> str:
+    """The model's name as a Modelica class name: cart-pendulum -> CartPendulum."""
+    words = [w for w in re.split(r"[^A-Za-z0-9]+", name) if w]
+    ident = "".join(w[:1].upper() + w[1:] for w in words) or "Model"
+    if ident[0].isdigit():
+        ident = "M" + ident
+    return ident if ident not in _KEYWORDS else ident + "Model"
+
+
+class _ModelicaPrinter(StrPrinter):
+    """SymPy expressions in Modelica syntax: x^2, abs, time, the model's names (quoted where they
+    are reserved words), pi as the model's own constant."""
+
+    def __init__(self, names: Mapping[str, str], time: str, pi: str):
+        super().__init__({"full_prec": True})
+        self.names, self.time, self.pi = names, time, pi
+
+    def _print_Symbol(self, expr):
+        if expr.name == "t":
+            return self.time
+        return self.names.get(expr.name, modelica_name(expr.name))
+
+    def _print_Pi(self, expr):
+        return self.pi
+
+    def _print_Exp1(self, expr):
+        return "exp(1)"
+
+    def _print_Pow(self, expr, rational=False):
+        base, e = expr.args
+        if e == sympy.Rational(1, 2):
+            return f"sqrt({self._print(base)})"
+        if e == -sympy.Rational(1, 2):
+            return f"1/sqrt({self._print(base)})"
+        b = self.parenthesize(base, sympy.printing.precedence.PRECEDENCE["Pow"], strict=True)
+        x = self._print(e)
+        if not (e.is_Integer and e >= 0) and not e.is_Symbol:
+            x = f"({x})"
+        return f"{b}^{x}"
+
+    def _print_Function(self, expr):
+        name = _FUNCTIONS.get(type(expr).__name__)
+        if name is None:
+            raise ModelError(f"the function {type(expr).__name__} has no Modelica counterpart; the model cannot be "
+                             "exported to Modelica")
+        return f"{name}({', '.join(self._print(a) for a in expr.args)})"
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+    def _print_Rational(self, expr):
+        return f"{expr.p}/{expr.q}" if expr.q != 1 else str(expr.p)
+
+    def _print_Integer(self, expr):
+        return str(expr.p)
+
+
+def _number(value: float) -> str:
+    return repr(float(value))
+
+
+def modelica_source(eq: Equations, params: Mapping | None = None, initial: Mapping | None = None) -> str:
+    """The Modelica text of the model (see :func:`export_modelica`)."""
+    from .. import __version__
+
+    pvalues = parameter_values(eq, params)
+    x0 = start_state(eq, initial)
+    n = eq.n
+    used = set(eq.state_names) | {u.name for u in eq.inputs} | {p.name for p in eq.parameters}
+    pi = "pi"
+    while pi in used:
+        pi += "_"
+    names = {s: modelica_name(s) for s in used}
+    printer = _ModelicaPrinter(names, "time", pi)
+    cls = class_name(eq.model.name)
+    energy = energy_name(eq)
+    lines = [f"model {cls} {_string(eq.model.description or eq.model.name + ': Lagrange equations')}",
+             f"  // Generated by lagrangian {__version__} from the model '{eq.model.name}'; self-contained (no "
+             "library).",
+             "  // Lagrange's equations as M(q, t) der(q_dot) = f(q, q_dot, t, u), with der(q) = q_dot."]
+    for p, v in zip(eq.parameters, pvalues):
+        lines.append(f"  parameter Real {names[p.name]} = {_number(v)};")
+    for u in eq.inputs:
+        lines.append(f"  input Real {names[u.name]}(start = 0) \"input\";")
+    for i, s in enumerate(eq.state_names):
+        what = "coordinate" if i < n else f"velocity of {eq.state_names[i - n]}"
+        lines.append(f"  Real {names[s]}(start = {_number(x0[i])}, fixed = true, stateSelect = StateSelect.prefer) "
+                     f"\"{what}\";")
+    lines.append(f"  output Real {modelica_name(energy)} \"the Jacobi integral h = q_dot . dL/dq_dot - L (the energy T "
+                 "+ V when T* = T2)\";")
+    lines.append("protected")
+    lines.append(f"  constant Real {pi} = {_number(float(sympy.pi))};")
+    lines.append("equation")
+    q, qd = eq.state_names[:n], eq.state_names[n:]
+    for a, b in zip(q, qd):
+        lines.append(f"  der({names[a]}) = {names[b]};")
+    M, f = eq.mass_matrix, eq.forcing
+    for i in range(n):
+        terms = []
+        for j in range(n):
+            m = M[i, j]
+            if m == 0:
+                continue
+            terms.append(f"({printer.doprint(m)})*der({names[qd[j]]})")
+        lines.append(f"  {' + '.join(terms) or '0'} = {printer.doprint(f[i])};")
+    lines.append(f"  {modelica_name(energy)} = {printer.doprint(eq.readable(eq.jacobi_integral))};")
+    sim = eq.model.simulation
+    if sim.get("t_end"):
+        parts = [f"StartTime = 0, StopTime = {_number(sim['t_end'])}"]
+        if sim.get("dt"):
+            parts.append(f"Interval = {_number(sim['dt'])}")
+        if sim.get("rtol"):
+            parts.append(f"Tolerance = {_number(sim['rtol'])}")
+        lines.append(f"  annotation(experiment({', '.join(parts)}));")
+    lines.append(f"end {cls};")
+    return "\n".join(lines) + "\n"
+
+
+def _string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
+
+
+def export_modelica(system, path, *, params: Mapping | None = None, initial: Mapping | None = None) -> ExportResult:
+    """Write the model as a self-contained Modelica model (one ``model`` class, no library).
+
+    The class is named after the model in CamelCase (cart-pendulum: ``CartPendulum``); its
+    parameters keep their names and the model's values, its inputs are ``input Real`` (start 0),
+    its coordinates and velocities are ``Real`` states with ``fixed = true`` start values (the
+    model's [simulation] initial values, or `initial`), and the energy is an ``output Real``.
+    The equations are ``der(q) = q_dot`` and ``M(q, t) der(q_dot) = f`` in the readable form of
+    lagrangian's derivation. A [simulation] table gives the experiment annotation.
+
+    Parameters
+    ----------
+    system : Model, Equations or str
+    path : str or Path
+        The .mo file to write.
+    params, initial : mapping of str to float, optional
+        Parameter values and initial state values that replace the model's.
+
+    Returns
+    -------
+    ExportResult
+    """
+    eq = equations_of(system)
+    path = Path(path)
+    if path.suffix.lower() != ".mo":
+        raise ModelError(f"--modelica {path}: a Modelica file's name ends in .mo (for example "
+                         f"{path.with_suffix('.mo')})")
+    if path.is_dir() or not path.parent.resolve().is_dir():
+        raise ModelError(f"--modelica {path}: the folder {path.parent.resolve()} does not exist or the path is a "
+                         "folder; give a file name in an existing folder")
+    text = modelica_source(eq, params, initial)
+    with open(path, "w", newline="\n") as fh:
+        fh.write(text)
+    return ExportResult((os.fspath(path),))
