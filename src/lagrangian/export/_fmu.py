@@ -237,7 +237,7 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
                 built = where[0]
         if binary and built is None:
             warnings[-1] = (f"the FMU has no binary, only its sources: {warnings[-1]}. An importing tool that "
-                            "compiles sources (fmpy: fmpy.util.compile_platform_binary) can build it, or install a "
+                            "compiles sources (fmpy: fmpy.build.build_platform_binary) can build it, or install a "
                             "C compiler (gcc) and export again")
         description = _model_description(eq, ident, guid, variables, [f"{ident}.c", "fmu.c"])
         fd, tmp_zip = tempfile.mkstemp(prefix=".lagrangian-", suffix=".fmu", dir=path.parent)
