@@ -38,7 +38,10 @@ def fmu(cart, tmp_path_factory):
 
 
 def _fmpy():
-    return pytest.importorskip("fmpy", reason="fmpy (pip install 'lagrangian[fmu]') runs the FMUs")
+    fmpy = pytest.importorskip("fmpy", reason="fmpy (pip install 'lagrangian[fmu]') runs the FMUs")
+    import fmpy.validation  # noqa: F401
+
+    return fmpy
 
 
 def _states(result) -> np.ndarray:
