@@ -12,7 +12,8 @@ NOTEBOOKS = sorted((pathlib.Path(__file__).parent.parent / "notebooks").glob("*.
 
 
 def test_the_notebooks_are_there():
-    assert [p.name for p in NOTEBOOKS] == ["cart-inverted-pendulum.ipynb", "rotating-pendulum.ipynb"]
+    assert [p.name for p in NOTEBOOKS] == ["cart-inverted-pendulum.ipynb", "cart-pendulum-control.ipynb",
+                                          "rotating-pendulum.ipynb"]
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
