@@ -60,6 +60,8 @@ EXCLUDED = {
 EXCLUDED_PYTHON = {
     "sys = lin.to_control()": "python-control is the optional `control` extra",
     "from dask.distributed import Client": "Dask is the optional `dask` extra (the whole block uses its client)",
+    "from fmpy import simulate_fmu":
+        "fmpy is the optional `fmu` extra (tests/test_export.py runs the FMUs with it)",
 }
 
 #: Text of a shell command replaced before it runs, with the reason.
