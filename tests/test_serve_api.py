@@ -224,6 +224,30 @@ def test_report_format_is_checked(server):
     assert status == 400 and data["errors"][0]["message"] == "format 'pdf': choose html, md or tex"
 
 
+def test_fmu_is_the_exported_fmu_with_the_sliders_values_as_start_values(server):
+    import io
+    import shutil as sh
+    import xml.etree.ElementTree as ET
+    import zipfile
+
+    status, headers, body = server.request("POST", "/api/fmu", {"model": example_source("cart-pendulum"),
+                                                                "params": {"M1": 2.0}, "initial": {"q2": 1.25}})
+    assert status == 200 and headers["Content-Type"] == "application/zip"
+    assert headers["Content-Disposition"] == 'attachment; filename="cart-pendulum.fmu"'
+    archive = zipfile.ZipFile(io.BytesIO(body))
+    root = ET.fromstring(archive.read("modelDescription.xml"))
+    assert root.get("fmiVersion") == "2.0" and root.get("modelName") == "cart-pendulum"
+    starts = {v.get("name"): v[0].get("start") for v in root.iter("ScalarVariable")}
+    assert float(starts["M1"]) == 2.0 and float(starts["q2"]) == 1.25 and float(starts["M2"]) == 0.5
+    assert "sources/fmu.c" in archive.namelist()
+    if sh.which("cc") or sh.which("gcc"):
+        assert "binaries/linux64/cart_pendulum.so" in archive.namelist() or "X-Lagrangian-Warnings" in headers
+    status, data = server.post_json("/api/fmu", {"model": BAD})
+    assert status == 400 and data["errors"][0]["message"].startswith("expected a number, got the string '2'")
+    status, data = server.post_json("/api/fmu", {"model": OSCILLATOR, "params": {"k": "x"}})
+    assert status == 400 and data["errors"][0]["message"].startswith("params.k: 'x' is not a number")
+
+
 # ------------------------------------------------------------------ the page and the examples
 def test_examples(server):
     status, headers, body = server.request("GET", "/api/examples")

@@ -215,6 +215,18 @@ def test_the_downloaded_csv_is_simulates(page, server):
     assert path.read_text() == traj.to_csv()
 
 
+def test_the_fmu_downloads_with_the_sliders_values(page):
+    import xml.etree.ElementTree as ET
+    import zipfile
+
+    page.find_element(By.ID, "download-fmu").click()
+    path = page.downloads / "double-pendulum.fmu"
+    wait(page, lambda: path.exists() and path.stat().st_size > 0 and zipfile.is_zipfile(path), 60)
+    root = ET.fromstring(zipfile.ZipFile(path).read("modelDescription.xml"))
+    starts = {v.get("name"): float(v[0].get("start")) for v in root.iter("ScalarVariable") if v[0].get("start")}
+    assert starts["theta1"] == 0.75  # the slider's value, set above
+
+
 def test_an_unknown_example_says_so(server, browser):
     browser.get(server.url + "?example=double-pendulm")
     wait(browser, lambda: browser.find_elements(By.CSS_SELECTOR, "#errors li"))

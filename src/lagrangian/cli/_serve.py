@@ -17,7 +17,7 @@ def register(sub, fmt) -> None:
                        "equations, the matrix form, the mass-matrix diagnosis, the equilibria and modes as "
                        "mathematics, a simulation with sliders for the parameters and initial values, the "
                        "animation of the mechanism and plots of the states and the energy, and downloads of the "
-                       "model file, the CSV and the report. It serves this machine only (127.0.0.1) unless "
+                       "model file, the CSV, the report and the FMU. It serves this machine only (127.0.0.1) unless "
                        "--host says otherwise, needs no network, and runs until Ctrl-C.",
                        epilog="Examples:\n  lagrangian serve\n  lagrangian serve double-pendulum --port 8800\n"
                               "  lagrangian serve my_model.toml --no-browser\n"

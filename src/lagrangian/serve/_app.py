@@ -14,6 +14,7 @@ Routes (the API is documented in docs/conventions.md):
 ``POST /api/simulate``   ``{"model", "t_end", "initial", "inputs", "params", "dt", ...}`` -> the
                          trajectory as JSON (``?format=csv``: the CSV of ``lagrangian simulate``)
 ``POST /api/report``     model text -> the derivation report (``?format=html|md|tex``)
+``POST /api/fmu``        ``{"model", "params", "initial"}`` -> the FMI 2.0 FMU (``export --fmu``)
 =======================  =================================================================
 
 Errors of the API are JSON, ``{"errors": [{"line", "key", "message"}, ...]}``: 400 for a bad
@@ -178,6 +179,11 @@ class SimulateHandler(_Api):
         await super().post()
 
 
+class FmuHandler(_Api):
+    task, what = "fmu", "FMU export"
+    empty_message = 'the request body is empty: send a JSON object {"model": "...", "params": {...}}'
+
+
 class ReportHandler(_Api):
     task, what = "report", "report"
 
@@ -302,5 +308,6 @@ def make_app(settings: Settings) -> tornado.web.Application:
         (r"/api/equilibria", EquilibriaHandler, s),
         (r"/api/simulate", SimulateHandler, s),
         (r"/api/report", ReportHandler, s),
+        (r"/api/fmu", FmuHandler, s),
     ], static_path=str(STATIC), template_path=str(TEMPLATES), default_handler_class=NotFoundHandler,
         default_handler_args=s, compress_response=True, autoreload=False, debug=False, serve_traceback=False)

@@ -406,12 +406,43 @@ def report_task(body: bytes, fmt: str = "html") -> Reply:
                  {"Content-Disposition": f'attachment; filename="{_file_name(model.name)}.{fmt}"'})
 
 
+#: The fields of an FMU request.
+FMU_FIELDS = {
+    "model": SIMULATE_FIELDS["model"],
+    "params": "parameter values, the FMU's start values, {name: number} (default: the model's)",
+    "initial": "initial coordinates and velocities, the FMU's start values, {name: number}",
+}
+
+
+def fmu_task(body: bytes) -> Reply:
+    """The model as an FMI 2.0 FMU (``lagrangian export --fmu``; Model Exchange and Co-Simulation),
+    with the given parameter and initial values as start values, as a download; the exporter's
+    warnings (a sources-only FMU where there is no C compiler) in the X-Lagrangian-Warnings header."""
+    import tempfile
+    from pathlib import Path
+
+    from .. import derive
+    from ..export import export_fmu
+
+    obj = _json_object(body, FMU_FIELDS)
+    params, initial = _numbers(obj, "params"), _numbers(obj, "initial")
+    model = _load(obj["model"])
+    name = _file_name(model.name)
+    with tempfile.TemporaryDirectory(prefix="lagrangian-fmu-") as folder:
+        result = export_fmu(derive(model), Path(folder) / f"{name}.fmu", params=params, initial=initial)
+        data = Path(result.files[0]).read_bytes()
+    headers = {"Content-Disposition": f'attachment; filename="{name}.fmu"'}
+    if result.warnings:
+        headers["X-Lagrangian-Warnings"] = json.dumps(list(result.warnings))  # ASCII: json escapes the rest
+    return Reply(200, data, "application/zip", headers)
+
+
 def _file_name(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "model"
 
 
 TASKS = {"derive": derive_task, "analysis": analysis_task, "equilibria": equilibria_task,
-         "simulate": simulate_task, "simulate_csv": simulate_csv_task, "report": report_task}
+         "simulate": simulate_task, "simulate_csv": simulate_csv_task, "report": report_task, "fmu": fmu_task}
 
 
 def run(kind: str, body: bytes, *args) -> Reply:

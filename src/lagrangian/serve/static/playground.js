@@ -51,7 +51,7 @@ async function api(path, body, json) {
   }
   const type = response.headers.get("Content-Type") || "";
   const data = type.startsWith("application/json") ? await response.json() : await response.blob();
-  return { status: response.status, data };
+  return { status: response.status, data, warnings: response.headers.get("X-Lagrangian-Warnings") };
 }
 
 function errorText(data) {
@@ -358,6 +358,7 @@ async function download(path, body, json, name, what) {
   setDone("download");
   if (r.status !== 200) { showStatus(errorText(r.data)); return; }
   save(r.data, name);
+  if (r.warnings) showStatus(JSON.parse(r.warnings).join(" "));
 }
 
 $("download-model").addEventListener("click", () => save(new Blob([editor.text], { type: "application/toml" }), `${state.name}.toml`));
@@ -371,6 +372,12 @@ for (const [id, fmt] of [["download-report", "html"], ["download-report-md", "md
     download(`/api/report?format=${fmt}`, state.goodText, false, `${state.name}.${fmt}`, "report");
   });
 }
+
+$("download-fmu").addEventListener("click", () => {
+  if (!state.goodText || !state.analysis) return;
+  const r = simulationRequest();
+  download("/api/fmu", { model: r.model, params: r.params, initial: r.initial }, true, `${state.name}.fmu`, "FMU");
+});
 
 // ------------------------------------------------------------------ examples and start
 async function loadExample(name) {
