@@ -178,7 +178,7 @@ def test_export_errors(cart, tmp_path):
     with pytest.raises(lg.ModelError, match=r"the folder .*nowhere does not exist"):
         export_fmu(cart, tmp_path / "nowhere" / "x.fmu")
     with pytest.raises(lg.ModelError, match=r"\[params.M3\]: 'M3' is not a parameter of the model \(did you mean "
-                                            r"'M2'\?\); its parameters are M1, M2, L, g"):
+                                            r"'M2'\?\); the choices are M1, M2, L, g"):
         export_modelica(cart, tmp_path / "x.mo", params={"M3": 1.0})
     free = lg.derive(lg.Model("free", coordinates=["x"], parameters={"k": None}, T="x_dot**2/2", V="k*x**2/2"))
     with pytest.raises(lg.ModelError, match=r"parameter 'k' has no value: an exported model needs one; give it in "

@@ -367,6 +367,18 @@ def _uncontrollable_error(lin, modes: list[complex]) -> DesignError:
                        "add an input that acts on that motion, or linearize about another point")
 
 
+def _plant(lin, sample_time) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of the design: the linearization's, or its zero-order-hold discretization; refused
+    when an unstable mode cannot be moved by the inputs."""
+    A, B = np.asarray(lin.A, float), np.asarray(lin.B, float)
+    if sample_time is not None:
+        A, B = discretize(A, B, float(sample_time))
+    bad = _uncontrollable(A, B, sample_time is not None)
+    if bad:
+        raise _uncontrollable_error(lin, bad)
+    return A, B
+
+
 def _result(lin, K, A, B, method, sample_time, **extra) -> StateFeedback:
     from ..analysis._linearize import _exact_number
 
@@ -431,13 +443,8 @@ def lqr(linear_model, Q=None, R=None, *, sample_time: float | None = None) -> St
         _check_symmetric(Rm, "R", True, problems)
     if problems:
         raise ModelError(problems)
-    A, B = np.asarray(lin.A, float), np.asarray(lin.B, float)
+    A, B = _plant(lin, sample_time)
     discrete = sample_time is not None
-    if discrete:
-        A, B = discretize(A, B, float(sample_time))
-    bad = _uncontrollable(A, B, discrete)
-    if bad:
-        raise _uncontrollable_error(lin, bad)
     try:
         if discrete:
             P = linalg.solve_discrete_are(A, B, Qm, Rm)
@@ -512,14 +519,8 @@ def place(linear_model, poles, *, sample_time: float | None = None) -> StateFeed
                 break
     if problems:
         raise ModelError("; ".join(problems))
-    A, B = np.asarray(lin.A, float), np.asarray(lin.B, float)
-    targets = wanted
-    if sample_time is not None:
-        A, B = discretize(A, B, float(sample_time))
-        targets = np.exp(wanted * float(sample_time))
-    bad = _uncontrollable(A, B, sample_time is not None)
-    if bad:
-        raise _uncontrollable_error(lin, bad)
+    A, B = _plant(lin, sample_time)
+    targets = wanted if sample_time is None else np.exp(wanted * float(sample_time))
     try:
         result = place_poles(A, B, targets, method="YT", maxiter=100)
     except (ValueError, np.linalg.LinAlgError) as exc:

@@ -3,17 +3,17 @@ parameter and start values, and the result object."""
 
 from __future__ import annotations
 
-import math
-import numbers
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Mapping
 
 from ..equations import Equations, derive
 from ..errors import ModelError, Problem
 from ..model import Model
 
-__all__ = ["ExportResult", "equations_of", "identifier", "parameter_values", "start_state", "energy_name"]
+__all__ = ["ExportResult", "equations_of", "identifier", "parameter_values", "start_state", "energy_name",
+           "output_file"]
 
 
 @dataclass(frozen=True)
@@ -59,29 +59,31 @@ def identifier(name: str) -> str:
 
 def parameter_values(eq: Equations, params: Mapping | None) -> list[float]:
     """The model's parameter values with `params` overriding them; every one must have a value."""
-    from ..numeric._simulate import _closest
+    from ..numeric._simulate import _named_values
 
-    given = {getattr(k, "name", k): v for k, v in (params or {}).items()}
-    names = [p.name for p in eq.parameters]
-    problems = []
-    for name, value in given.items():
-        if name not in names:
-            problems.append(Problem(f"'{name}' is not a parameter of the model{_closest(name, names)}; its "
-                                    f"parameters are {', '.join(names) or 'none'}", key=f"params.{name}"))
-        elif not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
-            problems.append(Problem(f"the value of '{name}' must be a finite number, got {value!r}",
+    names = tuple(p.name for p in eq.parameters)
+    problems: list[Problem] = []
+    given = _named_values(params or {}, names, "a parameter of the model", "params", problems)
+    values = [given.get(i, v) for i, v in enumerate(eq.parameters.values())]
+    for name, v in zip(names, values):
+        if v is None and f"params.{name}" not in {p.key for p in problems}:
+            problems.append(Problem(f"parameter '{name}' has no value: an exported model needs one; give it in the "
+                                    f"model or pass params={{'{name}': ...}} (--param {name}=...)",
                                     key=f"params.{name}"))
-    values = []
-    for p, v in eq.parameters.items():
-        v = given.get(p.name, v)
-        if v is None:
-            problems.append(Problem(f"parameter '{p.name}' has no value: an exported model needs one; give it in the "
-                                    f"model or pass params={{'{p.name}': ...}} (--param {p.name}=...)",
-                                    key=f"params.{p.name}"))
-        values.append(float(v) if isinstance(v, numbers.Real) else math.nan)
     if problems:
         raise ModelError(problems)
-    return values
+    return [float(v) for v in values]
+
+
+def output_file(path, suffix: str, option: str, what: str) -> Path:
+    """`path` as a Path, checked: its suffix, and a folder that exists."""
+    path = Path(path)
+    if path.suffix.lower() != suffix:
+        raise ModelError(f"{option} {path}: {what} ends in {suffix} (for example {path.with_suffix(suffix)})")
+    if path.is_dir() or not path.parent.resolve().is_dir():
+        raise ModelError(f"{option} {path}: the folder {path.parent.resolve()} does not exist or the path is a folder; "
+                         "give a file name in an existing folder")
+    return path
 
 
 def start_state(eq: Equations, initial: Mapping | None) -> list[float]:

@@ -20,9 +20,9 @@ from typing import Mapping
 from xml.sax.saxutils import quoteattr
 
 from ..equations import Equations
-from ..errors import ModelError
 from ._c import c_files
-from ._common import ExportResult, energy_name, equations_of, identifier, parameter_values, start_state
+from ._common import (ExportResult, energy_name, equations_of, identifier, output_file, parameter_values,
+                      start_state)
 
 __all__ = ["export_fmu", "fmu_platform", "SOLVER_DEFAULTS"]
 
@@ -196,14 +196,7 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     from ..numeric._codegen import model_key
 
     eq = equations_of(system)
-    path = Path(path)
-    if path.suffix.lower() != ".fmu":
-        raise ModelError(f"--fmu {path}: an FMU's file name ends in .fmu (for example {path.with_suffix('.fmu')})")
-    if path.is_dir():
-        raise ModelError(f"--fmu {path}: it is a folder; give a file name such as {path / (eq.model.name + '.fmu')}")
-    if not path.parent.resolve().is_dir():
-        raise ModelError(f"--fmu {path}: the folder {path.parent.resolve()} does not exist; create it or choose "
-                         "another path")
+    path = output_file(path, ".fmu", "--fmu", "an FMU's file name")
     ident = identifier(eq.model.name)
     pvalues = parameter_values(eq, params)
     x0 = start_state(eq, initial)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 import re
-from pathlib import Path
 from typing import Mapping
 
 import sympy
@@ -18,7 +17,7 @@ from sympy.printing.str import StrPrinter
 
 from ..equations import Equations
 from ..errors import ModelError
-from ._common import ExportResult, energy_name, equations_of, parameter_values, start_state
+from ._common import ExportResult, energy_name, equations_of, output_file, parameter_values, start_state
 
 __all__ = ["export_modelica", "modelica_source", "class_name"]
 
@@ -186,13 +185,7 @@ def export_modelica(system, path, *, params: Mapping | None = None, initial: Map
     ExportResult
     """
     eq = equations_of(system)
-    path = Path(path)
-    if path.suffix.lower() != ".mo":
-        raise ModelError(f"--modelica {path}: a Modelica file's name ends in .mo (for example "
-                         f"{path.with_suffix('.mo')})")
-    if path.is_dir() or not path.parent.resolve().is_dir():
-        raise ModelError(f"--modelica {path}: the folder {path.parent.resolve()} does not exist or the path is a "
-                         "folder; give a file name in an existing folder")
+    path = output_file(path, ".mo", "--modelica", "a Modelica file's name")
     text = modelica_source(eq, params, initial)
     with open(path, "w", newline="\n") as fh:
         fh.write(text)

@@ -340,8 +340,16 @@ class Sampling:
     which: np.ndarray
 
 
-def no_sampling(m: int) -> Sampling:
-    return Sampling(np.zeros(max(1, m), np.int64), np.zeros(0), np.zeros((1, max(1, m)), np.int64))
+_NO_SAMPLING: dict = {}
+
+
+def no_sampling(m: int) -> tuple[Sampling, np.ndarray]:
+    """(no sampled input, a history array) for m inputs, shared (the kernel only reads them when
+    there are no sample times)."""
+    if m not in _NO_SAMPLING:
+        _NO_SAMPLING[m] = (Sampling(np.zeros(max(1, m), np.int64), np.zeros(0), np.zeros((1, max(1, m)), np.int64)),
+                           np.zeros((1, max(1, m))))
+    return _NO_SAMPLING[m]
 
 
 def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
@@ -353,8 +361,10 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     `sampling`: the sampled inputs (default: none)."""
     n = cm.n
     m = len(prog.starts) - 1
-    sampling = sampling or no_sampling(m)
-    hist = np.zeros((max(1, len(sampling.samples)), max(1, m)))
+    if sampling is None:
+        sampling, hist = no_sampling(m)
+    else:
+        hist = np.zeros((max(1, len(sampling.samples)), max(1, m)))
     if events is None:  # no events: the kernel only reads these arrays, so they are shared
         events, eterm, ev_t, ev_k, ev_x, ev_n = _no_events(n)
         nev = 0

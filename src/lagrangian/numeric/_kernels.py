@@ -407,6 +407,18 @@ def _sample(t, x, p, ops, args, starts, stack, u, modes, hold, held, which, hist
 
 
 @njit(cache=True)
+def _changed(t, x, p, ops, args, starts, stack, u, modes, mlive, nsw, hold, held):
+    """Whether a switch evaluated live at (t, x) (into mlive) differs from its frozen value."""
+    for k in range(nsw):
+        mlive[k] = modes[k]
+    eval_inputs(t, x, p, ops, args, starts, stack, u, mlive, True, hold, held)
+    for k in range(nsw):
+        if mlive[k] != modes[k]:
+            return True
+    return False
+
+
+@njit(cache=True)
 def switch_count(ops, args):
     """The number of switches of a program (the largest switch index + 1)."""
     m = 0
@@ -728,14 +740,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
         dense = False
         renew = False  # the right-hand side at the step's end must be evaluated again
         if not live:  # did a switch change during the step?
-            for k in range(nsw):
-                mlive[k] = modes[k]
-            eval_inputs(tnew, ynew, p, ops, args, starts, stack, u, mlive, True, hold, held)
-            changed = False
-            for k in range(nsw):
-                if mlive[k] != modes[k]:
-                    changed = True
-            if changed:
+            if _changed(tnew, ynew, p, ops, args, starts, stack, u, modes, mlive, nsw, hold, held):
                 _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, aptr,
                                     aidx, aval, cc, modes, False, hold, held)
                 nfev += 3
@@ -747,14 +752,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
                         break
                     c = 0.5 * (a + b)
                     _dense(t, h, y, F, c, xs)
-                    for k in range(nsw):
-                        mlive[k] = modes[k]
-                    eval_inputs(c, xs, p, ops, args, starts, stack, u, mlive, True, hold, held)
-                    changed = False
-                    for k in range(nsw):
-                        if mlive[k] != modes[k]:
-                            changed = True
-                    if changed:
+                    if _changed(c, xs, p, ops, args, starts, stack, u, modes, mlive, nsw, hold, held):
                         b = c
                     else:
                         a = c
