@@ -121,6 +121,34 @@ def test_co_simulation_matches_lagrangian_with_held_inputs(fmu, cart):
     assert 1e-12 < np.max(np.abs(_states(loose) - ours.x)) < 1e-6
 
 
+def test_co_simulation_step_and_tolerance_are_settable(fmu, cart):
+    """solver.max_step bounds the embedded DOP853's step: at a loose tolerance (1e-3) the steps
+    it would choose miss lagrangian's trajectory by about 1e-3, a largest step of 0.01 s brings
+    it to 1e-10; a negative step or tolerance is refused through the logger, saying which."""
+    fmpy = _fmpy()
+    ours = lg.simulate(cart, 2.0, {"q2": 1.4}, dt=0.5, rtol=1e-13, atol=1e-13)
+    loose = {"solver.rtol": 1e-3, "solver.atol": 1e-3}
+
+    def error(**start):
+        res = fmpy.simulate_fmu(fmu, fmi_type="CoSimulation", stop_time=2.0, output_interval=0.5,
+                                start_values={**loose, **start}, output=list(STATES))
+        return np.max(np.abs(_states(res) - ours.x))
+
+    assert error() > 1e-5 and error(**{"solver.max_step": 0.01}) < 1e-10
+    for start, message in [({"solver.max_step": -1.0}, "solver.max_step must be 0 (no limit but the communication "
+                                                         "step) or positive (got -1)"),
+                           ({"solver.rtol": -1.0}, "solver.rtol and solver.atol must be positive (got -1 and 1e-08)")]:
+        messages = []
+
+        def logger(component, instance, status, category, text):
+            messages.append(text.decode())
+
+        with pytest.raises(Exception, match="fmi2DoStep failed"):
+            fmpy.simulate_fmu(fmu, fmi_type="CoSimulation", stop_time=1.0, output_interval=0.5, start_values=start,
+                              logger=logger)
+        assert message in messages, messages
+
+
 def test_fmu_reports_a_singular_mass_matrix(tmp_path):
     """The massless cart's M is singular with the pendulum upright: the FMU refuses to initialize
     there and says why through the logger."""
@@ -170,6 +198,18 @@ def test_sources_only_fmu_warns_and_builds_elsewhere(cart, tmp_path, monkeypatch
                             output_interval=0.5, start_values={"solver.rtol": 1e-12, "solver.atol": 1e-12})
     ours = lg.simulate(cart, 1.0, {"q2": 1.4}, dt=0.5, rtol=1e-13, atol=1e-13)
     assert np.max(np.abs(_states(res) - ours.x)) < 1e-9
+
+
+def test_a_failing_compiler_is_said_with_its_status(cart, tmp_path, monkeypatch):
+    import lagrangian.numeric._cbackend as cbackend
+
+    if shutil.which("false") is None:
+        pytest.skip("no `false` command to stand for a failing compiler")
+    monkeypatch.setattr(cbackend, "c_compiler", lambda: "false")
+    result = export_fmu(cart, tmp_path / "x.fmu")
+    assert result.binary is None
+    assert result.warnings[0].startswith("the FMU has no binary, only its sources: the C compiler (false) failed with "
+                                         "exit status 1: it printed nothing. An importing tool")
 
 
 def test_export_errors(cart, tmp_path):
@@ -279,6 +319,25 @@ int main(void) {{
 
 
 @needs_cc
+def test_c_export_of_models_without_inputs_or_parameters_compiles_without_warnings(tmp_path):
+    """A model without inputs (the heavy top, a body in space) or without parameters does not read
+    u or p: its C and the example still build with -Wall -Wextra -pedantic -Werror, and the
+    example integrates a free fall exactly (RK4 is exact on a parabola)."""
+    fall = lg.Model("free fall", coordinates=["x"], T="x_dot**2/2", V="9.81*x")
+    for system, ident, initial in [("heavy-top", "heavy_top", None), (lg.derive(fall), "free_fall", {"x": 1.0})]:
+        folder = tmp_path / ident
+        export_c(system, folder, initial=initial)
+        build = subprocess.run([*c_compiler().split(), "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O2",
+                                "-o", str(folder / "example"), str(folder / "main.c"), str(folder / f"{ident}.c"),
+                                "-lm"], capture_output=True, text=True)
+        assert build.returncode == 0, build.stderr
+    out = subprocess.run([str(tmp_path / "free_fall" / "example"), "1", "0.01", "50"], capture_output=True,
+                         text=True, check=True).stdout.splitlines()
+    t, x, v, energy = (float(s) for s in out[-1].split(","))
+    assert t == 1 and x == pytest.approx(1 - 9.81 / 2, abs=1e-12) and v == pytest.approx(-9.81, abs=1e-12)
+
+
+@needs_cc
 def test_c_example_built_with_cmake_integrates_the_model(cart, tmp_path):
     if shutil.which("cmake") is None:
         pytest.skip("no cmake to build the C export's CMakeLists.txt")
@@ -313,7 +372,10 @@ def test_export_command(tmp_path, capsys):
     assert "M2 = 0.8" not in (c / "cart_pendulum.c").read_text()
     assert "1.0, 0.8, 1.0, 9.81" in (c / "cart_pendulum.c").read_text()
     assert main(["export", "cart-pendulum", "--fmu", str(tmp_path / "s.fmu"), "--no-binary"]) == 0
-    assert "sources only" in capsys.readouterr().out
+    said = capsys.readouterr()
+    assert "sources only" in said.out
+    assert ("lagrangian export: warning: the FMU has no binary, only its sources, as asked (binary=False, "
+            "--no-binary)") in said.err
     assert main(["export", "cart-pendulum"]) == 2
     assert "nothing to export: give --fmu FILE.fmu, --modelica FILE.mo and/or --c DIR" in capsys.readouterr().err
     assert main(["export", "cart-pendulum", "--fmu", str(tmp_path / "x.zip")]) == 2

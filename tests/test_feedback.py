@@ -104,13 +104,14 @@ def test_compiled_programs_equal_sympy_on_a_switching_law(double_integrator):
                                err_msg="the inputs recorded at the output times are the law's values there")
 
 
-def test_bang_bang_switches_are_located_exactly(double_integrator):
+@pytest.mark.parametrize("law", ["where(x > 0, -1, 1)", "-sign(x)"])
+def test_bang_bang_switches_are_located_exactly(double_integrator, law):
     """x'' = -1 for x > 0, +1 otherwise, from x = 1 at rest: piecewise parabolas crossing 0 at
     t = sqrt(2), 3 sqrt(2), 5 sqrt(2), ... with speed sqrt(2); the compiled DOP853 locates each
-    switch and follows the closed form to rounding, where SciPy's solve_ivp crawls through them."""
+    switch (a where's condition, or sign's) and follows the closed form to rounding, where
+    SciPy's solve_ivp crawls through them."""
     t_end = 10.0
-    tr = lg.simulate(double_integrator, t_end, {"x": 1.0}, inputs={"F": "where(x > 0, -1, 1)"}, dt=0.05,
-                     rtol=1e-10, atol=1e-10)
+    tr = lg.simulate(double_integrator, t_end, {"x": 1.0}, inputs={"F": law}, dt=0.05, rtol=1e-10, atol=1e-10)
     r2 = math.sqrt(2)
 
     def exact(t):
@@ -123,8 +124,8 @@ def test_bang_bang_switches_are_located_exactly(double_integrator):
     assert np.max(np.abs(tr["x"] - x)) < 1e-9 and np.max(np.abs(tr["x_dot"] - v)) < 1e-9
     crossings = int(np.floor((t_end / r2 + 1) / 2))  # sqrt(2), 3 sqrt(2), ... <= t_end
     assert tr.stats["switches"] == crossings == 4
-    slow = lg.simulate(double_integrator, t_end, {"x": 1.0}, inputs={"F": "where(x > 0, -1, 1)"}, dt=0.05,
-                       rtol=1e-10, atol=1e-10, backend="scipy")
+    slow = lg.simulate(double_integrator, t_end, {"x": 1.0}, inputs={"F": law}, dt=0.05, rtol=1e-10, atol=1e-10,
+                       backend="scipy")
     assert tr.stats["nfev"] * 3 < slow.stats["nfev"], (tr.stats, slow.stats)
 
 
@@ -170,6 +171,27 @@ def test_python_function_of_the_state_equals_the_expression(cart):
         lg.simulate(cart, 1.0, inputs={"F": lambda t, x, p: 0.0})
     with pytest.raises(lg.ModelError, match=r"backend 'numba' cannot run this model: an input is a Python function"):
         lg.simulate(cart, 1.0, inputs={"F": lambda t, x: 0.0}, backend="numba")
+
+
+def test_a_new_law_compiles_nothing(cart):
+    """Laws are programs that the compiled integrator interprets: a new law, with switches,
+    saturations and sampling, runs on the kernels and the model already compiled (numba adds no
+    specialization) and in milliseconds (benchmarks/feedback.py measures it)."""
+    from lagrangian.numeric._fast import kernels
+
+    lg.simulate(cart, 1.0, {"q2": 1.4}, inputs={"F": "1.0*q1 - 40.0*(q2 - pi/2)"})
+    compiled = lg.compile(cart)
+
+    def signatures():
+        return {name: list(f.signatures) for name, f in vars(kernels()).items() if hasattr(f, "signatures")}
+
+    before = signatures()
+    assert sum(map(len, before.values())) >= 1
+    for kw in ({"inputs": {"F": "where(q1 > 0, clip(-3*q1_dot, -1, 1), 2.5*sign(sin(t))) - 41*(q2 - pi/2)"}},
+               {"inputs": {"F": "max(-5, min(5, -20*(q2 - pi/2) - 5*q2_dot))"}, "sample_time": 0.05}):
+        tr = lg.simulate(cart, 1.0, {"q2": 1.4}, **kw)
+        assert tr.stats["backend"] == "numba"
+    assert signatures() == before and lg.compile(cart) is compiled
 
 
 def test_input_expression_errors(cart):

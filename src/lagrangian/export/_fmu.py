@@ -159,7 +159,8 @@ def _build(sources: dict[str, str], ident: str, suffix: str, folder: Path) -> tu
            *map(str, c_names), "-lm"]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
-        return None, f"the C compiler ({cc}) failed: {run.stderr.strip()[:1500]}"
+        said = (run.stderr.strip() or run.stdout.strip())[:1500] or "it printed nothing"
+        return None, f"the C compiler ({cc}) failed with exit status {run.returncode}: {said}"
     return out, None
 
 
@@ -232,6 +233,10 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
             warnings[-1] = (f"the FMU has no binary, only its sources: {warnings[-1]}. An importing tool that "
                             "compiles sources (fmpy: fmpy.build.build_platform_binary) can build it, or install a "
                             "C compiler (gcc) and export again")
+        elif not binary:
+            warnings.append("the FMU has no binary, only its sources, as asked (binary=False, --no-binary): an "
+                            "importing tool that compiles sources (fmpy: fmpy.build.build_platform_binary) can "
+                            "build it; export without --no-binary for one built here")
         description = _model_description(eq, ident, guid, variables, [f"{ident}.c", "fmu.c"])
         fd, tmp_zip = tempfile.mkstemp(prefix=".lagrangian-", suffix=".fmu", dir=path.parent)
         os.close(fd)

@@ -137,6 +137,11 @@ static int integrate(Instance *c, double t0, double t1) {
             atol);
         return 0;
     }
+    if (!(max_step >= 0.0)) {
+        say(c, fmi2Error, "logStatusError", "solver.max_step must be 0 (no limit but the communication step) or "
+            "positive (got %g)", max_step);
+        return 0;
+    }
     if (rtol < 2.220446049250313e-14) rtol = 2.220446049250313e-14;
     memcpy(y, c->r, sizeof y);
     measure = @ID@_rhs(t, y, u, p, K[0]);

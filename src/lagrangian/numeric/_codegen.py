@@ -616,7 +616,8 @@ def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet
 
     For lagrangian.export: `prefix` replaces "lg_" in the functions' names, `storage` is put
     before each definition ("static "), and `quiet` marks the unpacked arguments as used
-    ((void)v_t;) so that -Wall stays silent."""
+    ((void)v_t;), and the arguments a model may not read (u without inputs, p without
+    parameters), so that -Wall -Wextra stays silent."""
     n = equations.n
     Mlow, f, h, _, _ = _model_parts(equations)
     _, _, _, pm, F = _model_parts(equations, "variational")
@@ -628,7 +629,7 @@ def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet
     def unpack() -> list[str]:
         lines = pr.unpack()
         if quiet:
-            lines.append("    " + " ".join(f"(void){local};" for local, _, _ in pr.locals))
+            lines.append("    " + " ".join(["(void)u;", "(void)p;", *(f"(void){local};" for local, _, _ in pr.locals)]))
         return lines
 
     body = [f"{storage}double {prefix}rhs(double t, double *x, double *u, double *p, double *dx, double *work) {{"]
