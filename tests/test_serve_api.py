@@ -89,8 +89,9 @@ def test_a_body_over_the_size_limit_is_refused_with_413(server):
 def test_a_foreign_host_header_is_refused(server):
     status, data = server.post_json("/api/derive", OSCILLATOR, headers={"Host": "evil.example:80"})
     assert status == 403
-    assert data["errors"][0]["message"].startswith("this server answers requests for 127.0.0.1 and localhost only, "
-                                                   "not for 'evil.example'")
+    assert data["errors"][0]["message"] == ("this server answers requests for 127.0.0.1 and localhost only, not for "
+                                            f"'evil.example'; open http://127.0.0.1:{server.port}/ (or start it with "
+                                            "--host to serve other addresses)")  # this server's port, not the Host's
     assert server.post_json("/api/derive", OSCILLATOR, headers={"Host": f"localhost:{server.port}"})[0] == 200
 
 
@@ -165,6 +166,33 @@ def test_simulate_errors(server, body, status, message):
     got, data = server.post_json("/api/simulate", body)
     assert got == status, data
     assert any(message in e["message"] for e in data["errors"]), data
+
+
+def test_every_problem_of_a_request_is_reported_at_once(server):
+    body = {"model": OSCILLATOR, "t_ned": 1, "t_end": -1, "dt": "soon", "initial": {"x": True, "x_dot": [1]},
+            "inputs": {"F": [1]}, "method": 3}
+    status, data = server.post_json("/api/simulate", body)
+    assert status == 400
+    assert [e["message"].split(":")[0] for e in data["errors"]] == [
+        "unknown field 't_ned' (did you mean 't_end'?); the fields are model, t_end, initial, inputs, params, dt, rtol, "
+        "atol, method", "t_end", "dt", "initial.x", "initial.x_dot", "inputs.F", "method"], data
+    assert data["errors"][5]["message"].startswith("inputs.F: expected an expression of t, the coordinates and "
+                                                   "velocities (a string such as")
+    status, data = server.post_json("/api/fmu", {"model": OSCILLATOR, "params": {"m": "heavy", "k": None},
+                                                 "initial": 3})
+    assert status == 400 and [e["message"] for e in data["errors"]] == [
+        "params.m: 'heavy' is not a number (unknown name 'heavy'); write e.g. 0.5 or pi/2",
+        "params.k: expected a number, got null", "initial: expected an object {name: value}, got 3"], data
+
+
+@pytest.mark.parametrize("path, body", [("/api/derive", "cart-pendulum\n"),
+                                        ("/api/simulate", {"model": "pendulum-chain-3", "t_end": 1})])
+def test_an_example_s_name_instead_of_its_text_says_how_to_get_the_text(server, path, body):
+    status, data = server.post_json(path, body)
+    name = "cart-pendulum" if path == "/api/derive" else "pendulum-chain-3"
+    assert status == 400 and data["errors"] == [{"line": None, "key": None, "message": (
+        f"'{name}' is the name of a built-in example, not a model file's text: send its text "
+        f"(GET /api/examples/{name} gives it, as {{\"name\", \"text\"}})")}]
 
 
 def test_a_simulation_that_reaches_a_singular_mass_matrix_is_a_422_with_the_diagnosis(server):
@@ -344,6 +372,27 @@ def test_serve_stops_cleanly_on_ctrl_c_and_takes_its_workers_along():
     code, out, err = s.stop(signal.SIGINT)
     assert code == 0 and out == "lagrangian serve: stopped\n" and err == ""
     assert not any(os.path.exists(f"/proc/{p}") and open(f"/proc/{p}/stat").read().split()[2] != "Z" for p in pids)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the stand-in browser is a shell script")
+def test_serve_opens_the_page_in_the_browser_unless_told_not_to(tmp_path):
+    """Without --no-browser the page opens in the default browser (Python's webbrowser, which
+    honours $BROWSER: here a script that writes down the address it was given)."""
+    opened = tmp_path / "opened.txt"
+    browser = tmp_path / "browser.sh"
+    browser.write_text(f'#!/bin/sh\nprintf "%s" "$1" > "{opened}"\n')
+    browser.chmod(0o755)
+    env = dict(os.environ, BROWSER=str(browser), PYTHONUNBUFFERED="1")
+    process = subprocess.Popen([sys.executable, "-m", "lagrangian", "serve", "--port", "0", "--workers", "1"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        first = process.stdout.readline()
+        url = first.split(" the playground is at ", 1)[1].split(" ", 1)[0]
+        assert wait_until(lambda: opened.exists() and opened.read_text(), 30) == url
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=60)
+    assert process.returncode == 0 and out == "lagrangian serve: stopped\n" and "Traceback" not in err
 
 
 def test_serve_reads_a_model_file_anew_at_each_visit(tmp_path):

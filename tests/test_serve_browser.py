@@ -227,6 +227,38 @@ def test_the_fmu_downloads_with_the_sliders_values(page):
     assert starts["theta1"] == 0.75  # the slider's value, set above
 
 
+def test_the_file_is_highlighted_and_the_states_and_energy_plotted(page):
+    """The editor's highlighting (the expressions' functions, feedback laws' included) and the
+    three plots drawn in their first color (the coordinates', the velocities', the energy's)."""
+    funcs = js(page, "return [...document.querySelectorAll('#highlight .tok-func')].map(e => e.textContent)")
+    assert {"sin", "cos"} <= set(funcs)
+    assert js(page, "return document.querySelectorAll('#highlight .tok-table').length") >= 3
+    law = js(page, "return lgHighlightExpression('where(q1 > 0, clip(-3*q1_dot, -1, 1), 0)')")
+    assert '<span class="tok-func">where</span>' in law and '<span class="tok-func">clip</span>' in law
+    assert '<span class="tok-op">&gt;</span>' in law
+    drawn = js(page, """return ['plot-q', 'plot-qdot', 'plot-energy'].map((id) => {
+        const c = document.getElementById(id), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+        let n = 0;
+        for (let i = 0; i < d.length; i += 4)
+          if (Math.abs(d[i] - 31) < 40 && Math.abs(d[i + 1] - 119) < 40 && Math.abs(d[i + 2] - 180) < 40 && d[i + 3] > 128) n++;
+        return n; });""")
+    assert min(drawn) > 100, drawn
+
+
+def test_the_model_file_and_the_report_download(page, server):
+    for old in page.downloads.iterdir():
+        old.unlink()
+    page.find_element(By.ID, "download-model").click()
+    toml = page.downloads / "double-pendulum.toml"
+    wait(page, lambda: toml.exists() and toml.stat().st_size > 0, 30)
+    assert toml.read_text() == editor_text(page)
+    page.find_element(By.ID, "download-report-md").click()
+    md = page.downloads / "double-pendulum.md"
+    wait(page, lambda: md.exists() and md.stat().st_size > 0, 60)
+    status, _, body = server.request("POST", "/api/report?format=md", editor_text(page))
+    assert status == 200 and md.read_bytes() == body
+
+
 def test_an_unknown_example_says_so(server, browser):
     browser.get(server.url + "?example=double-pendulm")
     wait(browser, lambda: browser.find_elements(By.CSS_SELECTOR, "#errors li"))

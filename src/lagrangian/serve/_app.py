@@ -78,9 +78,16 @@ class _Base(tornado.web.RequestHandler):
         if host in LOOPBACK:
             return True
         self.reply(errors_reply(403, [f"this server answers requests for 127.0.0.1 and localhost only, not for "
-                                      f"'{host}'; open http://127.0.0.1:{self.request.host.rsplit(':', 1)[-1]}/ "
+                                      f"'{host}'; open http://127.0.0.1:{self._port()}/ "
                                       "(or start it with --host to serve other addresses)"]))
         return False
+
+    def _port(self) -> str:
+        """The port this server listens on (that of the connection's own end, not the Host header's)."""
+        try:
+            return str(self.request.connection.stream.socket.getsockname()[1])
+        except (AttributeError, OSError, IndexError):
+            return "PORT"
 
     def reply(self, r: Reply) -> None:
         self.set_status(r.status)

@@ -37,7 +37,8 @@ SIMULATE_FIELDS = {
     "model": "the model-file text (a string)",
     "t_end": "the final time, a number > 0 (default: the model's [simulation] t_end)",
     "initial": "initial coordinates and velocities, {name: number or constant such as \"pi/2\"}",
-    "inputs": "each input as an expression of t, {name: \"1.5*sin(3*t)\" or a number}",
+    "inputs": "each input as an expression of t, the coordinates and velocities (a feedback law), {name: "
+              "\"1.5*sin(3*t)\", \"-20*(q2 - pi/2) - 5*q2_dot\" or a number}",
     "params": "parameter values that override the model's, {name: number}",
     "dt": "the output interval, a number > 0 (default: the model's, or 0.01)",
     "rtol": "the relative tolerance, a number > 0 (default 1e-9)",
@@ -97,8 +98,10 @@ def _model_text(payload) -> str:
     return payload
 
 
-def _json_object(body: bytes, fields: dict[str, str]) -> dict:
-    """The request body as a JSON object with only known fields, and a string `model`."""
+def _json_object(body: bytes, fields: dict[str, str], problems: list[str] | None = None) -> dict:
+    """The request body as a JSON object with only known fields, and a string `model`. The
+    problems of its fields are raised together, or added to `problems` when it is given (the
+    caller checks the values too and raises every problem at once)."""
     try:
         obj = json.loads(_model_text(body))
     except json.JSONDecodeError as exc:
@@ -107,20 +110,22 @@ def _json_object(body: bytes, fields: dict[str, str]) -> dict:
     if not isinstance(obj, dict):
         raise BadRequest(f"the request body must be a JSON object with the fields {', '.join(fields)}; "
                          f"got {type(obj).__name__}")
-    problems = []
+    found = []
     for key in obj:
         if key not in fields:
             close = difflib.get_close_matches(str(key), fields, n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
-            problems.append(f"unknown field '{key}'{hint}; the fields are {', '.join(fields)}")
+            found.append(f"unknown field '{key}'{hint}; the fields are {', '.join(fields)}")
     if "model" not in obj:
-        problems.append("the field 'model' is missing: give the model-file text, "
-                        "{\"model\": \"coordinates = [\\\"x\\\"] ...\"}")
+        found.append("the field 'model' is missing: give the model-file text, "
+                     "{\"model\": \"coordinates = [\\\"x\\\"] ...\"}")
     elif not isinstance(obj["model"], str):
-        problems.append(f"the field 'model' must be the model file's text (a string), got "
-                        f"{type(obj['model']).__name__}")
-    if problems:
-        raise BadRequest(*problems)
+        found.append(f"the field 'model' must be the model file's text (a string), got "
+                     f"{type(obj['model']).__name__}")
+    if problems is not None:
+        problems.extend(found)
+    elif found:
+        raise BadRequest(*found)
     return obj
 
 
@@ -147,12 +152,34 @@ def _numbers(obj: dict, key: str) -> dict[str, float] | None:
         return None
     if not isinstance(value, dict):
         raise BadRequest(f"{key}: expected an object {{name: value}}, got {json.dumps(value)[:80]}")
-    return {str(k): _number(v, f"{key}.{k}") for k, v in value.items()}
+    out, problems = {}, []
+    for k, v in value.items():
+        try:
+            out[str(k)] = _number(v, f"{key}.{k}")
+        except BadRequest as exc:
+            problems.extend(exc.messages)
+    if problems:
+        raise BadRequest(*problems)
+    return out
+
+
+def _checked(problems: list[str], read, *args, **kwargs):
+    """read(*args, **kwargs), or None with its BadRequest's messages added to `problems`."""
+    try:
+        return read(*args, **kwargs)
+    except BadRequest as exc:
+        problems.extend(exc.messages)
+        return None
 
 
 def _load(text: str):
+    from ..examples import example_source
     from ..io import loads_model
 
+    name = text.strip()
+    if name and not any(c in name for c in "=[\n\"'#") and example_source(name) is not None:
+        raise BadRequest(f"'{name}' is the name of a built-in example, not a model file's text: send its text "
+                         f"(GET /api/examples/{name} gives it, as {{\"name\", \"text\"}})")
     return loads_model(text, source="<playground>")
 
 
@@ -203,8 +230,11 @@ def equilibria_task(body: bytes) -> Reply:
     and as an HTML section with MathML."""
     from .. import derive, equilibria, modes
 
-    obj = _json_object(body, EQUILIBRIA_FIELDS)
-    params, inputs = _numbers(obj, "params"), _numbers(obj, "inputs")
+    problems: list[str] = []
+    obj = _json_object(body, EQUILIBRIA_FIELDS, problems)
+    params, inputs = _checked(problems, _numbers, obj, "params"), _checked(problems, _numbers, obj, "inputs")
+    if problems:
+        raise BadRequest(*problems)
     eqs = derive(_load(obj["model"]))
     found = equilibria(eqs, params=params, inputs=inputs)
     shown = []
@@ -288,26 +318,34 @@ def _equilibria_html(eqs, shown, notes) -> str:
 
 def simulate_request(body: bytes) -> tuple[dict, dict]:
     """(the request object, the keyword arguments of ``simulate``) of a simulation request."""
-    obj = _json_object(body, SIMULATE_FIELDS)
+    problems: list[str] = []
+    obj = _json_object(body, SIMULATE_FIELDS, problems)
     kwargs = {}
     for key in ("t_end", "dt", "rtol", "atol"):
         if obj.get(key) is not None:
-            kwargs[key] = _number(obj[key], key, positive=True)
-    kwargs["initial"] = _numbers(obj, "initial")
-    kwargs["params"] = _numbers(obj, "params")
+            value = _checked(problems, _number, obj[key], key, positive=True)
+            if value is not None:
+                kwargs[key] = value
+    kwargs["initial"] = _checked(problems, _numbers, obj, "initial")
+    kwargs["params"] = _checked(problems, _numbers, obj, "params")
     inputs = obj.get("inputs")
     if inputs is not None:
         if not isinstance(inputs, dict):
-            raise BadRequest(f"inputs: expected an object {{name: expression}}, got {json.dumps(inputs)[:80]}")
-        for k, v in inputs.items():
-            if isinstance(v, bool) or not isinstance(v, (str, numbers.Real)):
-                raise BadRequest(f"inputs.{k}: expected an expression of t (a string such as \"1.5*sin(3*t)\") "
-                                 f"or a number, got {json.dumps(v)[:80]}")
-        kwargs["inputs"] = dict(inputs)
+            problems.append(f"inputs: expected an object {{name: expression}}, got {json.dumps(inputs)[:80]}")
+        else:
+            for k, v in inputs.items():
+                if isinstance(v, bool) or not isinstance(v, (str, numbers.Real)):
+                    problems.append(f"inputs.{k}: expected an expression of t, the coordinates and velocities (a "
+                                    f"string such as \"1.5*sin(3*t)\" or \"-20*(q2 - pi/2) - 5*q2_dot\") or a number, "
+                                    f"got {json.dumps(v)[:80]}")
+            kwargs["inputs"] = dict(inputs)
     if obj.get("method") is not None:
         if not isinstance(obj["method"], str):
-            raise BadRequest(f"method: expected a name such as \"DOP853\", got {json.dumps(obj['method'])}")
-        kwargs["method"] = obj["method"]
+            problems.append(f"method: expected a name such as \"DOP853\", got {json.dumps(obj['method'])}")
+        else:
+            kwargs["method"] = obj["method"]
+    if problems:
+        raise BadRequest(*problems)
     return obj, kwargs
 
 
@@ -424,8 +462,11 @@ def fmu_task(body: bytes) -> Reply:
     from .. import derive
     from ..export import export_fmu
 
-    obj = _json_object(body, FMU_FIELDS)
-    params, initial = _numbers(obj, "params"), _numbers(obj, "initial")
+    problems: list[str] = []
+    obj = _json_object(body, FMU_FIELDS, problems)
+    params, initial = _checked(problems, _numbers, obj, "params"), _checked(problems, _numbers, obj, "initial")
+    if problems:
+        raise BadRequest(*problems)
     model = _load(obj["model"])
     name = _file_name(model.name)
     with tempfile.TemporaryDirectory(prefix="lagrangian-fmu-") as folder:

@@ -3,7 +3,9 @@
 "use strict";
 
 const LG_FUNCTIONS = new Set(["sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
-                              "exp", "log", "sqrt", "abs", "sign", "pi"]);
+                              "exp", "log", "sqrt", "abs", "sign", "pi",
+                              // and those of inputs and events (feedback laws): saturations and switches
+                              "min", "max", "clip", "where", "and", "or", "not"]);
 
 function lgEscape(text) {
   return text.replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;").replace(/"/g, "&quot;");
@@ -15,7 +17,7 @@ function lgSpan(cls, text) {
 
 // An expression inside a string: numbers, the allowed functions, names and operators.
 function lgHighlightExpression(text) {
-  const re = /([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)|([A-Za-z_][A-Za-z0-9_]*)|(\*\*|[-+*/^(),])|(\s+|.)/g;
+  const re = /([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)|([A-Za-z_][A-Za-z0-9_]*)|(\*\*|<=|>=|[-+*/^(),<>])|(\s+|.)/g;
   let out = "", m;
   while ((m = re.exec(text)) !== null) {
     if (m[1]) out += lgSpan("tok-number", m[1]);
