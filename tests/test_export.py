@@ -83,6 +83,29 @@ def test_fmu_archive_and_model_description(fmu, cart):
     assert "2-Clause BSD License" in header
 
 
+def test_the_fmi_headers_ship_with_their_license_in_the_package():
+    """The package data (pyproject.toml) carries the FMI headers, their license and the FMU's C
+    template, so that an installed lagrangian exports as a checkout does."""
+    import fnmatch
+    import tomllib
+    from pathlib import Path
+
+    import lagrangian.export
+
+    root = Path(__file__).resolve().parents[1]
+    if not (root / "pyproject.toml").exists():
+        pytest.skip("not a source checkout: no pyproject.toml")
+    patterns = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["lagrangian"]
+    here = Path(lagrangian.export.__file__).resolve().parent
+    shipped = ["fmu_template.c", "fmi2/LICENSE.txt", "fmi2/fmi2Functions.h", "fmi2/fmi2FunctionTypes.h",
+               "fmi2/fmi2TypesPlatform.h"]
+    for name in shipped:
+        assert (here / name).is_file()
+        assert any(fnmatch.fnmatch(f"export/{name}", pattern) for pattern in patterns), name
+    license_text = (here / "fmi2" / "LICENSE.txt").read_text()
+    assert "2-Clause BSD License" in license_text and "Modelica Association" in license_text
+
+
 def test_fmpy_validation_reports_nothing(fmu):
     _fmpy()
     from fmpy.validation import validate_fmu
@@ -226,6 +249,17 @@ def test_export_errors(cart, tmp_path):
         export_c(free, tmp_path / "c")
     with pytest.raises(lg.ModelError, match=r"a Modelica file's name ends in \.mo"):
         export_modelica(cart, tmp_path / "x.txt")
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, where no file can be created")
+def test_a_place_that_cannot_be_written_is_named_as_given(capsys):
+    """Not the temporary file's name, nor a bare OSError: the option, the path given, the reason."""
+    for argv, path in [(["--fmu", "/proc/x.fmu"], "/proc/x.fmu"), (["--modelica", "/proc/x.mo"], "/proc/x.mo"),
+                       (["--c", "/proc/sys/lagrangian-c"], "/proc/sys/lagrangian-c")]:
+        assert main(["export", "cart-pendulum", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"lagrangian export: error: {argv[0]} {path}: cannot write there (") and err.endswith(
+            "); give a path in a folder you can write to\n"), err
 
 
 # ------------------------------------------------------------------------------- Modelica

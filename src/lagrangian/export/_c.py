@@ -198,6 +198,15 @@ target_link_libraries({ident}_example PRIVATE {ident})
     return {f"{ident}.h": header, f"{ident}.c": source, "main.c": main, "CMakeLists.txt": cmake}
 
 
+def cannot_write(option: str, where, exc: OSError):
+    """The ModelError for an output that the system refuses (a missing or read-only place): it
+    names the option and the path given, not a temporary file's."""
+    from ..errors import ModelError
+
+    return ModelError(f"{option} {where}: cannot write there ({exc.strerror or exc}); give a path in a folder you "
+                      "can write to")
+
+
 def export_c(system, folder, *, params: Mapping | None = None, initial: Mapping | None = None) -> ExportResult:
     """Write the model as C99 source into `folder` (created if missing): ``<id>.h`` and ``<id>.c``
     with ``<id>_rhs(t, x, u, p, dx)`` (x' = f(t, x, u, p)), ``<id>_mass_matrix``, ``<id>_forcing``,
@@ -226,11 +235,14 @@ def export_c(system, folder, *, params: Mapping | None = None, initial: Mapping 
 
         raise ModelError(f"--c {folder}: it is a file; give a folder for the C sources (it is created if missing)")
     files = c_files(eq, params, initial)
-    folder.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, text in files.items():
-        path = folder / name
-        with open(path, "w", newline="\n") as fh:
-            fh.write(text)
-        written.append(os.fspath(path))
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, text in files.items():
+            path = folder / name
+            with open(path, "w", newline="\n") as fh:
+                fh.write(text)
+            written.append(os.fspath(path))
+    except OSError as exc:
+        raise cannot_write("--c", folder, exc) from None
     return ExportResult(tuple(written))

@@ -20,7 +20,7 @@ from typing import Mapping
 from xml.sax.saxutils import quoteattr
 
 from ..equations import Equations
-from ._c import c_files
+from ._c import c_files, cannot_write
 from ._common import (ExportResult, energy_name, equations_of, identifier, output_file, parameter_values,
                       start_state)
 
@@ -238,7 +238,10 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
                             "importing tool that compiles sources (fmpy: fmpy.build.build_platform_binary) can "
                             "build it; export without --no-binary for one built here")
         description = _model_description(eq, ident, guid, variables, [f"{ident}.c", "fmu.c"])
-        fd, tmp_zip = tempfile.mkstemp(prefix=".lagrangian-", suffix=".fmu", dir=path.parent)
+        try:
+            fd, tmp_zip = tempfile.mkstemp(prefix=".lagrangian-", suffix=".fmu", dir=path.parent)
+        except OSError as exc:
+            raise cannot_write("--fmu", path, exc) from None
         os.close(fd)
         try:
             with zipfile.ZipFile(tmp_zip, "w", zipfile.ZIP_DEFLATED) as z:

@@ -17,6 +17,7 @@ from sympy.printing.str import StrPrinter
 
 from ..equations import Equations
 from ..errors import ModelError
+from ._c import cannot_write
 from ._common import ExportResult, energy_name, equations_of, output_file, parameter_values, start_state
 
 __all__ = ["export_modelica", "modelica_source", "class_name"]
@@ -187,6 +188,9 @@ def export_modelica(system, path, *, params: Mapping | None = None, initial: Map
     eq = equations_of(system)
     path = output_file(path, ".mo", "--modelica", "a Modelica file's name")
     text = modelica_source(eq, params, initial)
-    with open(path, "w", newline="\n") as fh:
-        fh.write(text)
+    try:
+        with open(path, "w", newline="\n") as fh:
+            fh.write(text)
+    except OSError as exc:
+        raise cannot_write("--modelica", path, exc) from None
     return ExportResult((os.fspath(path),))
