@@ -170,15 +170,21 @@ def test_every_example_derives_and_equations_equal_M_qddot_minus_forcing(capsys,
     # residual_i == sum_j M_ij q_ddot_j - forcing_i, checked at random points (fast for every model)
     symbols = set().union(*(e.free_symbols for e in eqs + f), M.free_symbols)
     allowed = set(coords) | {f"{q}_dot" for q in coords} | {f"{q}_ddot" for q in coords} | {"t"}
-    allowed |= set(d.get("parameters", {})) | set(d.get("inputs", []))
+    allowed |= set(d.get("parameters", {})) | set(d.get("inputs", [])) | set(d["multipliers"])
     if "parameters" in d:
         assert {x.name for x in symbols} <= allowed, symbols - {sympy.Symbol(a) for a in allowed}
+    # with constraints, the residuals also hold the constraint forces G^T lambda
+    G = sympy.Matrix([[parse(x) for x in c["jacobian"]] for c in d["constraints"]]) if d["constraints"] else None
+    lam = [sympy.Symbol(m) for m in d["multipliers"]]
+    assert [c["multiplier"] for c in d["constraints"]] == d["multipliers"]
+    symbols |= set().union(*(e.free_symbols for e in G)) if G is not None else set()
     rng = random.Random(1234)
     for _ in range(3):
         point = {x: rng.uniform(0.3, 1.7) for x in symbols}
         for i in range(n):
             lhs = eqs[i].subs(point)
-            rhs = (sum(M[i, j] * qdd[j] for j in range(n)) - f[i]).subs(point)
+            rhs = (sum(M[i, j] * qdd[j] for j in range(n)) - f[i]
+                   - sum(G[k, i] * lam[k] for k in range(len(lam)))).subs(point)
             assert abs(float(lhs - rhs)) <= 1e-9 * (1 + abs(float(lhs))), (name, i, lhs, rhs)
     # each residual depends on the accelerations only through M q_ddot: d residual_i / d q_ddot_j == M_ij
     point = {x: rng.uniform(0.3, 1.7) for x in symbols}

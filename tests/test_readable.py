@@ -110,8 +110,12 @@ def test_readable_forms_equal_the_derived_ones(name):
     qdd = [se.Symbol(a.name) for a in eqs.accelerations]
     pairs = [(eqs.mass_matrix[i, j], core.M[i, j]) for i in range(n) for j in range(n)]
     pairs += [(eqs.forcing[i], core.f[i]) for i in range(n)]
-    pairs += [(eqs.equations[i], sum((core.M[i, j] * qdd[j] for j in range(n)), se.Integer(0)) - core.f[i])
-              for i in range(n)]
+    lam = [se.Symbol(m.name) for m in eqs.multipliers]
+    pairs += [(eqs.equations[i], sum((core.M[i, j] * qdd[j] for j in range(n)), se.Integer(0)) - core.f[i]
+               - sum((core.G[k, i] * lam[k] for k in range(len(lam))), se.Integer(0))) for i in range(n)]
+    pairs += [(shown, derived) for shown, derived in zip(eqs.constraint_jacobian, core.G or ())]
+    pairs += [(shown, derived) for shown, derived in zip(eqs.constraint_acceleration, core.c)]
+    pairs += [(shown, derived) for shown, derived in zip(eqs.constraints.values(), core.g)]
     names = [c.name for c in eqs.coordinates]
     for key, value in eqs.conserved_quantities.items():
         raw = core.p[names.index(key[2:])] if key.startswith("p_") else eqs.jacobi_integral

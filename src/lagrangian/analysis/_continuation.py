@@ -170,6 +170,7 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
     -------
     Continuation
     """
+    equations.require_unconstrained("the continuation of equilibria")
     names = tuple(p.name for p in equations.parameters)
     if parameter not in names:
         import difflib

@@ -230,6 +230,9 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     ModelError
         Bad names or values, or equations that depend on t at rest.
     """
+    equations.require_unconstrained("the search for equilibria", "linearize it about a configuration at rest "
+                                    "(lagrangian linearize MODEL --at ...), which works in independent coordinates, "
+                                    "or simulate it")
     setting = resolve_setting(equations, params, inputs, t)
     problem = stationary_problem(equations, setting.inputs, setting.t, exact, values=setting.p)
     points, ctx = found_points(problem, setting, starts=starts, seed=seed)

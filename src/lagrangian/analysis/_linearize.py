@@ -149,6 +149,9 @@ class LinearModel:
     accelerations: np.ndarray = field(repr=False)
     family: tuple[str, ...] = ()
     _exact_point: Mapping = field(default_factory=lambda: MappingProxyType({}), repr=False)
+    #: For a constrained model (linearized in its independent coordinates): "dependent" (the other
+    #: coordinates' values at the point), "multipliers" (lambda there) and "basis" (T, dq = T dq_i).
+    constrained: Mapping = field(default_factory=lambda: MappingProxyType({}), repr=False)
 
     @property
     def n(self) -> int:
@@ -253,6 +256,9 @@ class LinearModel:
             "eigenvalues": [[float(z.real), float(z.imag)] for z in self.eigenvalues],
             "stability": self.stability,
             "stable": self.stable,
+            **({"constrained": {"dependent": dict(self.constrained["dependent"]),
+                                "multipliers": dict(self.constrained["multipliers"]),
+                                "basis": self.constrained["basis"]}} if self.constrained else {}),
         }
 
     def text(self) -> str:
@@ -266,6 +272,11 @@ class LinearModel:
                     if self.input_values else ""),
                  "  M dq'' + (C + G) dq' + K dq = B0 du;  x' = A x + B u, x = ["
                  + ", ".join(self.state_names) + "]"]
+        if self.constrained:
+            lines.insert(1, "  in the independent coordinates (constraints eliminated at the point): "
+                         + ", ".join(f"{k} = {v:.6g}" for k, v in self.constrained["dependent"].items())
+                         + "; multipliers " + ", ".join(f"{k} = {v:.6g}" for k, v in
+                                                        self.constrained["multipliers"].items()))
         for name in ("M", "C", "G", "K"):
             lines += mat(name, getattr(self, name))
         lines += mat("B0", self.input_matrix) + mat("A", self.A) + mat("B", self.B)
@@ -355,6 +366,11 @@ def linearize(equations: Equations, at: Mapping | None = None, *, inputs: Mappin
     point, exact = _point(equations, at, problems)
     if problems:
         raise ModelError(problems)
+    if equations.is_constrained:
+        from ._constrained_linear import linearize_constrained
+
+        given = {str(getattr(k, "name", k)) for k in at} if isinstance(at, Mapping) else set(equations.state_names)
+        return linearize_constrained(equations, point, given, setting)
     return linearize_at(equations, point, setting, exact)
 
 
@@ -447,6 +463,8 @@ def _exact_number(value: float, given=None) -> sympy.Expr:
 
 def _symbolic(lin: LinearModel) -> SymbolicLinearization:
     eqs = lin.equations
+    eqs.require_unconstrained("the exact (symbolic) linearization", "its numeric linearization (A, B, M, C, K) is "
+                              "in the independent coordinates")
     core, n = eqs.core, eqs.n
     point = {se.Symbol(s): se.sympify(_exact_number(v, lin._exact_point.get(s)))
              for s, v in lin.operating_point.items()}

@@ -201,6 +201,7 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
         Bad names or values: a velocity of a coordinate that is not cyclic, a rate and a momentum
         for the same coordinate, unknown parameters or inputs.
     """
+    equations.require_unconstrained("the search for steady motions")
     problems: list[Problem] = []
     setting = collect_setting(equations, params, inputs, t, problems)
     fixed_v, fixed_p = _fixed(equations, velocities, momenta, problems)

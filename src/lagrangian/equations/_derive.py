@@ -18,6 +18,7 @@ from __future__ import annotations
 import symengine as se
 
 from ..model import Model
+from ..model._constraints import HOLONOMIC
 from ..model._elements import Particle, RigidBody, RigidBody3D
 from ..model._kinematics import Kinematics
 from ._equations import Equations, SymbolicCore
@@ -73,6 +74,33 @@ def derive(model: Model) -> Equations:
         for j in range(n):
             fi = fi - p[i].diff(q[j]) * qd[j]
         f.append(fi)
+    g, G, w, c = _constraint_parts(snapshot, kin)
     core = SymbolicCore(q=tuple(q), qd=tuple(qd), t=t, T=T, V=V, D=D, Q=tuple(Q), L=L,
-                        p=tuple(p), M=M, f=tuple(f))
+                        p=tuple(p), M=M, f=tuple(f), g=g, G=G, w=w, c=c)
     return Equations(model=snapshot, core=core)
+
+
+def _constraint_parts(model: Model, kin: Kinematics):
+    """(g, G, w, c) of the model's constraints (see SymbolicCore): G's rows are dg/dq for a
+    holonomic constraint and the velocities' coefficients for a velocity constraint; w = G q_dot + b
+    is the velocity residual (dg/dt for a holonomic one) and c = -(dw/dq q_dot + dw/dt), so that
+    G q_ddot = c."""
+    if not model.constraints:
+        return (), None, (), ()
+    q, qd, t = kin.q, kin.qd, kin.t
+    G = se.zeros(len(model.constraints), len(q))
+    g, w, c = [], [], []
+    for k, con in enumerate(model.constraints):
+        e = kin.se(con.expression)
+        if con.kind == HOLONOMIC:
+            rows = [e.diff(qj) for qj in q]
+            wk = sum((r * v for r, v in zip(rows, qd)), e.diff(t))
+        else:
+            rows = [e.diff(v) for v in qd]
+            wk = e
+        for j, r in enumerate(rows):
+            G[k, j] = r
+        g.append(e)
+        w.append(wk)
+        c.append(-(sum((wk.diff(qj) * v for qj, v in zip(q, qd)), wk.diff(t))))
+    return tuple(g), G, tuple(w), tuple(c)

@@ -52,6 +52,13 @@ class SymbolicCore:
     p: tuple
     M: se.DenseMatrix
     f: tuple
+    #: Constraints: their residuals g (holonomic: g(q, t); velocity: w = a . q_dot + b), the
+    #: Jacobian G (m x n, rows dg/dq or a), the velocity residuals w = G q_dot + b, and c with
+    #: G q_ddot = c (all empty without constraints).
+    g: tuple = ()
+    G: se.DenseMatrix | None = None
+    w: tuple = ()
+    c: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -171,20 +178,80 @@ class Equations:
     @cached_property
     def _residuals_se(self) -> tuple:
         qdd = [se.Symbol(a.name) for a in self.accelerations]
-        n = self.n
+        lam = [se.Symbol(m.name) for m in self.multipliers]
+        n, G = self.n, self.core.G
         return tuple(sum((self.core.M[i, j] * qdd[j] for j in range(n)), se.Integer(0)) - self.core.f[i]
-                     for i in range(n))
+                     - sum((G[k, i] * lam[k] for k in range(len(lam))), se.Integer(0)) for i in range(n))
 
     @cached_property
     def equations(self) -> tuple[sympy.Expr, ...]:
-        """The residuals E_i, in readable form collected on the accelerations and velocities."""
+        """The residuals E_i, in readable form collected on the accelerations and velocities (with
+        constraints: E_i - (G^T lambda)_i, so that each reads M q_ddot - f - G^T lambda = 0)."""
         if self._mass_matrix_free_of_velocities:
             # E_i = sum_j M_ij q_ddot_j - f_i, whose terms in q_ddot and in f cannot combine: the
             # readable form of E_i is made of those of M and f, already computed
             M, f, qdd = self.mass_matrix, self.forcing, self.accelerations
-            return tuple(sympy.Add(*(M[i, j] * qdd[j] for j in range(self.n)), -f[i]) for i in range(self.n))
-        on = list(self.accelerations) + list(self.velocities)
+            R = self.constraint_forces
+            return tuple(sympy.Add(*(M[i, j] * qdd[j] for j in range(self.n)), -f[i], -R[i]) for i in range(self.n))
+        on = list(self.accelerations) + list(self.velocities) + list(self.multipliers)
         return tuple(self.readable(e, on) for e in self._residuals_se)
+
+    # ------------------------------------------------------------ constraints
+    @property
+    def is_constrained(self) -> bool:
+        """True when the model has constraints (and so multipliers)."""
+        return bool(self.model.constraints)
+
+    @property
+    def multipliers(self) -> tuple[sympy.Symbol, ...]:
+        """The Lagrange multipliers ``lambda_<name>``, one per constraint."""
+        return tuple(c.multiplier for c in self.model.constraints)
+
+    @cached_property
+    def constraints(self) -> dict[str, sympy.Expr]:
+        """Each constraint's left side (= 0) by name, in readable form: g(q, t) for a holonomic
+        constraint, a(q, t) . q_dot + b(q, t) for a velocity constraint."""
+        return {c.name: self.readable(g, self.velocities) for c, g in zip(self.model.constraints, self.core.g)}
+
+    @cached_property
+    def constraint_jacobian(self) -> sympy.ImmutableMatrix:
+        """G (m x n): its rows are dg/dq (holonomic) or the velocities' coefficients a (velocity
+        constraints); the constraints at velocity level read G q_dot + b = 0."""
+        m = len(self.core.g)
+        if not m:
+            return sympy.ImmutableMatrix(sympy.zeros(0, self.n))
+        return sympy.ImmutableMatrix(m, self.n, readable_many(list(self.core.G), state=self._varying))
+
+    @cached_property
+    def constraint_acceleration(self) -> sympy.ImmutableMatrix:
+        """c (m x 1), with G q_ddot = c: the constraints differentiated to acceleration level."""
+        return sympy.ImmutableMatrix(readable_many(self.core.c, state=self._varying, collect_on=self.velocities)
+                                     ) if self.core.c else sympy.ImmutableMatrix(sympy.zeros(0, 1))
+
+    @cached_property
+    def constraint_forces(self) -> sympy.ImmutableMatrix:
+        """G^T lambda (n x 1): the generalized forces the constraints exert."""
+        if not self.is_constrained:
+            return sympy.ImmutableMatrix(sympy.zeros(self.n, 1))
+        return self.constraint_jacobian.T * sympy.Matrix(self.multipliers)
+
+    def require_unconstrained(self, what: str, instead: str = "") -> None:
+        """Raise a ModelError saying that `what` does not handle constraints (yet), when the model has some."""
+        if self.is_constrained:
+            from ..errors import ModelError
+
+            names = ", ".join(c.name for c in self.model.constraints)
+            raise ModelError(f"{what} does not handle constraints yet, and model '{self.model.name}' has "
+                             f"{len(self.model.constraints)} ({names}): "
+                             + (instead or "simulate it (lagrangian simulate), or write it in independent "
+                                           "coordinates without constraints"))
+
+    @cached_property
+    def _constraints_scleronomic(self) -> bool:
+        """Constraints that do no work: free of t, and velocity constraints homogeneous in the velocities."""
+        t = se.Symbol(self.t.name)
+        zero = {v: 0 for v in self.core.qd}
+        return all(t not in w.free_symbols and w.subs(zero) == 0 for w in self.core.w)
 
     @cached_property
     def _mass_matrix_free_of_velocities(self) -> bool:
@@ -314,7 +381,10 @@ class Equations:
     @cached_property
     def linear(self) -> LinearSystem | None:
         """M x'' + C x' + K x = f when the equations are linear in q, q_dot, q_ddot with constant
-        coefficients (free of t and the inputs; they may hold parameters); None otherwise."""
+        coefficients (free of t and the inputs; they may hold parameters); None otherwise (and for
+        a constrained model, whose multipliers are further unknowns)."""
+        if self.is_constrained:
+            return None
         qdd = [se.Symbol(a.name) for a in self.accelerations]
         q, qd, n = self.core.q, self.core.qd, self.n
         states = set(q) | set(qd) | set(qdd)
@@ -352,7 +422,8 @@ class Equations:
     @property
     def is_conservative(self) -> bool:
         """True when the Jacobi integral is conserved: L free of t, D = 0 and Q = 0."""
-        return (not self.explicit_time and self.core.D == 0 and all(Qi == 0 for Qi in self.core.Q))
+        return (not self.explicit_time and self.core.D == 0 and all(Qi == 0 for Qi in self.core.Q)
+                and self._constraints_scleronomic)
 
     @cached_property
     def cyclic_coordinates(self) -> tuple[sympy.Symbol, ...]:
@@ -365,6 +436,8 @@ class Equations:
                 continue
             if se.expand(Qi - core.D.diff(qdi)) != 0:
                 continue
+            if core.G is not None and any(se.expand(core.G[k, core.q.index(qi)]) != 0 for k in range(core.G.rows)):
+                continue  # a constraint force acts on it
             out.append(c)
         return tuple(out)
 
@@ -407,12 +480,24 @@ class Equations:
                  f"{', '.join(c.name for c in self.coordinates)})", ""]
         for i, (c, e) in enumerate(zip(self.coordinates, self.equations)):
             lines.append(f"  ({i + 1}) [{c.name}]  {_text(e)} = 0")
-        lines += ["", "Matrix form M(q) q_ddot = f(q, q_dot, t, u):", "  M ="]
+        if self.is_constrained:
+            lines += ["", f"Constraints ({len(self.multipliers)}; multipliers "
+                          f"{', '.join(m.name for m in self.multipliers)}):"]
+            for c, (name, g) in zip(self.model.constraints, self.constraints.items()):
+                lines.append(f"  {name} ({c.kind}): {_text(g)} = 0")
+        form = "M(q) q_ddot = f(q, q_dot, t, u)" + (" + G^T lambda, G q_ddot = c" if self.is_constrained else "")
+        lines += ["", f"Matrix form {form}:", "  M ="]
         for r in range(self.n):
             lines.append("    [" + ", ".join(_text(x) for x in self.mass_matrix.row(r)) + "]")
         lines.append("  f =")
         for x in self.forcing:
             lines.append(f"    {_text(x)}")
+        if self.is_constrained:
+            lines.append("  G =")
+            for r in range(self.constraint_jacobian.rows):
+                lines.append("    [" + ", ".join(_text(x) for x in self.constraint_jacobian.row(r)) + "]")
+            lines.append("  c =")
+            lines += [f"    {_text(x)}" for x in self.constraint_acceleration]
         if self.conserved_quantities:
             lines += ["", "Conserved quantities:"]
             lines += [f"  {k} = {_text(v)}" for k, v in self.conserved_quantities.items()]
@@ -434,7 +519,14 @@ class Equations:
             qdd = sympy.Matrix(self.accelerations)
             out += ("\n\\begin{equation}\n  " + sympy.latex(self.mass_matrix, symbol_names=names)
                     + " " + sympy.latex(qdd, symbol_names=names) + " = "
-                    + sympy.latex(self.forcing, symbol_names=names) + "\n\\end{equation}")
+                    + sympy.latex(self.forcing, symbol_names=names)
+                    + (" + " + sympy.latex(self.constraint_jacobian.T, symbol_names=names) + " "
+                       + sympy.latex(sympy.Matrix(self.multipliers)) if self.is_constrained else "")
+                    + "\n\\end{equation}")
+        if self.is_constrained:
+            out += ("\n\\begin{align}\n" + " \\\\\n".join(
+                f"  {sympy.latex(g, symbol_names=names)} &= 0" for g in self.constraints.values())
+                + "\n\\end{align}")
         return out
 
     def _repr_latex_(self) -> str:
@@ -442,7 +534,8 @@ class Equations:
 
     def to_dict(self) -> dict:
         """The JSON contract: coordinates, velocities, accelerations, parameters, inputs,
-        mass_matrix, forcing, equations (SymPy syntax), linear (M, C, K, f) or null, and
+        mass_matrix, forcing, equations (SymPy syntax), linear (M, C, K, f) or null, constraints
+        (name, kind, expression, multiplier, jacobian row, acceleration c) and multipliers, and
         conserved_quantities ({name: expression}); T*, V, D and Q in readable form too."""
         s = _text
         out = {
@@ -461,6 +554,11 @@ class Equations:
             "generalized_forces": [s(self.readable(x)) for x in self.core.Q],
             "linear": None,
             "conserved_quantities": {k: s(v) for k, v in self.conserved_quantities.items()},
+            "constraints": [{"name": c.name, "kind": c.kind, "expression": s(g), "multiplier": c.multiplier.name,
+                             "jacobian": [s(x) for x in self.constraint_jacobian.row(k)],
+                             "acceleration": s(self.constraint_acceleration[k])}
+                            for k, (c, g) in enumerate(zip(self.model.constraints, self.constraints.values()))],
+            "multipliers": [m.name for m in self.multipliers],
         }
         if self.linear is not None:
             lin = self.linear

@@ -37,7 +37,15 @@ class ExportResult:
 
 
 def equations_of(system) -> Equations:
-    """The Equations of a Model, an Equations object, or a built-in example's name or a model file."""
+    """The Equations of a Model, an Equations object, or a built-in example's name or a model file
+    (a constrained model is refused: the writers integrate M q_ddot = f)."""
+    eq = _equations(system)
+    eq.require_unconstrained("export", "its writers integrate M q_ddot = f without multipliers; simulate it "
+                                       "with lagrangian, or export a model written in independent coordinates")
+    return eq
+
+
+def _equations(system) -> Equations:
     if isinstance(system, Equations):
         return system
     if isinstance(system, Model):

@@ -63,6 +63,9 @@ their velocities ``<coordinate>_dot``, the parameters, the inputs and the time `
                                          # 6 components [xx, yy, zz, xy, yz, zx], or a 3x3 list
     center = ["0", "0", "l"]             # optional: its centre of mass in the frame, default 0
     center_frame = "body"                # optional: the frame of center ("world" for world axes)
+    shape = "disk"                       # optional, drawn only: a disk in the animations ...
+    radius = "R"                         # ... of this radius (parameters and numbers) ...
+    axis = "z"                           # ... across this body axis (optional, default "z")
 
 Points, particles and loads take an optional ``frame = "body"``: their position (a force's
 components) are then given in that frame. A torque on a body in space is a list of 3 expressions,
@@ -125,7 +128,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import sympy
 
 from ..errors import ExpressionError, ModelError, ModelFileError, Problem, UnknownNameError
-from ..model._elements import Element
+from ..model._elements import Element, shape_problems
 from ..model._model import Model
 from ..model._symbols import t
 from ._expr import parse_expression
@@ -151,6 +154,7 @@ _TOP_LEVEL: dict[str, str] = {
     "dampers": "[[dampers]] tables",
     "gravity": "a table [gravity] with g and direction",
     "loads": "[[loads]] tables",
+    "constraints": "[[constraints]] tables (name, and holonomic or velocity)",
     "simulation": "a table [simulation] with t_end, dt, rtol, atol, initial and inputs",
 }
 
@@ -164,16 +168,17 @@ _ELEMENT_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "loads": ((), ("name", "force", "at", "torque", "angle", "body", "frame")),
 }
 #: Keys of a body in space (a [[bodies]] table with a frame).
-_BODY3D_KEYS = (("mass", "inertia", "frame"), ("name", "center", "center_frame"))
+_BODY3D_KEYS = (("mass", "inertia", "frame"), ("name", "center", "center_frame", "shape", "radius", "axis"))
 _FRAME_KEYS = ("name", "parent", "origin", "rotation", "matrix")
 _ENERGY_KEYS = ("T", "V", "D")
 _GRAVITY_KEYS = ("g", "direction")
-_SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs", "sample_time")
+_SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs", "sample_time", "independent")
+_CONSTRAINT_KEYS = ("name", "holonomic", "velocity")
 #: Default element names: particle1, body2, ...
 _DEFAULT_PREFIX = {"points": "point", "particles": "particle", "bodies": "body",
                    "springs": "spring", "dampers": "damper"}
 _SINGULAR = {"points": "point", "particles": "particle", "bodies": "rigid body",
-             "springs": "spring", "dampers": "damper", "loads": "load"}
+             "springs": "spring", "dampers": "damper", "loads": "load", "constraints": "constraint"}
 #: What to add for each required key of an element (for "missing key" messages).
 _EXAMPLES = {
     "mass": 'mass = "m" (and m = 1.0 under [parameters])',
@@ -550,6 +555,7 @@ class _Reader:
         self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
         self.read_frames(data.get("frames"))
         self.read_elements(data)
+        self.read_constraints(data.get("constraints"))
         self.read_simulation(data.get("simulation"))
         self.check_model()
         self.raise_if_problems()
@@ -1123,12 +1129,27 @@ class _Reader:
                                                     f"got {len(center)}")
                 center = None
         center_frame = self.frame_of(entry, "center_frame") if "center_frame" in entry.table else None
+        shape = self.body_shape(entry)
         entry.dimension = 3
         if complete and entry.ok and None not in (mass, inertia, frame, center) and (
                 "center_frame" not in entry.table or center_frame is not None):
             body = self.model.add_rigid_body(mass, inertia, frame=frame, center=center, center_frame=center_frame,
-                                             name=entry.name)
+                                             **shape, name=entry.name)
             self.record(entry, body, {"position": "center"})
+
+    def body_shape(self, entry: _Entry) -> dict[str, Any]:
+        """The shape, radius and axis of a body in space, as keywords of add_rigid_body ({} after a problem)."""
+        table = entry.table
+        radius = self.expr(table["radius"], f"{entry.key}.radius") if "radius" in table else None
+        given = sympy.Integer(1) if radius is None and "radius" in table else radius  # unreadable: reported
+        found = shape_problems(table.get("shape"), given, table.get("axis"),
+                               set(self.names.values()) - set(self.model.parameters))
+        for name, message in found:
+            self.problem(f"{entry.key}.{name}", message)
+        if found or ("radius" in table and radius is None):
+            entry.ok = False
+            return {}
+        return {"shape": table.get("shape"), "radius": radius, "axis": table.get("axis")}
 
     def inertia3(self, value: object, key: str):
         """A body's inertia in space: [I1, I2, I3], [xx, yy, zz, xy, yz, zx], {xx = ..., ...} or 3 rows."""
@@ -1398,6 +1419,47 @@ class _Reader:
         self.record(entry, element, {"angle": "body" if body is not None else "angle"})
 
     # -- [simulation] ------------------------------------------------------------------------
+    def read_constraints(self, value: object) -> None:
+        """[[constraints]] tables: a name and one of holonomic = "g(q, t)" or velocity = "a . q_dot + b"."""
+        for entry in self.element_tables("constraints", value):
+            key = entry.key
+            for name in entry.table:
+                if name not in _CONSTRAINT_KEYS:
+                    self.unknown_key(f"{key}.{name}", name, _CONSTRAINT_KEYS, "[[constraints]]")
+            kinds = [k for k in ("holonomic", "velocity") if k in entry.table]
+            if len(kinds) != 1:
+                self.problem(key, "a constraint needs exactly one of holonomic = \"g(q, t)\" (= 0, on the "
+                                  "coordinates) or velocity = \"a(q, t) . q_dot + b\" (= 0, linear in the velocities)"
+                             + (f", got both" if len(kinds) == 2 else ""))
+                continue
+            name = entry.table.get("name")
+            if name is not None and not isinstance(name, str):
+                self.problem(f"{key}.name", f"a constraint's name is a string such as name = \"rod\", got "
+                                            f"{_describe(name)}")
+                continue
+            e = self.expr(entry.table[kinds[0]], f"{key}.{kinds[0]}")
+            if e is None:
+                continue
+            try:
+                add = self.model.add_constraint if kinds[0] == "holonomic" else self.model.add_velocity_constraint
+                con = add(e, name=name)
+                self.key_map[f"constraint '{con.name}'"] = (f"{key}.{kinds[0]}", {})
+            except ModelError as exc:
+                self.model_error(f"{key}.name" if name is not None else key, exc)
+
+    def read_independent(self, value: object) -> list[str] | None:
+        coordinates = [c.name for c in self.model.q]
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            self.problem("simulation.independent", f"expected a list of coordinate names such as independent = "
+                                                   f"[\"{coordinates[0] if coordinates else 'q1'}\"], got "
+                                                   f"{_describe(value)}")
+            return None
+        bad = [v for v in value if v not in coordinates]
+        for v in bad:
+            self.problem("simulation.independent", f"'{v}' is not a coordinate"
+                         f"{_did_you_mean(v, coordinates, 0.5)}; the coordinates are {', '.join(coordinates)}")
+        return None if bad else list(value)
+
     def read_simulation(self, value: object) -> None:
         table = self.table(value, "simulation", "t_end = 10.0")
         if table is None:
@@ -1420,6 +1482,10 @@ class _Reader:
                 inputs = self.read_input_signals(item)
                 if inputs is not None:
                     out["inputs"] = inputs
+            elif name == "independent":
+                independent = self.read_independent(item)
+                if independent is not None:
+                    out["independent"] = independent
             elif name == "sample_time":
                 sample_time = self.read_sample_time(item)
                 if sample_time is not None:

@@ -13,12 +13,14 @@ from typing import TYPE_CHECKING
 
 import sympy
 
+from ._frames import AXES
+
 if TYPE_CHECKING:  # pragma: no cover
     from ._kinematics import Kinematics
 
 __all__ = [
-    "Element", "Particle", "RigidBody", "RigidBody3D", "Point", "Spring", "Damper", "Gravity", "Force", "Torque",
-    "Torque3D", "Contribution",
+    "Element", "Particle", "RigidBody", "RigidBody3D", "Shape", "SHAPES", "shape_problems", "Point", "Spring",
+    "Damper", "Gravity", "Force", "Torque", "Torque3D", "Contribution",
 ]
 
 Vector = tuple[sympy.Expr, ...]
@@ -104,10 +106,66 @@ class RigidBody(Element):
 
 
 @dataclass(frozen=True)
+class Shape:
+    """How a body in space is drawn besides its axes (animations only; the equations ignore it):
+    a disk of `radius` (an expression of the parameters) centred on the body's centre of mass,
+    in the plane orthogonal to the body `axis` ("x", "y" or "z", an axis of its frame)."""
+
+    kind: str
+    radius: sympy.Expr
+    axis: str = "z"
+
+    def value_problem(self, values) -> str | None:
+        """What is wrong with the radius at the parameter `values` ({symbol: float}), if anything."""
+        r = self.radius.subs(values)
+        if r.is_number and r.is_real and not r > 0:
+            return (f"the radius is {float(r):g}: a disk's radius must be positive; check the sign or the "
+                    "parameter values")
+        return None
+
+
+#: The shapes a body in space may be drawn with, besides its axes.
+SHAPES = ("disk",)
+
+
+def shape_problems(shape, radius, axis, variables=frozenset()) -> list[tuple[str, str]]:
+    """(field, message) for each problem of the drawn shape of a body in space.
+
+    `shape` is None (no shape: axes only) or "disk"; `radius` the disk's radius (a SymPy
+    expression, None when not given); `axis` None (default "z") or "x", "y", "z"; `variables` the
+    symbols a radius may not use (coordinates, velocities, t, inputs: it is a constant).
+    """
+    out = []
+    if shape is None:
+        for field, value in (("radius", radius), ("axis", axis)):
+            if value is not None:
+                out.append((field, f"the {field} of a shape, but the body has none: give the shape \"disk\" with "
+                                   "it, or leave it out"))
+        return out
+    if shape not in SHAPES:
+        out.append(("shape", f"unknown shape {shape!r}: a body in space is drawn as a \"disk\" (a circle of a "
+                             "given radius across one of its axes), or without a shape (its axes only)"))
+    if radius is None:
+        out.append(("radius", "a disk needs its radius: an expression of the parameters such as \"R\" (with a "
+                              "value for R among the parameters), or a number"))
+    elif radius.free_symbols & set(variables):
+        names = ", ".join(sorted(s.name for s in radius.free_symbols & set(variables)))
+        out.append(("radius", f"a disk's radius is a constant, but this one depends on {names}: write it with "
+                              "parameters and numbers only"))
+    elif radius.is_number and radius.is_real and not radius > 0:
+        out.append(("radius", f"the radius is {float(radius):g}: a disk's radius must be positive"))
+    if axis is not None and axis not in AXES:
+        out.append(("axis", f"{axis!r} is not an axis of the body: a disk lies across the \"x\", \"y\" or \"z\" "
+                            "axis of the body's frame"))
+    return out
+
+
+@dataclass(frozen=True)
 class RigidBody3D(Element):
     """A rigid body in space: `mass`, centroidal `inertia` (3x3, in body axes), centre of mass
     `position` (world coordinates) and its orientation, the rotation from the world's axes to the
-    body's as the `factors` of the chain of frames down to its `frame` (see ``_frames``).
+    body's as the `factors` of the chain of frames down to its `frame` (see ``_frames``); the
+    `shape` it is drawn with, if any (:class:`Shape`).
 
     T* = m |v_G|^2 / 2 + omega^T I omega / 2, with omega the angular velocity in body axes, derived
     from the rotation (omega~ = R^T R').
@@ -119,10 +177,13 @@ class RigidBody3D(Element):
     position: Vector
     frame: str
     factors: tuple = ()
+    shape: Shape | None = None
     kind = "rigid body"
 
     def expressions(self) -> dict[str, sympy.Expr]:
         out = {"mass": self.mass}
+        if self.shape is not None:
+            out["radius"] = self.shape.radius
         out.update({f"position[{i}]": v for i, v in enumerate(self.position)})
         out.update({f"inertia[{i}][{j}]": v for i, row in enumerate(self.inertia) for j, v in enumerate(row)})
         for k, f in enumerate(self.factors):

@@ -16,8 +16,9 @@ from typing import Mapping, Sequence
 import sympy
 
 from ..errors import ExpressionError, ModelError, Problem
-from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, Spring,
-                        Torque, Torque3D)
+from ._constraints import HOLONOMIC, VELOCITY, Constraint
+from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, Shape, Spring,
+                        Torque, Torque3D, shape_problems)
 from ._frames import AXES, WORLD, Factor, Frame, frame_pose, world_factors
 from ._symbols import check_name, ddot, dot, t
 
@@ -71,6 +72,7 @@ class Model:
         self._inputs: list[sympy.Symbol] = []
         self._elements: list[Element] = []
         self._frames: dict[str, Frame] = {}
+        self._constraints: list[Constraint] = []
         self._T = sympy.Integer(0)
         self._V = sympy.Integer(0)
         self._D = sympy.Integer(0)
@@ -161,6 +163,11 @@ class Model:
         return tuple(self._elements)
 
     @property
+    def constraints(self) -> tuple[Constraint, ...]:
+        """The constraints, in the order they were added."""
+        return tuple(self._constraints)
+
+    @property
     def frames(self) -> dict[str, Frame]:
         """The reference frames by name (the inertial frame ``world`` is implicit)."""
         return dict(self._frames)
@@ -207,7 +214,7 @@ class Model:
 
     def _all_names(self) -> set[str]:
         names = {c.name for c in self._coordinates} | {p.name for p in self._parameters}
-        return names | {u.name for u in self._inputs}
+        return names | {u.name for u in self._inputs} | {c.multiplier.name for c in getattr(self, "_constraints", ())}
 
     # -------------------------------------------------------------- expressions
     def expr(self, value, where: str = "expression") -> sympy.Expr:
@@ -375,8 +382,8 @@ class Model:
 
     # ------------------------------------------------------------------- bodies
     def add_rigid_body(self, mass, inertia, position=None, angle=None, *, frame: str | None = None,
-                       center=(0, 0, 0), center_frame: str | None = None,
-                       name: str | None = None) -> RigidBody | RigidBody3D:
+                       center=(0, 0, 0), center_frame: str | None = None, shape: str | None = None,
+                       radius=None, axis: str | None = None, name: str | None = None) -> RigidBody | RigidBody3D:
         """A rigid body: planar, or in space when a `frame` gives its orientation.
 
         Planar: `mass`, centroidal `inertia` (a number), centre `position` and rotation `angle`.
@@ -385,11 +392,17 @@ class Model:
         values (I1, I2, I3), the six components (xx, yy, zz, xy, yz, zx) of the tensor, or a 3x3
         matrix; the centre of mass `center` in the axes and from the origin of `center_frame`
         (default: the body's frame; ``"world"`` for world coordinates). The body's orientation is
-        the frame's: its angular velocity is derived from the frame's rotations.
+        the frame's: its angular velocity is derived from the frame's rotations. Animations draw its
+        frame's axes; ``shape="disk"`` with a `radius` (parameters and numbers) adds the circle
+        across its body `axis` (``"x"``, ``"y"`` or ``"z"``, default ``"z"``), centred on its centre
+        of mass. The shape is drawn only: the equations ignore it.
         """
         name = self._unique_element_name(name, "body")
         where = f"body '{name}'"
         if frame is None:
+            if (shape, radius, axis) != (None, None, None):
+                raise ModelError(f"{where}: shape, radius and axis draw a body in space (one with frame=...); a "
+                                 "planar body is drawn as a disk of its radius of gyration")
             if position is None or angle is None:
                 raise ModelError(f"{where}: a planar body needs a position and an angle; a body in space needs "
                                  "frame=... (the frame that carries it), with its center and its 3D inertia")
@@ -402,9 +415,18 @@ class Model:
             frame = self._frame_name(frame, f"{where}.frame")
             at = self._vector(center, f"{where}.center", frame if center_frame is None else center_frame)
             e = RigidBody3D(name, self.expr(mass, f"{where}.mass"), self._inertia(inertia, f"{where}.inertia"),
-                            at, frame, world_factors(self._frames, frame))
+                            at, frame, world_factors(self._frames, frame),
+                            self._shape(shape, radius, axis, where))
         self._elements.append(e)
         return e
+
+    def _shape(self, shape, radius, axis, where: str) -> Shape | None:
+        r = None if radius is None else self.expr(radius, f"{where}.radius")
+        variables = set(self.names(accelerations=True).values()) - set(self._parameters)
+        problems = shape_problems(shape, r, axis, variables)
+        if problems:
+            raise ModelError([Problem(f"{where}.{field}: {message}") for field, message in problems])
+        return None if shape is None else Shape(shape, r, axis or "z")
 
     def _inertia(self, value, where: str) -> tuple:
         """A 3x3 inertia tensor from 3 principal values, the 6 components or a 3x3 matrix."""
@@ -549,6 +571,38 @@ class Model:
         self._elements.append(e)
         return e
 
+    # -------------------------------------------------------------- constraints
+    def add_constraint(self, expression, *, name: str | None = None) -> Constraint:
+        """A holonomic constraint ``expression`` = 0, a function of the coordinates and t (a rod
+        of length l: ``sqrt(x**2 + y**2) - l``). Its multiplier is ``lambda_<name>``, the
+        generalized constraint force ``G^T lambda`` with G = d(expression)/dq."""
+        return self._add_constraint(expression, name, HOLONOMIC)
+
+    def add_velocity_constraint(self, expression, *, name: str | None = None) -> Constraint:
+        """A velocity (nonholonomic) constraint ``expression`` = 0, linear in the velocities:
+        a(q, t) . q_dot + b(q, t) (a knife edge: ``x_dot*sin(phi) - y_dot*cos(phi)``)."""
+        return self._add_constraint(expression, name, VELOCITY)
+
+    def _add_constraint(self, expression, name, kind) -> Constraint:
+        self._check_mutable()
+        taken = {c.name for c in self._constraints}
+        if name is None:
+            k = len(self._constraints) + 1
+            while f"c{k}" in taken:
+                k += 1
+            name = f"c{k}"
+        why = check_name(name, "constraint")
+        if why is None and name in taken:
+            why = f"two constraints are named '{name}': give each constraint its own name"
+        if why is None and f"lambda_{name}" in self._all_names():
+            why = (f"constraint '{name}': its multiplier 'lambda_{name}' is already the name of a coordinate, "
+                   "parameter or input; rename one of them")
+        if why is not None:
+            raise ModelError([Problem(why, key=f"constraint '{name}'")])
+        c = Constraint(name, self.expr(expression, f"constraint '{name}'"), kind)
+        self._constraints.append(c)
+        return c
+
     # ----------------------------------------------------------------- energies
     def add_energy(self, *, T=0, V=0, D=0) -> None:
         """Add explicit terms to the kinetic co-energy T, the potential V and the dissipation D."""
@@ -601,6 +655,8 @@ class Model:
         sources: list[tuple[str, sympy.Expr, str]] = [
             ("energy.T", self._T, "T"), ("energy.V", self._V, "V"), ("energy.D", self._D, "D")]
         sources += [(f"forces.{c.name}", e, "Q") for c, e in self._Q.items()]
+        for c in self._constraints:
+            sources.append((f"constraint '{c.name}'", c.expression, c.kind))
         el_of = {}
         for el in self._elements:
             for field_name, e in el.expressions().items():
@@ -624,6 +680,24 @@ class Model:
                 problems.append(Problem(f"acceleration '{s.name}' may not appear in a model: "
                                         "the equations produce accelerations, write energies and forces "
                                         "in terms of coordinates and velocities", key=where))
+            if role in (HOLONOMIC, VELOCITY) and free & inputs:
+                names = ", ".join(sorted(s.name for s in free & inputs))
+                problems.append(Problem(f"input {names} appears in a constraint, whose time derivative the "
+                                        "equations would need: write a prescribed motion as a function of t",
+                                        key=where))
+            if role == HOLONOMIC and free & qd:
+                names = ", ".join(sorted(s.name for s in free & qd))
+                problems.append(Problem(f"velocity {names} appears in a holonomic constraint g(q, t) = 0: write a "
+                                        "constraint on the velocities as a velocity constraint "
+                                        "(add_velocity_constraint, or velocity = \"...\" under [[constraints]])",
+                                        key=where))
+            if role == VELOCITY and not free & qd:
+                problems.append(Problem("a velocity constraint has no velocity in it: write a constraint on the "
+                                        "coordinates as a holonomic one (add_constraint, or holonomic = \"...\" "
+                                        "under [[constraints]])", key=where))
+            elif role == VELOCITY and any(sympy.diff(e, a, b) != 0 for a in free & qd for b in free & qd):
+                problems.append(Problem("a velocity constraint must be linear in the velocities "
+                                        "(a(q, t) . q_dot + b(q, t) = 0)", key=where))
             if role in ("V", "position", "length", "inertia", "mass", "stiffness", "rest_length",
                         "coefficient", "g") and free & qd:
                 names = ", ".join(sorted(s.name for s in free & qd))
@@ -657,6 +731,9 @@ class Model:
         for el in self._elements:
             if isinstance(el, RigidBody3D):
                 problems += _inertia_problems(el, values)
+                why = el.shape.value_problem(values) if el.shape is not None else None
+                if why:
+                    problems.append(Problem(why, key=f"{el.kind} '{el.name}'.radius"))
         for frame in self._frames.values():
             for f in frame.factors:
                 if f.matrix is not None:
@@ -682,6 +759,7 @@ class Model:
         self._inputs = list(self._inputs)
         self._elements = list(self._elements)
         self._frames = dict(self._frames)
+        self._constraints = list(self._constraints)
         self._Q = dict(self._Q)
         self.simulation = copy.deepcopy(self.simulation)
         return self

@@ -179,6 +179,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
 
     nm = _as_numeric(system)
     eq = nm.equations
+    eq.require_unconstrained("simulate_batch", "simulate its runs one by one (simulate), which projects them onto the constraints")
     names = nm if isinstance(nm, (_Names, CompiledModel)) else _Names(eq)
     defaults = eq.model.simulation
     problems: list[Problem] = []

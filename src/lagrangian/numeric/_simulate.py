@@ -403,6 +403,8 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
             problems.append(Problem("method 'variational' needs T* quadratic in the velocities (M free of "
                                     "q_dot); use method='DOP853'", key="method"))
     event_exprs = _event_expressions(nm, events, stop_on, problems)
+    if nm.equations.is_constrained:
+        _constrained_problems(nm, method, event_exprs, sample_time, problems)
     if event_exprs and method != "DOP853":
         problems.append(Problem(f"events are watched by the compiled DOP853 only, not by method '{method}'",
                                 key="events"))
@@ -411,6 +413,9 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
 
     times = requested_times(t_end, dt, t_eval)
     eq = nm.equations
+    if eq.is_constrained:
+        return _simulate_constrained(nm, x0, times, p, u_of, float(rtol), float(atol), max_step, method,
+                                     initial, defaults.get("initial"))
     fast = _compiled_model(nm, backend, method, u_exprs)
     if fast is not None:
         return _simulate_compiled(fast, method, x0, times, p, u_exprs, float(rtol), float(atol), max_step,
@@ -745,3 +750,62 @@ def _readonly(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a
+
+
+def _constrained_problems(nm, method, event_exprs, sample_time, problems) -> None:
+    """What the integration of a constrained model does not do (yet), each with its fix."""
+    if method == "variational":
+        problems.append(Problem("method 'variational' does not integrate constrained models: use method='DOP853' "
+                                "(projected onto the constraints after every step)", key="method"))
+    if event_exprs:
+        problems.append(Problem("events are not watched in a constrained model's simulation: find the crossings "
+                                "in the trajectory's columns, or write the model in independent coordinates",
+                                key="events"))
+    if sample_time is not None:
+        problems.append(Problem("sampled inputs (sample_time) are not held in a constrained model's simulation: "
+                                "give the inputs as functions of t and the state", key="sample_time"))
+
+
+def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, initial, model_initial):
+    """simulate() of a model with constraints: consistent initial state, then the projected
+    integration of M q_ddot = f + G^T lambda, G q_ddot = c (see _constrained).
+
+    The initial state is moved onto the constraints keeping fixed the independent coordinates
+    ([simulation] independent) and their velocities, and the values the caller gave (`initial`);
+    the model file's other initial values are starting guesses (the assembly closest to them is
+    found). Without independent coordinates and without `initial`, the model file's values are kept."""
+    from ._constrained import ConstraintSingular, consistent_state, constrained_model, integrate, \
+        singular_constraint_message
+
+    eq = nm.equations
+    if not isinstance(nm, NumericModel):
+        nm = compile_equations(eq)
+    cm = constrained_model(eq, nm)
+    names = nm.state_names
+    independent = [str(q) for q in eq.model.simulation.get("independent", ())]
+    fixed = set(independent) | {f"{q}_dot" for q in independent}
+    if isinstance(initial, Mapping):
+        fixed |= {getattr(k, "name", k) for k in initial}
+        x0 = np.array(x0, float)
+        for k, v in (model_initial or {}).items():  # the model file's values as guesses for the others
+            if k in names and k not in fixed:
+                x0[names.index(k)] = v
+    elif initial is None and not independent:
+        fixed |= set(model_initial or ())
+    try:
+        x0 = consistent_state(cm, x0, fixed, p)
+        X, U, Lam, stats = integrate(cm, x0, times, p, u_of, rtol, atol, max_step, method)
+    except ConstraintSingular as s:
+        raise SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=-1, time=float(s.t)) from None
+    if not np.all(np.isfinite(X)):
+        raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
+                              "and initial state", status=-1)
+    energy = name = None
+    if not eq.explicit_time:
+        energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)])
+        name = "energy" if _is_natural(eq) else "jacobi_integral"
+    stats = {"backend": "scipy", "method": method, **stats}
+    return Trajectory(times, X, nm.state_names, U, nm.input_names, energy, name, eq.is_conservative,
+                      dict(zip(nm.parameter_names, map(float, p))), stats["nfev"], "constrained integration finished",
+                      stats=stats, model=eq.model, multipliers=Lam,
+                      multiplier_names=tuple(m.name for m in eq.multipliers))

@@ -54,6 +54,11 @@ class Trajectory:
     events : dict of str to dict
         For each event of ``simulate(events=...)``, its zero crossings: {"t": times (k,),
         "x": states (k, 2n)}.
+    multipliers : ndarray, shape (N, number of constraints), or None
+        The Lagrange multipliers of a constrained model (columns ``lambda_<name>``, in
+        `multiplier_names` order); None without constraints. ``stats["constraint_drift"]``
+        holds the largest |g| ("position") and |G q_dot + b| ("velocity") at the outputs.
+    multiplier_names : tuple of str
     """
 
     t: np.ndarray
@@ -70,6 +75,8 @@ class Trajectory:
     stats: dict = field(default_factory=dict)
     events: dict = field(default_factory=dict)
     model: object = field(default=None, repr=False)
+    multipliers: np.ndarray | None = None
+    multiplier_names: tuple[str, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "t", _frozen(self.t))
@@ -77,6 +84,9 @@ class Trajectory:
         object.__setattr__(self, "u", _frozen(np.reshape(self.u, (len(self.t), len(self.input_names)))))
         if self.energy is not None:
             object.__setattr__(self, "energy", _frozen(self.energy))
+        if self.multipliers is not None:
+            object.__setattr__(self, "multipliers", _frozen(np.reshape(self.multipliers,
+                                                                       (len(self.t), len(self.multiplier_names)))))
 
     @property
     def n(self) -> int:
@@ -95,9 +105,10 @@ class Trajectory:
 
     @property
     def columns(self) -> tuple[str, ...]:
-        """Column names of the CSV: t, coordinates, velocities, inputs, then the energy."""
+        """Column names of the CSV: t, coordinates, velocities, inputs, the energy, then the
+        multipliers ``lambda_<name>`` of a constrained model."""
         extra = (self.energy_name,) if self.energy is not None else ()
-        return ("t", *self.state_names, *self.input_names, *extra)
+        return ("t", *self.state_names, *self.input_names, *extra, *self.multiplier_names)
 
     def __getitem__(self, name: str) -> np.ndarray:
         """A column by name: ``traj["q2"]``, ``traj["q2_dot"]``, ``traj["t"]``, ``traj["energy"]``."""
@@ -109,6 +120,8 @@ class Trajectory:
             return self.u[:, self.input_names.index(name)]
         if self.energy is not None and name == self.energy_name:
             return self.energy
+        if name in self.multiplier_names:
+            return self.multipliers[:, self.multiplier_names.index(name)]
         raise KeyError(f"the trajectory has no column '{name}'; its columns are {', '.join(self.columns)}")
 
     def conserved(self) -> dict[str, np.ndarray]:
@@ -148,6 +161,8 @@ class Trajectory:
         parts = [self.t[:, None], self.x, self.u]
         if self.energy is not None:
             parts.append(self.energy[:, None])
+        if self.multipliers is not None:
+            parts.append(self.multipliers)
         return np.hstack(parts)
 
     def to_csv(self, path: str | os.PathLike | None = None) -> str | None:

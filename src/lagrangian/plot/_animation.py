@@ -5,7 +5,9 @@ track; a point that slides so, a massless cart, is an empty block), rigid bodies
 radius equal to their radius of gyration sqrt(I/m) with a spoke that shows their rotation, rods
 join the nodes at constant distance (hidden pivots included, so a cart's mast too), springs are
 zigzags, dampers dashpots, fixed points stand on a hatched ground block.
-Planar models are drawn in 2D, spatial ones in a 3D projection.
+Planar models are drawn in 2D, spatial ones in a 3D projection (Matplotlib's 3D axes, z up), where
+a body in space shows its frame's axes (x red, y green, z blue, a fifth of the scene long: of the
+nodes' reach and the disks' diameters), the link that carries it and its disk, if it has one.
 """
 
 from __future__ import annotations
@@ -33,6 +35,9 @@ MISSING_FFMPEG = ("MP4 needs ffmpeg, which is not installed (not on PATH): insta
 _ROD = dict(color="0.25", lw=2.5, solid_capstyle="round", zorder=2)
 _SPRING = dict(color="C0", lw=1.4, zorder=3)
 _DAMPER = dict(color="C2", lw=1.4, zorder=3)
+_AXIS_COLORS = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
+#: The length of a body's axes, as a fraction of the scene's size.
+AXIS_LENGTH = 0.2
 
 
 def format_of(path: str) -> str:
@@ -126,7 +131,10 @@ class Animation:
     fps : float
     artists : dict of str to matplotlib artist
         The marker of each point, particle, body and pivot by name (``"rod i-j"``, ``"spring NAME"``,
-        ``"damper NAME"``, ``"trace NAME"`` and ``"time"`` for the others).
+        ``"damper NAME"``, ``"trace NAME"`` and ``"time"`` for the others; a body in space also has
+        ``"NAME axis x"`` (y, z), ``"NAME link"`` and, with a disk, ``"NAME disk"``).
+    axis_length : float
+        The length of the axes drawn for bodies in space.
     """
 
     def __init__(self, traj, scene: Scene, *, fps: float = 25.0, speed: float = 1.0, trace: Sequence[str] = (),
@@ -157,6 +165,12 @@ class Animation:
         lo, hi = P.reshape(-1, scene.dim).min(axis=0), P.reshape(-1, scene.dim).max(axis=0)
         size = float(np.max(hi - lo)) or 1.0
         self._size = size
+        self.axis_length = AXIS_LENGTH * max([size] + [2 * b.radius for b in scene.spatial if b.radius is not None])
+        traj, idx = self.trajectory, self.frame_indices
+        self._spatial = scene.body_drawings(traj.t[idx], traj.q[idx], self.axis_length)
+        drawn = [P.reshape(-1, scene.dim)] + [part.reshape(-1, 3) for d in self._spatial
+                                               for part in (d.axes, d.disk) if part is not None]
+        lo, hi = np.min([p.min(axis=0) for p in drawn], axis=0), np.max([p.max(axis=0) for p in drawn], axis=0)
         masses = [nd.mass for nd in scene.nodes if nd.mass > 0]
         mmax = max(masses) if masses else 1.0
         self._radius = {}
@@ -168,7 +182,7 @@ class Animation:
             from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the projection)
 
             ax = self.figure.add_subplot(projection="3d")
-            centre, half = (lo + hi) / 2, size / 2 + pad
+            centre, half = (lo + hi) / 2, max(size, float(np.max(hi - lo))) / 2 + pad
             ax.set_xlim(centre[0] - half, centre[0] + half)
             ax.set_ylim(centre[1] - half, centre[1] + half)
             ax.set_zlim(centre[2] - half, centre[2] + half)
@@ -214,6 +228,13 @@ class Animation:
         for k, name in enumerate(self.trace):
             self.artists[f"trace {name}"] = ax.plot(*empty, lw=1, alpha=0.7, color=f"C{(k + 4) % 10}",
                                                     zorder=1)[0]
+        for body in scene.spatial:
+            if body.link > 1:
+                self.artists[f"{body.name} link"] = ax.plot(*empty, **_ROD)[0]
+            if body.radius is not None:
+                self.artists[f"{body.name} disk"] = ax.plot(*empty, color="C1", lw=1.8, zorder=4)[0]
+            for axis, color in _AXIS_COLORS.items():
+                self.artists[f"{body.name} axis {axis}"] = ax.plot(*empty, color=color, lw=2, zorder=5)[0]
         for i, nd in enumerate(scene.nodes):
             if nd.kind == "end":
                 continue
@@ -273,6 +294,13 @@ class Animation:
                 r = self._radius[i]
                 put(self.artists[f"{nd.name} spoke"], [p[i], p[i] + r * np.array([np.cos(a), np.sin(a)])])
                 changed.append(disk)
+        for body, drawing in zip(scene.spatial, self._spatial):
+            if body.link > 1:
+                put(self.artists[f"{body.name} link"], drawing.link[k])
+            if drawing.disk is not None:
+                put(self.artists[f"{body.name} disk"], np.vstack([drawing.disk[k], drawing.disk[k][:1]]))
+            for i, axis in enumerate(_AXIS_COLORS):
+                put(self.artists[f"{body.name} axis {axis}"], drawing.axes[k, i])
         for i, nd in enumerate(scene.nodes):
             if nd.kind != "end":
                 put(self.artists[nd.name], p[i][None, :])
@@ -357,8 +385,10 @@ class Animation:
         elif suffix == ".gif":
             from PIL import Image
 
-            # a 64-colour palette per frame: the drawing has few colours, and the file stays small
-            images = [Image.fromarray(rgba).convert("RGB").quantize(64, method=Image.Quantize.MEDIANCUT)
+            # a 64-colour palette per frame: the drawing has few colours, and the file stays small. An
+            # octree keeps the thin coloured lines (a body's axes) that median cut merges into the greys
+            # of a 3D scene's grid; its files are smaller too
+            images = [Image.fromarray(rgba).convert("RGB").quantize(64, method=Image.Quantize.FASTOCTREE)
                       for rgba in self.frames()]
             images[0].save(path, format="GIF", save_all=True, append_images=images[1:], loop=0,
                            duration=int(round(1000.0 / self.fps)), optimize=False)

@@ -21,6 +21,12 @@ once (docs/plots.md repeats them):
 * **Tracks**: a particle, body or point (or a hidden pivot not fixed on one) that moves along a
   straight line (d position/dq constant, of rank 1, free of t) is drawn on a guide line; such
   particles and points are drawn as blocks (carts, sliders; a massless cart is a point).
+* **Bodies in space** (:class:`SpatialBody`) are drawn at their centre of mass, as particles, and
+  with their frame: its three axes from its origin, the link that carries the body (from the
+  origin of the frame's parent, when that is a frame, to the frame's origin, then to the centre;
+  each segment only where its length never changes, nonzero: a body centred on its frame's
+  origin hangs from the parent's origin), and their shape if they have one:
+  a disk is the circle of its radius about the centre, across its body axis.
 """
 
 from __future__ import annotations
@@ -33,11 +39,15 @@ import sympy
 
 from ..errors import ModelError
 from ..model._elements import Damper, Particle, Point, RigidBody, RigidBody3D, Spring
+from ..model._frames import WORLD, frame_pose
 
-__all__ = ["Scene", "Node", "scene_of", "check_drawable", "drawable_names"]
+__all__ = ["Scene", "Node", "SpatialBody", "BodyDrawing", "scene_of", "check_drawable", "drawable_names",
+           "DISK_POINTS"]
 
 _TRIG = (sympy.sin, sympy.cos, sympy.tan)
 _SAMPLES = 7
+#: Points of the outline of a disk.
+DISK_POINTS = 48
 
 
 @dataclass(frozen=True)
@@ -50,6 +60,45 @@ class Node:
     inertia: float = 0.0
     fixed: bool = False
     slider: bool = False
+
+
+@dataclass(frozen=True)
+class SpatialBody:
+    """A body in space as drawn: `name`, `node` (the index of its centre's node), `frame` (its
+    frame's name), `link` (the number of points of the polyline that carries it, its centre last:
+    1 when there is no link), and its disk's `radius` (None: no shape) and `axis` (0, 1, 2: x, y, z)."""
+
+    name: str
+    node: int
+    frame: str
+    link: int
+    radius: float | None = None
+    axis: int = 2
+
+
+@dataclass(frozen=True, eq=False)
+class BodyDrawing:
+    """Where a body in space is drawn at N times, in world coordinates.
+
+    Attributes
+    ----------
+    origin : ndarray, shape (N, 3)
+        Its frame's origin.
+    rotation : ndarray, shape (N, 3, 3)
+        Its frame's axes (the columns) in world axes, R_world.
+    axes : ndarray, shape (N, 3, 2, 3)
+        The segment of each axis x, y, z: from the origin to origin + length * R e_i.
+    link : ndarray, shape (N, k, 3)
+        The polyline that carries the body (see :class:`SpatialBody`), its centre of mass last.
+    disk : ndarray, shape (N, DISK_POINTS, 3), or None
+        The outline of its disk (not closed: the last point is not the first), if it has one.
+    """
+
+    origin: np.ndarray
+    rotation: np.ndarray
+    axes: np.ndarray
+    link: np.ndarray
+    disk: np.ndarray | None
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,6 +118,8 @@ class Scene:
         A point on each guide line and its unit direction.
     undrawn : tuple of str
         Elements that could not be drawn, with the reason.
+    spatial : tuple of SpatialBody
+        The bodies in space (their centres are nodes too); :meth:`body_drawings` places them.
     """
 
     dim: int
@@ -81,6 +132,8 @@ class Scene:
     _positions: object
     _angles: object
     _bodies: tuple[int, ...]
+    spatial: tuple[SpatialBody, ...] = ()
+    _poses: object = None
 
     def index(self, name: str) -> int:
         """Index of the node named `name`."""
@@ -91,20 +144,56 @@ class Scene:
 
     def positions(self, t, q) -> np.ndarray:
         """Node positions, shape (N, len(nodes), dim), for times `t` (N,) and coordinates `q` (N, n)."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        q = np.asarray(q, dtype=float).reshape(len(t), -1)
-        return self._positions(t, q)
+        return self._positions(*_times_and_coordinates(t, q))
 
     def angles(self, t, q) -> np.ndarray:
         """Rotation angle of each rigid body node, shape (N, number of bodies), in `bodies` order."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        q = np.asarray(q, dtype=float).reshape(len(t), -1)
-        return self._angles(t, q)
+        return self._angles(*_times_and_coordinates(t, q))
+
+    def body_drawings(self, t, q, axis_length: float) -> tuple[BodyDrawing, ...]:
+        """Where each body in space is drawn (in `spatial` order) at times `t` (N,) and coordinates
+        `q` (N, n); its axes are `axis_length` long."""
+        t, q = _times_and_coordinates(t, q)
+        if not self.spatial:
+            return ()
+        flat = self._poses(t, q)
+        out, k = [], 0
+        for body in self.spatial:
+            origin = flat[:, k:k + 3]
+            R = flat[:, k + 3:k + 12].reshape(-1, 3, 3)
+            link = flat[:, k + 12:k + 12 + 3 * body.link].reshape(-1, body.link, 3)
+            k += 12 + 3 * body.link
+            ends = origin[:, None, :] + axis_length * np.swapaxes(R, 1, 2)  # (N, axis, 3): origin + L R e_i
+            axes = np.stack([np.broadcast_to(origin[:, None, :], ends.shape), ends], axis=2)
+            disk = None
+            if body.radius is not None:
+                u, v = R[:, :, (body.axis + 1) % 3], R[:, :, (body.axis + 2) % 3]
+                phi = 2 * np.pi * np.arange(DISK_POINTS) / DISK_POINTS
+                disk = link[:, -1, None, :] + body.radius * (np.cos(phi)[None, :, None] * u[:, None, :]
+                                                             + np.sin(phi)[None, :, None] * v[:, None, :])
+            out.append(BodyDrawing(origin, R, axes, link, disk))
+        return tuple(out)
 
     @property
     def bodies(self) -> tuple[int, ...]:
         """Indices of the rigid-body nodes."""
         return self._bodies
+
+
+def _times_and_coordinates(t, q) -> tuple[np.ndarray, np.ndarray]:
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    return t, np.asarray(q, dtype=float).reshape(len(t), -1)
+
+
+def _columns(cols, t) -> np.ndarray:
+    """The values of lambdified expressions (constants broadcast to the times `t`), shape (N, len(cols))."""
+    return np.stack([np.broadcast_to(np.asarray(c, dtype=float), t.shape) for c in cols], axis=1)
+
+
+def _rigid(a, b) -> bool:
+    """Whether two sampled points (S, dim) stay at one nonzero distance."""
+    d = np.linalg.norm(a - b, axis=1)
+    return bool(d.min() > 1e-9 and np.ptp(d) <= 1e-9 * (1 + d.mean()))
 
 
 def _positioned(model):
@@ -190,12 +279,18 @@ class _Builder:
     def evaluate(self, position, t, q) -> np.ndarray:
         """Position at times t (N,) and coordinates q (N, n): shape (N, len(position))."""
         f = sympy.lambdify([self.t, *self.coords], list(position), "numpy")
-        cols = f(t, *q.T)
-        return np.stack([np.broadcast_to(np.asarray(c, dtype=float), t.shape) for c in cols], axis=1)
+        return _columns(f(t, *q.T), t)
+
+    def numeric(self, position) -> tuple:
+        """`position` with the parameters' values substituted."""
+        return tuple(sympy.sympify(c).subs(self.subs) for c in position)
+
+    def sampled(self, position) -> np.ndarray:
+        return self.evaluate(position, self.sample_t, self.sample_q)
 
     def add(self, node, position) -> int:
-        position = tuple(sympy.sympify(c).subs(self.subs) for c in position)
-        pos = self.evaluate(position, self.sample_t, self.sample_q)
+        position = self.numeric(position)
+        pos = self.sampled(position)
         self.nodes.append(node)
         self.exprs.append(position)
         self.samples.append(pos)
@@ -248,11 +343,10 @@ def scene_of(model, params=None) -> Scene:
         pivot = _pivot_of(b.exprs[i], b.cset)
         if pivot is None:
             continue
-        pos = b.evaluate(pivot, b.sample_t, b.sample_q)
+        pos = b.sampled(pivot)
         if b.same_as(pos) is not None:
             continue
-        d = np.linalg.norm(b.samples[i] - pos, axis=1)
-        if d.min() > 1e-9 and np.ptp(d) <= 1e-9 * (1 + d.mean()):
+        if _rigid(b.samples[i], pos):
             b.add(Node(f"{b.nodes[i].name} pivot", "pivot"), pivot)
 
     # springs and dampers
@@ -268,11 +362,11 @@ def scene_of(model, params=None) -> Scene:
                 if name is not None and name in index_of:
                     ends.append(index_of[name])
                     continue
-                pos = b.evaluate(pad(tuple(sympy.sympify(c).subs(b.subs) for c in end)), b.sample_t, b.sample_q)
+                pos = b.sampled(pad(b.numeric(end)))
                 j = b.same_as(pos)
                 ends.append(j if j is not None else b.add(Node(f"{e.name} end {k + 1}", "end"), pad(end)))
         else:
-            length = b.evaluate((sympy.sympify(e.length).subs(b.subs),), b.sample_t, b.sample_q)[:, 0]
+            length = b.sampled(b.numeric((e.length,)))[:, 0]
             ends = _pair_with_length(b, np.abs(length))
             if ends is None:
                 if origin is None:
@@ -296,8 +390,7 @@ def scene_of(model, params=None) -> Scene:
                 continue
             if b.nodes[i].kind == "end" or b.nodes[j].kind == "end":
                 continue
-            d = np.linalg.norm(b.samples[i] - b.samples[j], axis=1)
-            if d.min() > 1e-9 and np.ptp(d) <= 1e-9 * (1 + d.mean()):
+            if _rigid(b.samples[i], b.samples[j]):
                 rods.append((i, j))
 
     # tracks (and sliders)
@@ -334,9 +427,7 @@ def scene_of(model, params=None) -> Scene:
     count = len(b.exprs)
 
     def positions(t, q):
-        cols = fpos(t, *q.T)
-        out = np.stack([np.broadcast_to(np.asarray(c, dtype=float), t.shape) for c in cols], axis=1)
-        return out.reshape(len(t), count, dim)
+        return _columns(fpos(t, *q.T), t).reshape(len(t), count, dim)
 
     bodies = tuple(i for i, nd in enumerate(nodes) if nd.kind == "body")
     body_angles = [sympy.sympify(e.angle).subs(b.subs) for e in elements if isinstance(e, RigidBody)]
@@ -345,11 +436,39 @@ def scene_of(model, params=None) -> Scene:
     def angles(t, q):
         if not bodies:
             return np.zeros((len(t), 0))
-        cols = fang(t, *q.T)
-        return np.stack([np.broadcast_to(np.asarray(c, dtype=float), t.shape) for c in cols], axis=1)
+        return _columns(fang(t, *q.T), t)
+
+    spatial, pose_exprs = _spatial_bodies(model, b, index_of)
+    fpose = sympy.lambdify(args, pose_exprs or [0], "numpy", cse=True)
+
+    def poses(t, q):
+        return _columns(fpose(t, *q.T), t)
 
     return Scene(dim, tuple(nodes), tuple(rods), tuple(springs), tuple(dampers), tuple(tracks), tuple(undrawn),
-                 positions, angles, bodies)
+                 positions, angles, bodies, spatial, poses)
+
+
+def _spatial_bodies(model, b: _Builder, index_of) -> tuple[tuple[SpatialBody, ...], list]:
+    """The bodies in space, and the expressions of their poses, body after body: the frame's origin
+    (3), its rotation R_world (9, by rows) and the points of its link (3 each, the centre last)."""
+    out, exprs = [], []
+    for e in model.elements:
+        if not isinstance(e, RigidBody3D):
+            continue
+        origin, R = frame_pose(model.frames, e.frame)
+        origin = b.numeric(origin)
+        parent = model.frames[e.frame].parent
+        starts = [origin] + ([b.numeric(frame_pose(model.frames, parent)[0])] if parent != WORLD else [])
+        link = [b.numeric(e.position)]
+        for start in starts:  # back from the centre: a segment where its length never changes
+            if _rigid(b.sampled(start), b.sampled(link[0])):
+                link.insert(0, start)
+        radius, axis = None, 2
+        if e.shape is not None:
+            radius, axis = float(sympy.sympify(e.shape.radius).subs(b.subs)), "xyz".index(e.shape.axis)
+        out.append(SpatialBody(e.name, index_of[e.name], e.frame, len(link), radius, axis))
+        exprs += [*origin, *b.numeric(R), *(c for point in link for c in point)]
+    return tuple(out), exprs
 
 
 def _pair_with_length(b: _Builder, length: np.ndarray, only: int | None = None):

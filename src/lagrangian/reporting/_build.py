@@ -69,6 +69,8 @@ def report(source, *, title: str | None = None, equilibria: bool = True) -> Repo
     else:
         raise TypeError(f"report() expects Equations, a Model, or a model name or path, "
                         f"got {type(source).__name__}")
+    eqs.require_unconstrained("the report", "lagrangian derive shows its equations with the constraints and "
+                              "their multipliers, and lagrangian simulate its motion")
     b = _Builder(eqs)
     sections = [b.bodies(), b.coordinates(), b.kinematics(), b.energies(), b.dissipation(),
                 b.forces(), b.lagrangian(), b.equations(), b.matrix_form(), b.state_form(),

@@ -1,0 +1,301 @@
+"""Constrained systems in numbers: M q_ddot = f + G^T lambda with G q_ddot = c.
+
+The accelerations and multipliers solve the saddle-point system
+
+    [ M   G^T ] [ q_ddot  ]   [ f ]
+    [ G    0  ] [ -lambda ] = [ c ]
+
+(the constraints differentiated twice: index reduction). Integrating it alone lets g and
+w = G q_dot + b drift with the integration error; after every accepted step the state is
+projected back (coordinate projection): the coordinates onto g(q, t) = 0 by Gauss-Newton steps
+with the smallest change (q <- q - G^T (G G^T)^-1 g), the velocities onto G q_dot + b = 0 with the
+smallest change of kinetic energy (q_dot <- q_dot - M^-1 G^T (G M^-1 G^T)^-1 w, what an impulse of
+the constraints would do). The drift then stays at the size of one step's error, however long the
+run (the trajectory's ``constraint_drift`` reports it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import symengine as se
+
+from ..equations import Equations
+from ..errors import ModelError, Problem, SimulationError
+from ..model._constraints import HOLONOMIC
+
+__all__ = ["ConstrainedModel", "constrained_model", "ConstraintSingular"]
+
+#: A constraint Jacobian whose smallest singular value, relative to its largest, is below this
+#: has lost rank (the constraints are dependent there: a dead point of a mechanism).
+RANK_RATIO = 1e-9
+#: Gauss-Newton steps of one projection (each converges quadratically from a step's error).
+PROJECTION_STEPS = 4
+
+
+class ConstraintSingular(Exception):
+    """The constraint Jacobian lost rank at (t, x)."""
+
+    def __init__(self, t, x, ratio):
+        super().__init__(t, x, ratio)
+        self.t, self.x, self.ratio = t, np.array(x), ratio
+
+
+@dataclass(frozen=True, eq=False)
+class ConstrainedModel:
+    """The numbers of a constrained model: M, f, G, c (one call), and g, w, G for projections."""
+
+    equations: Equations = field(repr=False)
+    nm: object = field(repr=False)          # the NumericModel of M and f
+    _parts: object = field(repr=False)      # (t, x, u, p) -> M, f, G, c
+    _position: object = field(repr=False)   # (t, x, p) -> g (holonomic rows), their G rows
+    _velocity: object = field(repr=False)   # (t, x, p) -> w, G, M
+    holonomic: np.ndarray = field(repr=False)  # indices of the holonomic constraints
+
+    @property
+    def n(self) -> int:
+        return self.nm.n
+
+    @property
+    def m(self) -> int:
+        return len(self.equations.multipliers)
+
+    def solve(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray]:
+        """(q_ddot, lambda) at the state."""
+        n, m = self.n, self.m
+        out = np.asarray(self._parts(np.concatenate(([t], x, u, p))), float).ravel()
+        M = out[:n * n].reshape(n, n)
+        f = out[n * n:n * n + n]
+        G = out[n * n + n:n * n + n + m * n].reshape(m, n)
+        c = out[n * n + n + m * n:]
+        _check_rank(G, t, x)
+        K = np.zeros((n + m, n + m))
+        K[:n, :n], K[:n, n:], K[n:, :n] = M, G.T, G
+        try:
+            z = np.linalg.solve(K, np.concatenate((f, c)))
+        except np.linalg.LinAlgError:
+            raise ConstraintSingular(t, x, 0.0) from None
+        if not np.all(np.isfinite(z)):
+            raise ConstraintSingular(t, x, 0.0)
+        return z[:n], -z[n:]
+
+    def residuals(self, t, x, p) -> tuple[np.ndarray, np.ndarray]:
+        """(g of the holonomic constraints, w = G q_dot + b of all) at the state."""
+        g = self._holonomic(t, x, p)[0]
+        w = self._velocity_parts(t, x, p)[0]
+        return g, w
+
+    def _holonomic(self, t, x, p):
+        k = len(self.holonomic)
+        out = np.asarray(self._position(np.concatenate(([t], x, p))), float).ravel()
+        return out[:k], out[k:k + k * self.n].reshape(k, self.n)
+
+    def _velocity_parts(self, t, x, p):
+        n, m = self.n, self.m
+        out = np.asarray(self._velocity(np.concatenate(([t], x, p))), float).ravel()
+        return out[:m], out[m:m + m * n].reshape(m, n), out[m + m * n:].reshape(n, n)
+
+    def project(self, t, x, p, fixed=(), tol: float = 1e-14) -> np.ndarray:
+        """The state moved onto the constraints: coordinates onto g = 0 (Gauss-Newton, the smallest
+        change of the coordinates not in `fixed`), then velocities onto G q_dot + b = 0 (the smallest
+        change of kinetic energy; with `fixed`, the smallest change of the other velocities)."""
+        n = self.n
+        x = np.array(x, float)
+        free = np.array([i for i in range(n) if i not in set(fixed)], int)
+        if len(self.holonomic):
+            for _ in range(PROJECTION_STEPS + (12 if len(fixed) else 0)):
+                g, G = self._holonomic(t, x, p)
+                if np.max(np.abs(g)) <= tol * (1.0 + np.max(np.abs(x[:n]))):
+                    break
+                Gf = G[:, free]
+                dq, *_ = np.linalg.lstsq(Gf, g, rcond=None)
+                x[free] -= dq
+        w, G, M = self._velocity_parts(t, x, p)
+        if len(fixed):
+            dv, *_ = np.linalg.lstsq(G[:, free], w, rcond=None)
+            x[n + free] -= dv
+        else:
+            Minv_Gt = np.linalg.solve(M, G.T)
+            x[n:] -= Minv_Gt @ np.linalg.solve(G @ Minv_Gt, w)
+        return x
+
+
+def _check_rank(G, t, x) -> None:
+    if G.shape[0] == 0:
+        return
+    s = np.linalg.svd(G, compute_uv=False)
+    ratio = s[-1] / s[0] if s[0] > 0 else 0.0
+    if not ratio > RANK_RATIO:
+        raise ConstraintSingular(t, x, ratio)
+
+
+_CACHE: dict = {}
+
+
+def constrained_model(equations: Equations, nm) -> ConstrainedModel:
+    """The ConstrainedModel of `equations` (nm: its NumericModel), cached per Equations."""
+    import weakref
+
+    key = id(equations)
+    hit = _CACHE.get(key)
+    if hit is not None and hit[0]() is equations:
+        return hit[1]
+    core = equations.core
+    n, m = equations.n, len(core.g)
+    inputs = [se.Symbol(u.name) for u in equations.inputs]
+    params = [se.Symbol(p.name) for p in equations.parameters]
+    state = [*core.q, *core.qd]
+    args = [core.t, *state, *inputs, *params]
+    M = [core.M[i, j] for i in range(n) for j in range(n)]
+    G = [core.G[k, j] for k in range(m) for j in range(n)]
+    parts = se.Lambdify(args, M + list(core.f) + G + list(core.c), cse=True, real=True)
+    kinds = [c.kind for c in equations.model.constraints]
+    hol = [k for k, kind in enumerate(kinds) if kind == HOLONOMIC]
+    position = se.Lambdify([core.t, *state, *params], [core.g[k] for k in hol]
+                           + [core.G[k, j] for k in hol for j in range(n)] or [se.Integer(0)], cse=True, real=True)
+    velocity = se.Lambdify([core.t, *state, *params], list(core.w) + G + M, cse=True, real=True)
+    cm = ConstrainedModel(equations, nm, parts, position, velocity, np.array(hol, int))
+    _CACHE[key] = (weakref.ref(equations), cm)
+    return cm
+
+
+# ---------------------------------------------------------------------------- initial state
+def consistent_state(cm: ConstrainedModel, x0, fixed_names, p) -> np.ndarray:
+    """x0 moved onto the constraints, keeping the coordinates and velocities named in
+    `fixed_names`; a clear error where that is impossible."""
+    eq = cm.equations
+    n = cm.n
+    names = eq.state_names
+    fixed_q = sorted({names.index(k) for k in fixed_names if names.index(k) < n})
+    fixed_v = sorted({names.index(k) - n for k in fixed_names if names.index(k) >= n})
+    x = np.array(x0, float)
+    scale = 1.0 + np.max(np.abs(x[:n]))
+    if len(fixed_q) >= n and len(cm.holonomic):
+        free = []
+    else:
+        free = [i for i in range(n) if i not in fixed_q]
+    problems = []
+    if len(cm.holonomic) and free:
+        rng = np.random.default_rng(1)
+        for _ in range(200):  # Gauss-Newton (linear convergence where G loses rank at the solution)
+            g, G = cm._holonomic(0.0, x, p)
+            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(G))):  # 0/0 at a guess: move off it
+                x[free] += 1e-3 * rng.standard_normal(len(free))
+                continue
+            if np.max(np.abs(g)) == 0.0:
+                break
+            if np.max(np.abs(G[:, free])) == 0.0:  # a guess where the constraints are flat (y = 0 on a circle)
+                x[free] += 1e-3 * rng.standard_normal(len(free))
+                continue
+            dq, *_ = np.linalg.lstsq(G[:, free], g, rcond=None)
+            step = np.max(np.abs(dq))
+            x[free] -= dq / step if step > 1.0 else dq
+            if step <= 1e-15 * scale and np.max(np.abs(g)) <= 1e-13 * scale:
+                break
+    if len(cm.holonomic):
+        g, G = cm._holonomic(0.0, x, p)
+        bad = [k for k, v in zip(cm.holonomic, g) if not abs(v) <= 1e-9 * scale]
+        if bad:
+            held = ", ".join(names[i] for i in fixed_q) or "none"
+            for k in bad:
+                con = eq.model.constraints[k]
+                problems.append(Problem(
+                    f"the initial coordinates do not meet constraint '{con.name}' ({con.expression} = "
+                    f"{g[list(cm.holonomic).index(k)]:.3g}, not 0), and changing the coordinates that were not "
+                    f"given ({', '.join(names[i] for i in free) or 'none'}; given: {held}) does not fix it: give "
+                    "fewer coordinates (the independent ones) or values that meet it", key="initial"))
+            raise ModelError(problems)
+    w, G, M = cm._velocity_parts(0.0, x, p)
+    freev = [i for i in range(n) if i not in fixed_v]
+    if freev and np.max(np.abs(w), initial=0.0) > 0:
+        dv, *_ = np.linalg.lstsq(G[:, freev], w, rcond=None)
+        x[n + np.array(freev, int)] -= dv
+    w = cm._velocity_parts(0.0, x, p)[0]
+    vscale = 1.0 + np.max(np.abs(x[n:]))
+    bad = [k for k, v in enumerate(w) if not abs(v) <= 1e-9 * vscale]
+    if bad:
+        con = eq.model.constraints[bad[0]]
+        raise ModelError([Problem(
+            f"the initial velocities do not meet constraint '{con.name}' (its velocity residual is "
+            f"{w[bad[0]]:.3g}, not 0), and changing the velocities that were not given does not fix it: give "
+            "fewer velocities (those of the independent coordinates) or values that meet it", key="initial")])
+    return x
+
+
+# ------------------------------------------------------------------------------- integration
+def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, method="DOP853"):
+    """(X at `times`, Lambda at `times`, stats): the projected integration (see the module)."""
+    from scipy import integrate as si
+
+    solvers = {"DOP853": si.DOP853, "RK45": si.RK45, "RK23": si.RK23, "Radau": si.Radau, "BDF": si.BDF,
+               "LSODA": si.LSODA}
+    n = cm.n
+    nfev = 0
+
+    def rhs(t, x):
+        nonlocal nfev
+        nfev += 1
+        qdd, _ = cm.solve(t, x, u_of(t, x), p)
+        return np.concatenate((x[n:], qdd))
+
+    X = np.empty((len(times), 2 * n))
+    X[0] = x0
+    if times[-1] == 0:
+        rhs(0.0, x0)
+        nstep = 0
+    else:
+        solver = solvers[method](rhs, 0.0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
+        j, nstep = 1, 0
+        while j < len(times):
+            message = solver.step()
+            if solver.status == "failed":
+                raise SimulationError(f"the integrator stopped at t = {solver.t:.6g}: {message}; try a smaller "
+                                      "rtol/atol or check the model's parameters", status=-1, time=float(solver.t))
+            nstep += 1
+            dense = solver.dense_output()
+            projected = cm.project(solver.t, solver.y, p)
+            while j < len(times) and times[j] <= solver.t:
+                X[j] = projected if times[j] == solver.t else cm.project(times[j], dense(times[j]), p)
+                j += 1
+            solver.y = projected
+            if hasattr(solver, "f"):
+                solver.f = rhs(solver.t, projected)
+            if solver.status == "finished" and j < len(times):
+                X[j:] = projected
+                break
+    U = np.array([u_of(t, x) for t, x in zip(times, X)]).reshape(len(times), -1)
+    Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
+    drift_q = drift_v = 0.0
+    for t, x in zip(times, X):
+        g, w = cm.residuals(t, x, p)
+        drift_q = max(drift_q, float(np.max(np.abs(g), initial=0.0)))
+        drift_v = max(drift_v, float(np.max(np.abs(w), initial=0.0)))
+    stats = {"nfev": nfev, "nstep": nstep, "projection": "coordinate projection after every step",
+             "constraint_drift": {"position": drift_q, "velocity": drift_v}}
+    return X, U, Lam, stats
+
+
+def singular_constraint_message(cm: ConstrainedModel, t, x, p) -> str:
+    """Where the constraint Jacobian lost rank: which constraints are dependent there, and which
+    motion they no longer fix (or lock)."""
+    eq = cm.equations
+    n = cm.n
+    _, G, _ = cm._velocity_parts(t, x, p)
+    U, s, Vt = np.linalg.svd(G)
+    names = [c.name for c in eq.model.constraints]
+    dependent = U[:, -1]
+    rows = [f"{v:+.3g}*{nm}" for v, nm in zip(dependent, names) if abs(v) > 1e-6]
+    state = ", ".join(f"{k} = {v:.6g}" for k, v in zip(eq.state_names, x))
+    locked = ""
+    if G.shape[0] <= n:
+        free_dir = Vt[G.shape[0] - 1] if len(s) else np.zeros(n)
+        combo = " ".join(f"{v:+.3g}*{q.name}_dot" for v, q in zip(free_dir, eq.coordinates) if abs(v) > 1e-6)
+        locked = (f"; the constraints no longer fix the velocity combination {combo}, and no force of the "
+                  "constraints can act along it")
+    return (f"the constraints' Jacobian G loses rank at t = {float(t):.6g} (state {state}): the rows "
+            f"{' '.join(rows)} combine to zero, so the constraints are dependent there (a dead point or a "
+            f"singular configuration of the mechanism){locked}. Their multipliers are not defined there: avoid "
+            "the configuration (other initial values, a driving input), or write the mechanism with one "
+            "constraint fewer")
+
