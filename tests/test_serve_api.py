@@ -125,6 +125,24 @@ def test_simulate_returns_the_trajectory_of_simulate(server):
     assert g["positions"][20][1] == pytest.approx([q1 + __import__("math").cos(q2), 1 + __import__("math").sin(q2)])
 
 
+def test_simulate_takes_a_feedback_law_as_simulate_does(server):
+    """An input may be a law of the state (here a saturated LQR with a switch), as on the command
+    line; a comparison outside where is refused with the CLI's message."""
+    law = "where(abs(q2 - pi/2) < 1, clip(q1 - 41.9*(q2 - pi/2) + 2.56*q1_dot - 11.7*q2_dot, -6, 6), 0)"
+    status, data = server.post_json("/api/simulate", _simulate_body(initial={"q2": 1.3}, inputs={"F": law},
+                                                                    t_end=10.0, params={}))
+    assert status == 200, data
+    traj = lg.simulate(lg.derive(lg.load("cart-pendulum")), 10.0, {"q2": 1.3}, dt=0.05, inputs={"F": law})
+    for name in traj.columns:
+        assert data["columns"][name] == traj[name].tolist()
+    assert abs(data["columns"]["q2"][-1] - 1.5707963) < 1e-2
+    status, data = server.post_json("/api/simulate", _simulate_body(inputs={"F": "5*(q1 > 0)"}))
+    assert status == 400
+    assert data["errors"][0]["key"] == "inputs.F"
+    assert data["errors"][0]["message"].startswith("the condition 'q1 > 0' is true or false, not a number: use it as "
+                                                   "the condition of where(q1 > 0, a, b)")
+
+
 def test_simulate_csv_is_the_csv_of_lagrangian_simulate(server, tmp_path):
     status, headers, body = server.request("POST", "/api/simulate?format=csv", _simulate_body())
     assert status == 200 and headers["Content-Type"].startswith("text/csv")
