@@ -214,3 +214,61 @@ def test_model_file_constraint_errors_name_their_lines(tmp_path):
             "on the coordinates as a holonomic one") in text
     assert ('bad.toml:11 [constraints[2]]: a constraint needs exactly one of holonomic = "g(q, t)"') in text
     assert "bad.toml:14 [simulation.independent]: 'z' is not a coordinate; the coordinates are x, y" in text
+
+
+def test_every_refusal_of_a_constrained_model_says_what_to_do_instead(tmp_path):
+    cartesian = lg.derive(lg.load("cartesian-pendulum"))
+    says = r"does not handle constraints yet, and model 'cartesian-pendulum' has 1 \(rod\): "
+    with pytest.raises(lg.ModelError, match=r"the search for steady motions " + says + "simulate it"):
+        lg.steady_motions(cartesian, {})
+    with pytest.raises(lg.ModelError, match=r"the continuation of equilibria " + says):
+        lg.continuation(cartesian, "g", [1.0, 2.0])
+    with pytest.raises(lg.ModelError, match=r"the report " + says + "lagrangian derive shows its equations"):
+        lg.report(cartesian)
+    with pytest.raises(lg.ModelError, match=r"simulate_batch " + says + r"simulate its runs one by one"):
+        lg.simulate_batch(cartesian, 1.0, params={"g": [9.0, 10.0]})
+    with pytest.raises(lg.ModelError, match=r"the exact \(symbolic\) linearization " + says + "its numeric"):
+        lg.linearize(cartesian, {"x": 0.0, "y": -1.0}).symbolic()
+    with pytest.raises(lg.ModelError, match=r"method 'variational' does not integrate constrained models: use "
+                                            r"method='DOP853'"):
+        lg.simulate(cartesian, t_end=1.0, method="variational")
+    with pytest.raises(lg.ModelError, match=r"sampled inputs \(sample_time\) are not held in a constrained model's "
+                                            r"simulation"):
+        lg.simulate(cartesian, t_end=1.0, sample_time=0.1)
+
+
+def test_initial_velocities_and_operating_points_that_the_constraints_refuse():
+    cartesian = lg.derive(lg.load("cartesian-pendulum"))
+    with pytest.raises(lg.ModelError, match=r"the initial velocities do not meet constraint 'rod' \(its velocity "
+                                            r"residual is -1, not 0\), and changing the velocities that were not "
+                                            r"given does not fix it"):
+        lg.simulate(cartesian, t_end=1.0, initial={"x": 1.0, "y": 0.0, "x_dot": 1.0, "y_dot": 0.0})
+    with pytest.raises(lg.ModelError, match=r"\[at\]: a constrained model is linearized about a configuration at "
+                                            r"rest: give coordinates only"):
+        lg.linearize(cartesian, {"x": 0.0, "y": -1.0, "x_dot": 1.0})
+    model = lg.load("cartesian-pendulum")
+    model.simulation["independent"] = ["y"]
+    with pytest.raises(lg.ModelError, match=r"the independent coordinates y \(\[simulation\] independent\) do not "
+                                            r"determine the others at this configuration \(2 coordinates, 1 "
+                                            r"constraints: 1 independent ones are needed"):
+        lg.linearize(lg.derive(model), {"x": 0.0, "y": -1.0})
+    knife = lg.Model("knife", coordinates=["x", "y", "phi"], parameters={"m": 1.0})
+    knife.add_energy(T="m*(x_dot**2 + y_dot**2 + phi_dot**2)/2")
+    knife.add_velocity_constraint("x_dot*sin(phi) - y_dot*cos(phi)", name="blade")
+    with pytest.raises(lg.ModelError, match=r"linearize does not handle velocity \(nonholonomic\) constraints yet"):
+        lg.linearize(lg.derive(knife))
+
+
+def test_constraint_names_that_clash_and_tables_with_both_kinds(tmp_path):
+    model = lg.Model("m", coordinates=["x", "lambda_c"])
+    with pytest.raises(lg.ModelError, match=r"constraint 'c': its multiplier 'lambda_c' is already the name of a "
+                                            r"coordinate, parameter or input; rename one of them"):
+        model.add_constraint("x - 1", name="c")
+    path = tmp_path / "both.toml"
+    path.write_text('name = "both"\ncoordinates = ["x"]\n[energy]\nT = "x_dot**2/2"\n[[constraints]]\n'
+                    'holonomic = "x"\nvelocity = "x_dot"\n[[constraints]]\nname = 3\nholonomic = "x - 1"\n')
+    with pytest.raises(lg.ModelFileError) as info:
+        lg.load(path)
+    text = str(info.value)
+    assert "both.toml:5 [constraints[0]]: a constraint needs exactly one of holonomic" in text and "got both" in text
+    assert "both.toml:9 [constraints[1].name]: a constraint's name is a string such as name = \"rod\", got the number 3" in text

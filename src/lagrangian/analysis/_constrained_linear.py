@@ -105,8 +105,7 @@ def linearize_constrained(equations: Equations, at: dict, given: set, setting):
     T[ind, range(len(ind))] = 1.0
     T[dep, :] = -np.linalg.solve(G[:, dep], G[:, ind])
     H = _hessians(equations, cm)(t, x, p)
-    K = parts["Maq"] - parts["fq"] - np.einsum("k,kij->ij", lam[cm.holonomic] if len(cm.holonomic) else
-                                               np.zeros(0), H)
+    K = parts["Maq"] - parts["fq"] - np.einsum("k,kij->ij", lam[cm.holonomic], H)
     D = -parts["fqd"]
     Mr, Kr, Dr = _clean(T.T @ M @ T), _clean(T.T @ K @ T), _clean(T.T @ D @ T)
     Kr = (Kr + Kr.T) / 2 if np.allclose(Kr, Kr.T, rtol=1e-10, atol=1e-12 * np.abs(Kr).max(initial=1)) else Kr

@@ -29,7 +29,7 @@ import numpy as np
 import symengine as se
 import sympy
 
-from ..errors import LagrangianError
+from ..errors import LagrangianError, ModelError
 from ..model import Model
 from ..model._kinematics import to_sympy
 from ._readable import readable, readable_many, text as _text
@@ -238,8 +238,6 @@ class Equations:
     def require_unconstrained(self, what: str, instead: str = "") -> None:
         """Raise a ModelError saying that `what` does not handle constraints (yet), when the model has some."""
         if self.is_constrained:
-            from ..errors import ModelError
-
             names = ", ".join(c.name for c in self.model.constraints)
             raise ModelError(f"{what} does not handle constraints yet, and model '{self.model.name}' has "
                              f"{len(self.model.constraints)} ({names}): "
@@ -431,12 +429,12 @@ class Equations:
         the i-th generalized force and damping force vanish (Q_i - dD/dq_dot_i = 0)."""
         core = self.core
         out = []
-        for c, qi, qdi, Qi in zip(self.coordinates, core.q, core.qd, core.Q):
+        for i, (c, qi, qdi, Qi) in enumerate(zip(self.coordinates, core.q, core.qd, core.Q)):
             if qi in core.L.free_symbols and _depends_on(core.L, qi):
                 continue
             if se.expand(Qi - core.D.diff(qdi)) != 0:
                 continue
-            if core.G is not None and any(se.expand(core.G[k, core.q.index(qi)]) != 0 for k in range(core.G.rows)):
+            if core.G is not None and any(se.expand(core.G[k, i]) != 0 for k in range(core.G.rows)):
                 continue  # a constraint force acts on it
             out.append(c)
         return tuple(out)

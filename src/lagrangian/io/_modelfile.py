@@ -1430,7 +1430,7 @@ class _Reader:
             if len(kinds) != 1:
                 self.problem(key, "a constraint needs exactly one of holonomic = \"g(q, t)\" (= 0, on the "
                                   "coordinates) or velocity = \"a(q, t) . q_dot + b\" (= 0, linear in the velocities)"
-                             + (f", got both" if len(kinds) == 2 else ""))
+                             + (", got both" if len(kinds) == 2 else ""))
                 continue
             name = entry.table.get("name")
             if name is not None and not isinstance(name, str):

@@ -16,6 +16,7 @@ run (the trajectory's ``constraint_drift`` reports it).
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -96,28 +97,21 @@ class ConstrainedModel:
         out = np.asarray(self._velocity(np.concatenate(([t], x, p))), float).ravel()
         return out[:m], out[m:m + m * n].reshape(m, n), out[m + m * n:].reshape(n, n)
 
-    def project(self, t, x, p, fixed=(), tol: float = 1e-14) -> np.ndarray:
+    def project(self, t, x, p, tol: float = 1e-14) -> np.ndarray:
         """The state moved onto the constraints: coordinates onto g = 0 (Gauss-Newton, the smallest
-        change of the coordinates not in `fixed`), then velocities onto G q_dot + b = 0 (the smallest
-        change of kinetic energy; with `fixed`, the smallest change of the other velocities)."""
+        change), then velocities onto G q_dot + b = 0 (the smallest change of kinetic energy)."""
         n = self.n
         x = np.array(x, float)
-        free = np.array([i for i in range(n) if i not in set(fixed)], int)
         if len(self.holonomic):
-            for _ in range(PROJECTION_STEPS + (12 if len(fixed) else 0)):
+            for _ in range(PROJECTION_STEPS):
                 g, G = self._holonomic(t, x, p)
                 if np.max(np.abs(g)) <= tol * (1.0 + np.max(np.abs(x[:n]))):
                     break
-                Gf = G[:, free]
-                dq, *_ = np.linalg.lstsq(Gf, g, rcond=None)
-                x[free] -= dq
+                dq, *_ = np.linalg.lstsq(G, g, rcond=None)
+                x[:n] -= dq
         w, G, M = self._velocity_parts(t, x, p)
-        if len(fixed):
-            dv, *_ = np.linalg.lstsq(G[:, free], w, rcond=None)
-            x[n + free] -= dv
-        else:
-            Minv_Gt = np.linalg.solve(M, G.T)
-            x[n:] -= Minv_Gt @ np.linalg.solve(G @ Minv_Gt, w)
+        Minv_Gt = np.linalg.solve(M, G.T)
+        x[n:] -= Minv_Gt @ np.linalg.solve(G @ Minv_Gt, w)
         return x
 
 
@@ -130,17 +124,14 @@ def _check_rank(G, t, x) -> None:
         raise ConstraintSingular(t, x, ratio)
 
 
-_CACHE: dict = {}
+_CACHE: "weakref.WeakKeyDictionary[Equations, ConstrainedModel]" = weakref.WeakKeyDictionary()
 
 
 def constrained_model(equations: Equations, nm) -> ConstrainedModel:
     """The ConstrainedModel of `equations` (nm: its NumericModel), cached per Equations."""
-    import weakref
-
-    key = id(equations)
-    hit = _CACHE.get(key)
-    if hit is not None and hit[0]() is equations:
-        return hit[1]
+    hit = _CACHE.get(equations)
+    if hit is not None:
+        return hit
     core = equations.core
     n, m = equations.n, len(core.g)
     inputs = [se.Symbol(u.name) for u in equations.inputs]
@@ -156,7 +147,7 @@ def constrained_model(equations: Equations, nm) -> ConstrainedModel:
                            + [core.G[k, j] for k in hol for j in range(n)] or [se.Integer(0)], cse=True, real=True)
     velocity = se.Lambdify([core.t, *state, *params], list(core.w) + G + M, cse=True, real=True)
     cm = ConstrainedModel(equations, nm, parts, position, velocity, np.array(hol, int))
-    _CACHE[key] = (weakref.ref(equations), cm)
+    _CACHE[equations] = cm
     return cm
 
 
@@ -171,10 +162,7 @@ def consistent_state(cm: ConstrainedModel, x0, fixed_names, p) -> np.ndarray:
     fixed_v = sorted({names.index(k) - n for k in fixed_names if names.index(k) >= n})
     x = np.array(x0, float)
     scale = 1.0 + np.max(np.abs(x[:n]))
-    if len(fixed_q) >= n and len(cm.holonomic):
-        free = []
-    else:
-        free = [i for i in range(n) if i not in fixed_q]
+    free = [i for i in range(n) if i not in fixed_q]
     problems = []
     if len(cm.holonomic) and free:
         rng = np.random.default_rng(1)
