@@ -243,9 +243,8 @@ def test_initial_velocities_and_operating_points_that_the_constraints_refuse():
                                             r"residual is -1, not 0\), and changing the velocities that were not "
                                             r"given does not fix it"):
         lg.simulate(cartesian, t_end=1.0, initial={"x": 1.0, "y": 0.0, "x_dot": 1.0, "y_dot": 0.0})
-    with pytest.raises(lg.ModelError, match=r"\[at\]: a constrained model is linearized about a configuration at "
-                                            r"rest: give coordinates only"):
-        lg.linearize(cartesian, {"x": 0.0, "y": -1.0, "x_dot": 1.0})
+    with pytest.raises(lg.ModelError, match=r"is not a steady motion: x changes there and the motion depends on it"):
+        lg.linearize(cartesian, {"x": 0.0, "y": -1.0, "x_dot": 1.0})  # a swing, not a steady motion
     model = lg.load("cartesian-pendulum")
     model.simulation["independent"] = ["y"]
     with pytest.raises(lg.ModelError, match=r"the independent coordinates y \(\[simulation\] independent\) do not "
@@ -255,8 +254,10 @@ def test_initial_velocities_and_operating_points_that_the_constraints_refuse():
     knife = lg.Model("knife", coordinates=["x", "y", "phi"], parameters={"m": 1.0})
     knife.add_energy(T="m*(x_dot**2 + y_dot**2 + phi_dot**2)/2")
     knife.add_velocity_constraint("x_dot*sin(phi) - y_dot*cos(phi)", name="blade")
-    with pytest.raises(lg.ModelError, match=r"linearize does not handle velocity \(nonholonomic\) constraints yet"):
-        lg.linearize(lg.derive(knife))
+    straight = lg.linearize(lg.derive(knife), {"x_dot": 2.0})  # sliding straight on: a steady motion
+    assert straight.state_names == ("x", "phi", "x_dot", "phi_dot") and straight.constrained["ignorable"] == ["y"]
+    assert np.allclose(straight.A, np.block([[np.zeros((2, 2)), np.eye(2)], [np.zeros((2, 4))]]))
+    assert straight.constrained["rates"] == {"x_dot": 2.0, "y_dot": 0.0, "phi_dot": 0.0}
 
 
 def test_constraint_names_that_clash_and_tables_with_both_kinds(tmp_path):

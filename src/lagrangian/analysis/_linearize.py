@@ -258,7 +258,10 @@ class LinearModel:
             "stable": self.stable,
             **({"constrained": {"dependent": dict(self.constrained["dependent"]),
                                 "multipliers": dict(self.constrained["multipliers"]),
-                                "basis": self.constrained["basis"]}} if self.constrained else {}),
+                                "basis": self.constrained["basis"],
+                                **{k: (list(v) if k == "ignorable" else dict(v))
+                                   for k, v in self.constrained.items() if k in ("ignorable", "rates")}}}
+               if self.constrained else {}),
         }
 
     def text(self) -> str:
@@ -273,10 +276,15 @@ class LinearModel:
                  "  M dq'' + (C + G) dq' + K dq = B0 du;  x' = A x + B u, x = ["
                  + ", ".join(self.state_names) + "]"]
         if self.constrained:
-            lines.insert(1, "  in the independent coordinates (constraints eliminated at the point): "
-                         + ", ".join(f"{k} = {v:.6g}" for k, v in self.constrained["dependent"].items())
-                         + "; multipliers " + ", ".join(f"{k} = {v:.6g}" for k, v in
-                                                        self.constrained["multipliers"].items()))
+            dependent = ", ".join(f"{k} = {v:.6g}" for k, v in self.constrained["dependent"].items())
+            lines.insert(1, "  in the independent coordinates (constraints eliminated at the point"
+                         + (f": {dependent}" if dependent else "") + "); multipliers "
+                         + ", ".join(f"{k} = {v:.6g}" for k, v in self.constrained["multipliers"].items()))
+            moving = {k: v for k, v in self.constrained.get("rates", {}).items() if v != 0}
+            if moving:
+                lines.insert(2, "  about the steady motion with " + ", ".join(f"{k} = {v:.6g}" for k, v in moving.items())
+                             + (f"; ignorable (left out: nothing depends on them): "
+                                f"{', '.join(self.constrained['ignorable'])}" if self.constrained.get("ignorable") else ""))
         for name in ("M", "C", "G", "K"):
             lines += mat(name, getattr(self, name))
         lines += mat("B0", self.input_matrix) + mat("A", self.A) + mat("B", self.B)
@@ -342,7 +350,9 @@ def linearize(equations: Equations, at: Mapping | None = None, *, inputs: Mappin
     equations : Equations
     at : mapping of str to float, or array_like, shape (n,) or (2n,)
         The operating point: coordinates and velocities by name (``{"q2": sympy.pi/2}``); those
-        not given are 0. An equilibrium's ``coordinates`` work as they are.
+        not given are 0. An equilibrium's ``coordinates`` work as they are. Default: the model's
+        ``operating_point`` (its parameters' values, overrides included), else all 0. A model with
+        velocity constraints is linearized about a steady motion (see docs/constraints.md).
     inputs : mapping of str to float
         Constant input values (default 0).
     params : mapping of str to float
@@ -363,6 +373,8 @@ def linearize(equations: Equations, at: Mapping | None = None, *, inputs: Mappin
     """
     problems: list[Problem] = []
     setting = collect_setting(equations, params, inputs, t, problems)
+    if at is None and equations.model.operating_point and not problems:
+        at = model_operating_point(equations, setting)
     point, exact = _point(equations, at, problems)
     if problems:
         raise ModelError(problems)
@@ -372,6 +384,12 @@ def linearize(equations: Equations, at: Mapping | None = None, *, inputs: Mappin
         given = {str(getattr(k, "name", k)) for k in at} if isinstance(at, Mapping) else set(equations.state_names)
         return linearize_constrained(equations, point, given, setting)
     return linearize_at(equations, point, setting, exact)
+
+
+def model_operating_point(equations: Equations, setting: Setting) -> dict[str, float]:
+    """The model's [operating_point] at the setting's parameter values."""
+    values = {sympy.Symbol(k): v for k, v in setting.parameters.items()}
+    return {k: float(sympy.sympify(e).subs(values)) for k, e in equations.model.operating_point.items()}
 
 
 def linearize_at(equations: Equations, point: Mapping[str, float], setting: Setting,

@@ -151,12 +151,8 @@ class Derivatives:
         Ma = [sum((core.M[i, j] * a[j] for j in range(n)), se.Integer(0)) for i in range(n)]
         Maq = [e.diff(qj) for e in Ma for qj in q]
         self._full = se.Lambdify(self._args + a, M + f + fq + fqd + fu + Maq, cse=True, real=True)
-        zero = {v: se.Integer(0) for v in qd}
-        fs = [fi.subs(zero) for fi in f]
-        fsq = [e.diff(qj) for e in fs for qj in q]
-        self._static = se.Lambdify(self._args, fs + fsq, cse=True, real=True)
-        self.static_forcing = tuple(fs)
         self._core = core
+        self._static_parts = None
         self._momenta = None
 
     def momenta(self, q, qd, t, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -174,10 +170,24 @@ class Derivatives:
     def _argv(self, q, qd, t, u, p, extra=()):
         return np.concatenate((q, qd, [t], u, p, extra)).astype(float)
 
+    @property
+    def static_forcing(self) -> tuple:
+        """f at rest (q_dot = 0), SymEngine expressions."""
+        return self._static_lambdified()[0]
+
+    def _static_lambdified(self):
+        if self._static_parts is None:  # built on first use (linearizing a steady motion needs none)
+            core = self._core
+            zero = {v: se.Integer(0) for v in core.qd}
+            fs = [fi.subs(zero) for fi in core.f]
+            fsq = [e.diff(qj) for e in fs for qj in core.q]
+            self._static_parts = (tuple(fs), se.Lambdify(self._args, fs + fsq, cse=True, real=True))
+        return self._static_parts
+
     def static(self, q, t, u, p) -> tuple[np.ndarray, np.ndarray]:
         """(f, df/dq) at rest (q_dot = 0): shapes (n,), (n, n)."""
         n = self.n
-        out = np.asarray(self._static(self._argv(q, np.zeros(n), t, u, p)), dtype=float).ravel()
+        out = np.asarray(self._static_lambdified()[1](self._argv(q, np.zeros(n), t, u, p)), dtype=float).ravel()
         return out[:n], out[n:].reshape(n, n)
 
     def full(self, q, qd, t, u, p, qdd) -> dict[str, np.ndarray]:

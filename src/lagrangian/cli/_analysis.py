@@ -149,8 +149,9 @@ def _operating_point(args, eqs):
     from ..analysis import equilibria, linearize
 
     params, inputs = _numbers(args.param, "param"), _numbers(args.input, "input")
-    if args.at:
-        return linearize(eqs, _numbers(args.at, "at"), params=params, inputs=inputs, t=args.t), None
+    if args.at or eqs.model.operating_point:
+        at = _numbers(args.at, "at") if args.at else None  # None: the model's [operating_point]
+        return linearize(eqs, at, params=params, inputs=inputs, t=args.t), None
     found = [e for e in equilibria(eqs, params=params, inputs=inputs, t=args.t) if e.linear_model is not None]
     stable = [e for e in found if e.stable]
     if not stable:

@@ -155,6 +155,8 @@ _TOP_LEVEL: dict[str, str] = {
     "gravity": "a table [gravity] with g and direction",
     "loads": "[[loads]] tables",
     "constraints": "[[constraints]] tables (name, and holonomic or velocity)",
+    "wheels": "[[wheels]] tables (frame, radius, axis, center, name): wheels rolling on the ground z = 0",
+    "operating_point": "a table [operating_point] of coordinate or velocity = number or expression of parameters",
     "simulation": "a table [simulation] with t_end, dt, rtol, atol, initial and inputs",
 }
 
@@ -172,13 +174,16 @@ _BODY3D_KEYS = (("mass", "inertia", "frame"), ("name", "center", "center_frame",
 _FRAME_KEYS = ("name", "parent", "origin", "rotation", "matrix")
 _ENERGY_KEYS = ("T", "V", "D")
 _GRAVITY_KEYS = ("g", "direction")
-_SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs", "sample_time", "independent")
+_SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs", "sample_time", "independent",
+                    "independent_speeds")
 _CONSTRAINT_KEYS = ("name", "holonomic", "velocity")
+_WHEEL_KEYS = (("frame", "radius"), ("name", "axis", "center"))
 #: Default element names: particle1, body2, ...
 _DEFAULT_PREFIX = {"points": "point", "particles": "particle", "bodies": "body",
                    "springs": "spring", "dampers": "damper"}
 _SINGULAR = {"points": "point", "particles": "particle", "bodies": "rigid body",
-             "springs": "spring", "dampers": "damper", "loads": "load", "constraints": "constraint"}
+             "springs": "spring", "dampers": "damper", "loads": "load", "constraints": "constraint",
+             "wheels": "wheel"}
 #: What to add for each required key of an element (for "missing key" messages).
 _EXAMPLES = {
     "mass": 'mass = "m" (and m = 1.0 under [parameters])',
@@ -556,7 +561,9 @@ class _Reader:
         self.read_frames(data.get("frames"))
         self.read_elements(data)
         self.read_constraints(data.get("constraints"))
+        self.read_wheels(data.get("wheels"))
         self.read_simulation(data.get("simulation"))
+        self.read_operating_point(data.get("operating_point"))
         self.check_model()
         self.raise_if_problems()
         return self.model
@@ -1447,6 +1454,78 @@ class _Reader:
             except ModelError as exc:
                 self.model_error(f"{key}.name" if name is not None else key, exc)
 
+    def read_wheels(self, value: object) -> None:
+        """[[wheels]] tables: frame, radius, and optionally axis (default "y"), center, name."""
+        for entry in self.element_tables("wheels", value):
+            key = entry.key
+            required, optional = _WHEEL_KEYS
+            for name in entry.table:
+                if name not in required + optional:
+                    self.unknown_key(f"{key}.{name}", name, required + optional, "[[wheels]]")
+            missing = [k for k in required if k not in entry.table]
+            for k in missing:
+                self.problem(key, f"a wheel needs {k}: " + ('frame = "wheel" (the frame that carries it, its '
+                                                             'spin its last rotation)' if k == "frame"
+                                                             else 'radius = "r" (a parameter or a number)'))
+            name, frame, axis = (entry.table.get(k) for k in ("name", "frame", "axis"))
+            for k, v in (("name", name), ("frame", frame), ("axis", axis)):
+                if v is not None and not isinstance(v, str):
+                    self.problem(f"{key}.{k}", f"expected a string, got {_describe(v)}")
+                    missing.append(k)
+            radius = self.expr(entry.table["radius"], f"{key}.radius") if "radius" in entry.table else None
+            center = entry.table.get("center", [0, 0, 0])
+            if not isinstance(center, list) or len(center) != 3:
+                self.problem(f"{key}.center", f"expected 3 expressions (the wheel's centre in its frame's axes), "
+                                              f"got {_describe(center)}")
+                continue
+            center = [self.expr(c, f"{key}.center[{i}]") for i, c in enumerate(center)]
+            if missing or radius is None or any(c is None for c in center):
+                continue
+            try:
+                wheel = self.model.add_wheel(frame, radius, axis=axis or "y", center=center, name=name)
+                for cname in wheel.constraint_names:
+                    self.key_map[f"constraint '{cname}'"] = (key, {})
+            except ModelError as exc:
+                self.model_error(key, exc)
+
+    def read_operating_point(self, value: object) -> None:
+        """[operating_point]: coordinate or velocity = number or expression of the parameters."""
+        table = self.table(value, "operating_point", 'thetaR_dot = "-v/rR"')
+        if table is None:
+            return
+        coordinates = [c.name for c in self.model.q]
+        allowed = coordinates + [f"{c}_dot" for c in coordinates]
+        params = {p.name: p for p in self.model.parameters}
+        out = {}
+        for name, item in table.items():
+            key = f"operating_point.{name}"
+            if name not in allowed:
+                self.problem(key, f"'{name}' is not a coordinate or a velocity{_did_you_mean(name, allowed, 0.5)}")
+                continue
+            e = self.expr(item, key)
+            if e is None:
+                continue
+            other = sorted(str(v) for v in e.free_symbols if v.name not in params)
+            if other:
+                self.problem(key, f"an operating point's value is a number or an expression of the parameters, got "
+                                  f"{item!r} (with {', '.join(other)})")
+                continue
+            out[name] = e
+        self.model.operating_point = out
+
+    def read_independent_speeds(self, value: object) -> list[str] | None:
+        velocities = [f"{c.name}_dot" for c in self.model.q]
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            self.problem("simulation.independent_speeds", f"expected a list of velocity names such as "
+                         f"independent_speeds = [\"{velocities[0] if velocities else 'q1_dot'}\"], got "
+                         f"{_describe(value)}")
+            return None
+        bad = [v for v in value if v not in velocities]
+        for v in bad:
+            self.problem("simulation.independent_speeds", f"'{v}' is not a velocity"
+                         f"{_did_you_mean(v, velocities, 0.5)}; the velocities are {', '.join(velocities)}")
+        return None if bad else list(value)
+
     def read_independent(self, value: object) -> list[str] | None:
         coordinates = [c.name for c in self.model.q]
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
@@ -1486,6 +1565,10 @@ class _Reader:
                 independent = self.read_independent(item)
                 if independent is not None:
                     out["independent"] = independent
+            elif name == "independent_speeds":
+                speeds = self.read_independent_speeds(item)
+                if speeds is not None:
+                    out["independent_speeds"] = speeds
             elif name == "sample_time":
                 sample_time = self.read_sample_time(item)
                 if sample_time is not None:

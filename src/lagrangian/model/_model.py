@@ -21,6 +21,7 @@ from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidB
                         Torque, Torque3D, shape_problems)
 from ._frames import AXES, WORLD, Factor, Frame, frame_pose, world_factors
 from ._symbols import check_name, ddot, dot, t
+from ._wheels import Wheel, rolling_conditions
 
 __all__ = ["Model"]
 
@@ -73,11 +74,15 @@ class Model:
         self._elements: list[Element] = []
         self._frames: dict[str, Frame] = {}
         self._constraints: list[Constraint] = []
+        self._wheels: list[Wheel] = []
         self._T = sympy.Integer(0)
         self._V = sympy.Integer(0)
         self._D = sympy.Integer(0)
         self._Q: dict[sympy.Symbol, sympy.Expr] = {}
         self.simulation: dict = {}
+        #: The state to linearize about when none is given: coordinate or velocity name -> an
+        #: expression of the parameters (a bicycle at speed v: {"thetaR_dot": -v/rR}).
+        self.operating_point: dict = {}
         self._naming_problems: list[Problem] = []
         for c in coordinates:
             self.coordinate(c)
@@ -166,6 +171,11 @@ class Model:
     def constraints(self) -> tuple[Constraint, ...]:
         """The constraints, in the order they were added."""
         return tuple(self._constraints)
+
+    @property
+    def wheels(self) -> tuple[Wheel, ...]:
+        """The rolling wheels (each adds its constraints to :attr:`constraints`)."""
+        return tuple(self._wheels)
 
     @property
     def frames(self) -> dict[str, Frame]:
@@ -583,6 +593,58 @@ class Model:
         a(q, t) . q_dot + b(q, t) (a knife edge: ``x_dot*sin(phi) - y_dot*cos(phi)``)."""
         return self._add_constraint(expression, name, VELOCITY)
 
+    def add_wheel(self, frame: str, radius, *, axis: str = "y", center=(0, 0, 0), name: str | None = None) -> Wheel:
+        """A wheel rolling without slipping on the ground plane z = 0 (z up): a disk of `radius`
+        carried by `frame`, its axle the frame's `axis` (``"x"``, ``"y"`` or ``"z"``) through `center`
+        (in the frame's axes). Adds the contact condition (holonomic, ``<name>_contact``; left out when
+        the coordinates keep the wheel on the ground) and the two no-slip conditions (velocity
+        constraints ``<name>_x``, ``<name>_y``: the rim's point at the contact has no horizontal
+        velocity), with the contact point computed from the frame's orientation. The multipliers
+        are the contact forces on the wheel: normal (+z) and friction (x, y)."""
+        self._check_mutable()
+        if name is None:
+            k = len(self._wheels) + 1
+            while f"wheel{k}" in {w.name for w in self._wheels}:
+                k += 1
+            name = f"wheel{k}"
+        where = f"wheel '{name}'"
+        why = check_name(name, "wheel")
+        if why is None and name in {w.name for w in self._wheels}:
+            why = f"two wheels are named '{name}': give each wheel its own name"
+        if why is not None:
+            raise ModelError([Problem(why, key=where)])
+        frame = self._frame_name(frame, f"{where}.frame")
+        if frame == WORLD:
+            raise ModelError(f"{where}.frame: a wheel is carried by a frame that moves with it, not the world; "
+                             "add the wheel's frame (with its spin as its last rotation) and name it")
+        if axis not in AXES:
+            raise ModelError(f"{where}.axis: '{axis}' is not an axis of the frame; the axle is \"x\", \"y\" or \"z\"")
+        r = self.expr(radius, f"{where}.radius")
+        variables = set(self.names(accelerations=True).values()) - set(self._parameters)
+        if r.free_symbols & variables:
+            raise ModelError(f"{where}.radius: a wheel's radius is a number or an expression of parameters, "
+                             f"got {r}")
+        c = self._vector(center, f"{where}.center")
+        if len(c) != 3:
+            raise ModelError(f"{where}.center: expected 3 components (in the frame's axes), got {len(c)}")
+        values = {p: v for p, v in self._parameters.items() if v is not None}
+        values.update({q: 0 for q in self._coordinates})
+        values.update({self.symbol(k): v for k, v in (self.simulation.get("initial") or {}).items()
+                       if k in {q.name for q in self._coordinates}})
+        cond = rolling_conditions(self._frames, frame, r, axis, c, self._coordinates, t, values)
+        contact = cond.contact is not None
+        wheel = Wheel(name, frame, r, axis, c, contact)
+        for cname in wheel.constraint_names:
+            if cname in {k.name for k in self._constraints}:
+                raise ModelError([Problem(f"{where}: its constraint '{cname}' is already the name of a constraint; "
+                                          "rename the wheel or the constraint", key=where)])
+        if contact:
+            self._add_constraint(cond.contact, f"{name}_contact", HOLONOMIC)
+        self._add_constraint(cond.no_slip_x, f"{name}_x", VELOCITY)
+        self._add_constraint(cond.no_slip_y, f"{name}_y", VELOCITY)
+        self._wheels.append(wheel)
+        return wheel
+
     def _add_constraint(self, expression, name, kind) -> Constraint:
         self._check_mutable()
         taken = {c.name for c in self._constraints}
@@ -695,7 +757,7 @@ class Model:
                 problems.append(Problem("a velocity constraint has no velocity in it: write a constraint on the "
                                         "coordinates as a holonomic one (add_constraint, or holonomic = \"...\" "
                                         "under [[constraints]])", key=where))
-            elif role == VELOCITY and any(sympy.diff(e, a, b) != 0 for a in free & qd for b in free & qd):
+            elif role == VELOCITY and _nonlinear_in(e, free & qd):
                 problems.append(Problem("a velocity constraint must be linear in the velocities "
                                         "(a(q, t) . q_dot + b(q, t) = 0)", key=where))
             if role in ("V", "position", "length", "inertia", "mass", "stiffness", "rest_length",
@@ -760,8 +822,10 @@ class Model:
         self._elements = list(self._elements)
         self._frames = dict(self._frames)
         self._constraints = list(self._constraints)
+        self._wheels = list(self._wheels)
         self._Q = dict(self._Q)
         self.simulation = copy.deepcopy(self.simulation)
+        self.operating_point = dict(self.operating_point)
         return self
 
     def _repr_html_(self) -> str:
@@ -800,6 +864,15 @@ class Model:
     def __repr__(self) -> str:
         return (f"Model({self.name!r}, coordinates={[c.name for c in self._coordinates]}, "
                 f"elements={len(self._elements)})")
+
+
+def _nonlinear_in(expr, variables) -> bool:
+    """Whether `expr` has a second derivative in `variables` (SymEngine: fast on large expressions)."""
+    import symengine as se
+
+    e = se.sympify(expr)
+    variables = [se.Symbol(v.name) for v in variables]
+    return any(e.diff(a).diff(b) != 0 for a in variables for b in variables)
 
 
 def _numeric(expr, values) -> float | None:

@@ -771,7 +771,8 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     integration of M q_ddot = f + G^T lambda, G q_ddot = c (see _constrained).
 
     The initial state is moved onto the constraints keeping fixed the independent coordinates
-    ([simulation] independent) and their velocities, and the values the caller gave (`initial`);
+    ([simulation] independent) and the independent speeds ([simulation] independent_speeds; default:
+    the independent coordinates' velocities), and the values the caller gave (`initial`);
     the model file's other initial values are starting guesses (the assembly closest to them is
     found). Without independent coordinates and without `initial`, the model file's values are kept."""
     from ._constrained import ConstraintSingular, consistent_state, constrained_model, integrate, \
@@ -783,7 +784,8 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     cm = constrained_model(eq, nm)
     names = nm.state_names
     independent = [str(q) for q in eq.model.simulation.get("independent", ())]
-    fixed = set(independent) | {f"{q}_dot" for q in independent}
+    speeds = [str(v) for v in eq.model.simulation.get("independent_speeds", ())]
+    fixed = set(independent) | (set(speeds) if speeds else {f"{q}_dot" for q in independent})
     if isinstance(initial, Mapping):
         fixed |= {getattr(k, "name", k) for k in initial}
         x0 = np.array(x0, float)

@@ -1,0 +1,129 @@
+"""Rolling without slipping: a wheel (a disk of radius r) on the ground plane z = 0 (z up).
+
+The wheel is carried by a frame; its axle is an axis ``a`` of that frame through the centre C.
+With the ground's normal n = e_z, the point of the rim that touches the ground is
+
+    P = C - r d,        d = (n - (n.a) a) / |n - (n.a) a| = (n - (n.a) a) / sqrt(1 - (n.a)^2),
+
+the unit vector in the wheel's plane that points most upwards (its opposite points to the ground).
+Two conditions follow (the user writes neither):
+
+- contact (holonomic): the height of P is 0, ``C_z - r sqrt(1 - a_z^2) = 0``;
+- no slip (two velocity constraints): the material point of the wheel at P has no horizontal
+  velocity, ``(v_C + omega x (P - C))_x = 0`` and ``_y = 0``; its vertical velocity is the time
+  derivative of the contact condition (the contact point slides along the rim), so it adds nothing.
+
+With the wheel's rotation about its own axle written as the last rotations of its frame (a spin
+angle), the geometry does not depend on that angle: the spin is taken out of R before P is formed
+and its rate added back to omega along the axle, so the spin angle never appears in the constraints.
+
+The multipliers are forces on the wheel at the contact: ``lambda_<name>_contact`` the normal force
+(along +z), ``lambda_<name>_x``, ``lambda_<name>_y`` the friction force's components along the world's
+axes. When the coordinates already keep the wheel on the ground (a rolling disk described by its
+contact point and its lean: C_z = r cos(lean) identically), the contact condition is identically met and
+is not added (squared, C_z^2 - r^2 (1 - a_z^2) simplifies to 0 and C_z > 0 at the model's state).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy
+
+from ._frames import AXES, Factor, chain, rotation_product
+
+__all__ = ["Wheel", "RollingConditions", "rolling_conditions", "contact_is_identity"]
+
+
+@dataclass(frozen=True)
+class Wheel:
+    """A wheel rolling without slipping on the ground z = 0: carried by `frame`, with its axle the
+    frame's `axis` through `center` (in the frame's axes), of `radius`; its constraints are named
+    ``<name>_contact`` (unless the coordinates keep it on the ground), ``<name>_x`` and ``<name>_y``."""
+
+    name: str
+    frame: str
+    radius: sympy.Expr
+    axis: str = "y"
+    center: tuple = (0, 0, 0)
+    contact: bool = True  # False: the coordinates keep the wheel on the ground
+
+    @property
+    def constraint_names(self) -> tuple[str, ...]:
+        return ((f"{self.name}_contact",) if self.contact else ()) + (f"{self.name}_x", f"{self.name}_y")
+
+
+def _spinless(frames, frame: str, axis: tuple) -> tuple[list[Factor], list[sympy.Expr]]:
+    """The world-to-frame factors with the trailing rotations about the axle taken out, and the
+    angles of those (the spin)."""
+    factors = [f for fr in chain(frames, frame) for f in fr.factors]
+    spins = []
+    while factors and factors[-1].matrix is None and tuple(sympy.sympify(a) for a in factors[-1].axis) == axis:
+        spins.append(factors.pop().angle)
+    return factors, spins
+
+
+@dataclass(frozen=True)
+class RollingConditions:
+    """The conditions of a wheel (SymPy): `contact` (of q and t; None when the coordinates keep the
+    wheel on the ground), `no_slip_x` and `no_slip_y` (linear in q_dot)."""
+
+    contact: sympy.Expr | None
+    no_slip_x: sympy.Expr
+    no_slip_y: sympy.Expr
+
+
+def rolling_conditions(frames, frame: str, radius, axis: str, center, coordinates, time,
+                       values) -> RollingConditions:
+    """The contact and no-slip conditions of a wheel on the frame `frame` (see the module);
+    `values` (parameters and a configuration) decide the sign where the contact is identically met."""
+    from ._frames import angular_velocity, frame_pose
+    from ._kinematics import Kinematics, to_sympy
+    from ._symbols import dot
+
+    def rate(expr):
+        return sum((sympy.diff(expr, q) * dot(q) for q in coordinates), sympy.diff(expr, time))
+
+    a_body = tuple(sympy.Integer(c) for c in AXES[axis])
+    origin, R_full = frame_pose(frames, frame)
+    factors, spins = _spinless(frames, frame, a_body)
+    R = rotation_product(factors)  # the frame's axes without the spin (the axle is the same)
+    C = sympy.Matrix(origin) + R_full * sympy.Matrix(center)
+    a = R * sympy.Matrix(a_body)
+    az = a[2]
+    on_ground = contact_is_identity(C[2], az, radius, values)
+    s = C[2] / radius if on_ground else sympy.sqrt(1 - az ** 2)  # |n x a|
+    d = (sympy.Matrix([0, 0, 1]) - az * a) / s
+    kin = Kinematics(coordinates)
+    omega = R * sympy.Matrix([to_sympy(w) for w in angular_velocity(tuple(factors), kin)])
+    for angle in spins:
+        omega = omega + rate(angle) * a
+    vP = sympy.Matrix([rate(c) for c in C]) + omega.cross(-radius * d)
+    return RollingConditions(None if on_ground else C[2] - radius * s, vP[0], vP[1])
+
+
+def contact_is_identity(height, az, radius, values) -> bool:
+    """Whether the coordinates keep the wheel on the ground: C_z^2 - r^2 (1 - a_z^2) vanishes
+    identically (zero at random points of its variables, the parameters near their values: an
+    expression of sines, cosines and polynomials that is not identically zero is not zero at random
+    points but on a set of measure zero), and C_z > 0 at `values` (the model's numbers)."""
+    import numpy as np
+    import symengine as se
+
+    squared = height ** 2 - radius ** 2 * (1 - az ** 2)
+    symbols = sorted(squared.free_symbols | height.free_symbols, key=str)
+    if symbols:
+        f = se.Lambdify([se.Symbol(s.name) for s in symbols], [se.sympify(squared)], real=True)
+        rng = np.random.default_rng(7)
+        base = np.array([float(values.get(s, 1.0)) for s in symbols])
+        for _ in range(5):
+            point = base * (1 + 0.3 * rng.standard_normal(len(symbols))) + 0.7 * rng.standard_normal(len(symbols))
+            scale = float(np.max(np.abs(point))) ** 2 + 1.0
+            if not abs(float(np.asarray(f(point)).ravel()[0])) <= 1e-12 * scale:
+                return False
+    elif squared != 0:
+        return False
+    try:
+        return float(height.subs(values)) > 0
+    except (TypeError, ValueError):
+        return False
