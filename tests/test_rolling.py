@@ -306,3 +306,16 @@ def test_two_wheels_with_one_name_and_a_clash_with_a_constraint_are_errors():
     m.add_velocity_constraint("x_dot", name="v_x")
     with pytest.raises(lg.ModelError, match="its constraint 'v_x' is already the name of a constraint"):
         m.add_wheel("disk", "r", name="v")
+
+
+def test_modes_of_a_gyroscopic_steady_motion_say_that_the_eigenvalues_decide(disk, capsys):
+    modes = lg.modes(lg.linearize(disk, params={"v": 1.5}))
+    assert modes.coupling == ("gyroscopic",)
+    assert "unstable" in modes.kinds  # of M and K alone: the lean has no stiffness of its own
+    omega = math.sqrt((12 * 5.0 ** 2 - 4 * 9.81 / 0.3) / 5)
+    assert np.allclose(sorted(modes.eigenvalues.imag)[-1], omega, rtol=1e-9)
+    assert main(["modes", "rolling-disk", "--param", "v=1.5"]) == 0
+    out = capsys.readouterr().out
+    assert (f"gyroscopic terms couple these modes, which are those of M and K alone: the motion's eigenvalues are "
+            f"0-{omega:.6g}j, 0, 0, 0, 0, 0+{omega:.6g}j (they, not the kinds above, decide its stability)") in out
+    assert lg.modes(lg.linearize(lg.derive(lg.load("double-pendulum")))).coupling == ()  # hanging at rest

@@ -51,6 +51,10 @@ class Modes:
         Whether the damping matrix is diagonal in the modal coordinates (classical damping).
     eigenvalues : ndarray of complex, shape (2n,)
         Of A.
+    coupling : tuple of str
+        "gyroscopic" (G != 0) and "circulatory" (K not symmetric) when the linearization has such
+        terms: the modes above are those of M and K's symmetric part alone, and the motion's
+        eigenvalues (of A) decide its stability (a spinning top, a rolling wheel, a bicycle).
     """
 
     coordinate_names: tuple[str, ...]
@@ -65,6 +69,7 @@ class Modes:
     damped_frequencies: np.ndarray = field(repr=False)
     proportional_damping: bool
     eigenvalues: np.ndarray = field(repr=False)
+    coupling: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """The JSON contract: frequencies_hz (ascending; null for unstable modes), damping_ratios
@@ -84,6 +89,7 @@ class Modes:
             "modal_masses": listed(self.modal_masses),
             "modal_stiffnesses": listed(self.modal_stiffnesses),
             "proportional_damping": self.proportional_damping,
+            "coupling": list(self.coupling),
         }
 
     def _repr_html_(self) -> str:
@@ -103,6 +109,12 @@ class Modes:
                          f"{num(self.frequencies[k], '14.6g')} {num(self.damping_ratios[k], '10.4g')}  [{shape}]")
         lines.append("damping is " + ("proportional (classical)" if self.proportional_damping else
                                       "not proportional: the modes couple through it"))
+        if self.coupling:
+            from ._linearize import _complex_text
+
+            lines.append(f"{' and '.join(self.coupling)} terms couple these modes, which are those of M and K alone: "
+                         "the motion's eigenvalues are " + ", ".join(_complex_text(z) for z in self.eigenvalues)
+                         + " (they, not the kinds above, decide its stability)")
         return "\n".join(lines)
 
 
@@ -150,9 +162,13 @@ def modes(linear_model: LinearModel) -> Modes:
     Cm = shapes @ C @ shapes.T
     off = Cm - np.diag(np.diag(Cm))
     proportional = bool(np.abs(off).max(initial=0.0) <= 1e-8 * max(np.abs(Cm).max(initial=0.0), 1e-300))
+    size = max(float(np.abs(K).max(initial=0.0)), float(np.abs(M).max(initial=0.0)), 1e-300)
+    coupling = tuple(word for word, present in (
+        ("gyroscopic", np.abs(np.asarray(lin.G)).max(initial=0.0) > 1e-12 * size),
+        ("circulatory", np.abs(K - K.T).max(initial=0.0) > 1e-12 * size)) if present)
     return Modes(lin.coordinate_names, read_only(omega), read_only(omega / (2 * math.pi)), tuple(kinds),
                  read_only(shapes), read_only(unit), read_only(modal_m), read_only(modal_k),
-                 read_only(zeta), read_only(wd), proportional, lin.eigenvalues)
+                 read_only(zeta), read_only(wd), proportional, lin.eigenvalues, coupling)
 
 
 def _damping(lin: LinearModel, shapes: np.ndarray, kinds: list[str]) -> tuple[np.ndarray, np.ndarray]:
