@@ -176,9 +176,6 @@ def test_dependent_constraints_are_diagnosed_where_the_jacobian_loses_rank():
 
 def test_errors_of_constrained_models():
     cartesian = lg.derive(lg.load("cartesian-pendulum"))
-    with pytest.raises(lg.ModelError, match=r"the search for equilibria does not handle constraints yet, and model "
-                                            r"'cartesian-pendulum' has 1 \(rod\): linearize it"):
-        lg.equilibria(cartesian)
     with pytest.raises(lg.ModelError, match=r"the configuration x = 1, y = 0 is not at rest: the constrained "
                                             r"accelerations there are .*y_ddot"):
         lg.linearize(cartesian, {"x": 1.0, "y": 0.0})
@@ -223,8 +220,6 @@ def test_every_refusal_of_a_constrained_model_says_what_to_do_instead(tmp_path):
         lg.steady_motions(cartesian, {})
     with pytest.raises(lg.ModelError, match=r"the continuation of equilibria " + says):
         lg.continuation(cartesian, "g", [1.0, 2.0])
-    with pytest.raises(lg.ModelError, match=r"the report " + says + "lagrangian derive shows its equations"):
-        lg.report(cartesian)
     with pytest.raises(lg.ModelError, match=r"simulate_batch " + says + r"simulate its runs one by one"):
         lg.simulate_batch(cartesian, 1.0, params={"g": [9.0, 10.0]})
     with pytest.raises(lg.ModelError, match=r"the exact \(symbolic\) linearization " + says + "its numeric"):

@@ -22,6 +22,10 @@ with the steady motions.
   (eigenvalues on the imaginary axis: the linearization is bounded), "unstable" (an eigenvalue with
   a positive real part, or a force of even order where K is singular), or undetermined: where M is
   singular, where the linearization is not finite, or where it is degenerate and nothing decides.
+* With holonomic constraints (``_constrained_static``) the unknowns are q and the multipliers:
+  f + G^T lambda = 0 on g = 0. Each equilibrium has its multipliers (the forces the constraints
+  exert to hold it) and the coordinates taken as dependent; its stability comes from the
+  linearization in the independent coordinates.
 """
 
 from __future__ import annotations
@@ -60,9 +64,12 @@ class Equilibrium:
     stability : str
         "asymptotically stable", "stable" (Lagrange-Dirichlet, Routh, or a restoring force of higher
         order), "marginally stable", "unstable", or "undetermined (...)" with the reason: a singular
-        mass matrix, a linearization that is not finite, or a degenerate one that does not decide.
+        mass matrix, a linearization that is not finite, or a degenerate one that does not decide;
+        with constraints, also constraints that are dependent there, or independent coordinates
+        that do not determine the others.
     eigenvalues : ndarray of complex, shape (2n,)
-        Of the state matrix A there (empty where there is no linearization).
+        Of the state matrix A there (empty where there is no linearization); with constraints, of
+        the linearization in the independent coordinates (2 (n - m) of them).
     exact : mapping of str to sympy.Expr, or None
         The solution with symbolic parameters, when SymPy found it.
     conditions : tuple of sympy relationals
@@ -78,6 +85,14 @@ class Equilibrium:
         The dimension of that set (0 when isolated; cyclic coordinates not counted).
     along : tuple of str
         When the set runs along coordinate axes: the coordinates that may take any value on it.
+    multipliers : mapping of str to float
+        A constrained model's Lagrange multipliers there, ``lambda_<name>`` (the constraint forces
+        G^T lambda balance the others); empty without constraints.
+    exact_multipliers : mapping of str to sympy.Expr, or None
+        The multipliers with symbolic parameters, when SymPy found the equilibrium.
+    dependent : mapping of str to float
+        A constrained model's dependent coordinates (those the independent ones determine; the
+        linearization is in the others) and their values; empty without constraints.
     """
 
     coordinates: Mapping[str, float]
@@ -91,10 +106,15 @@ class Equilibrium:
     isolated: bool = True
     dimension: int = 0
     along: tuple[str, ...] = ()
+    # keyword-only: SteadyMotion adds positional fields after the ones above
+    multipliers: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}), kw_only=True)
+    exact_multipliers: Mapping[str, sympy.Expr] | None = field(default=None, kw_only=True)
+    dependent: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}), kw_only=True)
 
     def to_dict(self) -> dict:
         """The JSON contract: coordinates, stable, eigenvalues ([re, im] pairs), and stability,
-        exact (SymPy strings or null), conditions, family, isolated, dimension."""
+        exact (SymPy strings or null), conditions, family, isolated, dimension, and multipliers,
+        exact_multipliers (SymPy strings or null) and dependent ({} and null without constraints)."""
         return {
             "coordinates": dict(self.coordinates),
             "stable": self.stable,
@@ -105,6 +125,10 @@ class Equilibrium:
             "family": list(self.family),
             "isolated": self.isolated,
             "dimension": self.dimension,
+            "multipliers": dict(self.multipliers),
+            "exact_multipliers": (None if self.exact_multipliers is None else
+                                  {k: sympy.sstr(v) for k, v in self.exact_multipliers.items()}),
+            "dependent": dict(self.dependent),
         }
 
     def _repr_html_(self) -> str:
@@ -120,8 +144,13 @@ class Equilibrium:
             extra += f" (any {', '.join(self.family)})"
         if not self.isolated:
             extra += f" (non-isolated: {_set_text(self.dimension, self.along, self._kind)})"
+        if self.dependent:
+            extra += f" (dependent: {', '.join(self.dependent)})"
         if self.conditions:
             extra += f" [exists when {' and '.join(condition_text(c) for c in self.conditions)}]"
+        if self.multipliers:
+            exact = self.exact_multipliers or {}
+            extra += "; " + ", ".join(f"{k} = {_value_text(v, exact.get(k))}" for k, v in self.multipliers.items())
         return coords + extra
 
     _kind = "equilibria"
@@ -179,6 +208,7 @@ def found_points(problem: StationaryProblem, setting: Setting, *, starts, seed) 
     search context (what the search saw)."""
     ctx = search_context(problem, setting)
     points: list[RootSet] = []
+    size = problem.size
     for sol, conds in problem.exact or ():
         q = evaluate_exact(problem, setting, sol)
         if q is None or not is_root(ctx, q) or any(same_point(q, other.q, problem.angles) for other in points):
@@ -189,9 +219,8 @@ def found_points(problem: StationaryProblem, setting: Setting, *, starts, seed) 
             if not any(same_point(q, other.q, problem.angles) for other in points):
                 points.append(RootSet(q, np.zeros((len(q), 0))))
     elif not conditions_hold(problem, setting):
-        n = problem.equations.n
-        points.append(RootSet(np.zeros(n), np.zeros((n, 0)),
-                              {c.name: sympy.Integer(0) for c in problem.equations.coordinates},
+        points.append(RootSet(np.zeros(size), np.zeros((size, 0)),
+                              {v.name: sympy.Integer(0) for v in problem.variables},
                               parameter_conditions(problem), {}))
     points = group_roots(ctx, points)
     points.sort(key=lambda r: tuple(np.round(r.q, 9)))
@@ -213,9 +242,11 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     t : float
         The time, for equations that contain t (they must not, at rest).
     exact : bool
-        Try SymPy first (for up to 3 unknowns, within a time limit of a few seconds).
+        Try SymPy first (for up to 3 unknowns, 4 with constraints counting the multipliers, within a
+        time limit of a few seconds).
     starts : int
-        Number of starting points of the numerical search (default 24 + 24 per unknown).
+        Number of starting points of the numerical search (default 24 + 24 per unknown coordinate;
+        the multipliers of a constrained model follow from each start).
     seed : int
         Seed of the random starting points (results are reproducible).
 
@@ -228,28 +259,52 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     Raises
     ------
     ModelError
-        Bad names or values, or equations that depend on t at rest.
+        Bad names or values, equations that depend on t at rest, a constraint that depends on t, or
+        a velocity (nonholonomic) constraint.
+
+    Notes
+    -----
+    With holonomic constraints g(q) = 0 the equilibria solve f + G^T lambda = 0, g = 0 for q and
+    the multipliers; each has its `multipliers` and `dependent` coordinates, and its stability
+    from the linearization in the independent coordinates.
     """
-    equations.require_unconstrained("the search for equilibria", "linearize it about a configuration at rest "
-                                    "(lagrangian linearize MODEL --at ...), which works in independent coordinates, "
-                                    "or simulate it")
     setting = resolve_setting(equations, params, inputs, t)
-    problem = stationary_problem(equations, setting.inputs, setting.t, exact, values=setting.p)
+    if equations.is_constrained:
+        from ._constrained_static import constrained_problem
+
+        problem = constrained_problem(equations, setting.inputs, setting.t, exact, values=setting.p)
+    else:
+        problem = stationary_problem(equations, setting.inputs, setting.t, exact, values=setting.p)
     points, ctx = found_points(problem, setting, starts=starts, seed=seed)
     found = tuple(make_equilibrium(problem, setting, r.q, r.exact, r.conditions, r.tangent, r.solution)
                   for r in points)
     notes = (no_root_reasons(problem, setting, ctx, "an equilibrium") if not found
              else completeness_notes(problem, ctx, "the equilibria"))
+    if problem.multipliers:
+        from ._constrained_static import forceless_note
+
+        notes = forceless_note(problem, setting) + notes
     return Equilibria(found, notes)
 
 
 def make_equilibrium(problem: StationaryProblem, setting: Setting, q: np.ndarray, exact=None,
                      conditions=(), tangent: np.ndarray | None = None, solution: dict | None = None) -> Equilibrium:
     eqs = problem.equations
-    tangent = np.zeros((eqs.n, 0)) if tangent is None else tangent
+    tangent = np.zeros((problem.size, 0)) if tangent is None else tangent
     coords = MappingProxyType({c.name: float(v) for c, v in zip(eqs.coordinates, q)})
+    along = free_axes(search_context(problem, setting), q, tangent)
+    if problem.multipliers:
+        from ._constrained_static import assess_constrained, multiplier_values
+
+        a, dependent = assess_constrained(problem, setting, q, tangent)
+        names = {mu.name for mu in problem.multipliers}
+        exact_lambda = None if exact is None else MappingProxyType({k: v for k, v in exact.items() if k in names})
+        exact = None if exact is None else MappingProxyType({k: v for k, v in exact.items() if k not in names})
+        return Equilibrium(coords, a.stable, a.stability, a.eigenvalues, exact, tuple(conditions), problem.family,
+                           a.linear_model, not tangent.shape[1], tangent.shape[1], along,
+                           multipliers=multiplier_values(problem, q), exact_multipliers=exact_lambda,
+                           dependent=MappingProxyType(dependent))
     exact = None if exact is None else MappingProxyType(dict(exact))
     a = assess(problem, setting, q, tangent, exact, solution)
-    along = free_axes(search_context(problem, setting), q, tangent)
     return Equilibrium(coords, a.stable, a.stability, a.eigenvalues, exact, tuple(conditions), problem.family,
                        a.linear_model, not tangent.shape[1], tangent.shape[1], along)

@@ -34,6 +34,10 @@ __all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots",
 _RESIDUAL = 1e-9
 #: A root's Newton correction, relative to 1 + |q|.
 _NEWTON = 1e-6
+#: Steps of a walk between two roots without getting nearer before it gives up.
+_STALL = 30
+#: Walks between groups of roots that failed one after the other before the grouping stops.
+_FAILED_IN_A_ROW = 40
 
 
 # --------------------------------------------------------------------------- the search
@@ -117,7 +121,7 @@ def _precise_newton_ok(ctx: Search, q: np.ndarray) -> bool:
     problem = ctx.problem
     eqs = problem.equations
     unk = list(problem.unknowns)
-    xs = [eqs.coordinates[i] for i in unk]
+    xs = [problem.variables[i] for i in unk]
     if not problem._precise:
         rows = sympy.Matrix([problem.static_sympy[i] for i in problem.rows])
         args = [*xs, *problem.constants, eqs.t]
@@ -183,12 +187,12 @@ def _note_runaway(ctx: Search, start: np.ndarray, end: np.ndarray) -> None:
     problem = ctx.problem
     for i in problem.unknowns:
         if not problem.angles[i] and (not math.isfinite(end[i]) or abs(end[i]) > 1e4 * (1 + abs(start[i]))):
-            name = problem.equations.coordinates[i].name
+            name = problem.variables[i].name
             ctx.runaway[name] = ctx.runaway.get(name, 0) + 1
 
 
 def _starts(problem: StationaryProblem, setting: Setting, count: int, seed: int) -> list[np.ndarray]:
-    n = problem.equations.n
+    n = problem.size
     rng = np.random.default_rng(seed)
     p = np.abs(setting.p[np.isfinite(setting.p)])
     lengths = sorted({float(x) for x in p if x > 0} | {1.0})
@@ -210,6 +214,10 @@ def _starts(problem: StationaryProblem, setting: Setting, count: int, seed: int)
                 scale = lengths[k % len(lengths)] * 10.0 ** rng.uniform(-2, 1)
                 q[i] = scale * rng.choice([-1, 1]) if k else 0.0
         starts.append(q)
+    if problem.multipliers:  # each start's multipliers: those that balance its forces best
+        from ._constrained_static import balancing_multipliers
+
+        starts = [balancing_multipliers(problem, setting, q) for q in starts]
     return starts
 
 
@@ -220,7 +228,7 @@ def numeric_roots(problem: StationaryProblem, setting: Setting, *, starts: int |
     if conditions_hold(problem, setting):
         return []
     ctx = ctx or search_context(problem, setting)
-    k = len(problem.unknowns)
+    k = sum(1 for i in problem.unknowns if i < problem.equations.n)  # the multipliers follow the coordinates
     count = starts if starts is not None else 24 + 24 * k
     found: list[np.ndarray] = []
     points = [*guesses, *_starts(problem, setting, count, seed)]
@@ -276,7 +284,7 @@ def _project(ctx: Search, q: np.ndarray, iterations: int = 60) -> np.ndarray | N
 def _tangent(ctx: Search, q: np.ndarray) -> np.ndarray:
     """The directions (columns, in full q) along which the roots through q continue."""
     problem = ctx.problem
-    n, unk = problem.equations.n, list(problem.unknowns)
+    n, unk = problem.size, list(problem.unknowns)
     with np.errstate(all="ignore"):
         _, J = residual(problem, ctx.setting, q)
     k = len(unk)
@@ -314,11 +322,18 @@ def _connected(ctx: Search, a: np.ndarray, b: np.ndarray, budget: int = 400) -> 
 
     c = np.array(a, dtype=float)
     h = 0.1 * (1.0 + float(np.linalg.norm(towards(c))))
+    best, since = math.inf, 0
     for _ in range(budget):
         gap = towards(c)
         dist = float(np.linalg.norm(gap))
         if dist <= 1e-6 * (1.0 + float(np.abs(c[unk]).max(initial=0.0))):
             return True
+        if dist < (1.0 - 1e-3) * best:
+            best, since = dist, 0
+        else:
+            since += 1
+            if since > _STALL:  # stuck where the set passes nearest b: b is on another set, or far round this one
+                return False
         t = _tangent(ctx, c)[unk]
         if not t.shape[1]:
             return False
@@ -360,17 +375,26 @@ def group_roots(ctx: Search, roots: list[RootSet]) -> list[RootSet]:
             k = parent[k]
         return k
 
-    pairs = sorted(((float(np.linalg.norm(out[a].q - out[b].q)), a, b) for i, a in enumerate(loose)
-                    for b in loose[i + 1:]))
-    attempts = 0
+    def gap(a, b):  # angles a whole turn apart are the same
+        d = out[a].q - out[b].q
+        for i, is_angle in enumerate(ctx.problem.angles):
+            if is_angle:
+                d[i] = math.remainder(d[i], 2 * math.pi)
+        return float(np.linalg.norm(d))
+
+    pairs = sorted((gap(a, b), a, b) for i, a in enumerate(loose) for b in loose[i + 1:])
+    attempts = failed = 0
     for _, a, b in pairs:  # nearest first, as in Kruskal's algorithm: a chain of short walks joins a set
         if find(a) == find(b) or out[a].dimension != out[b].dimension:
             continue
         attempts += 1
-        if attempts > 200:
+        if attempts > 200 or failed > _FAILED_IN_A_ROW:  # the rest lie on other sets (a mechanism's assembly modes)
             break
         if _connected(ctx, out[a].q, out[b].q):
             parent[find(a)] = find(b)
+            failed = 0
+        else:
+            failed += 1
     groups: dict[int, list[int]] = {}
     for k in loose:
         groups.setdefault(find(k), []).append(k)
@@ -395,7 +419,7 @@ def free_axes(ctx: Search, q: np.ndarray, tangent: np.ndarray) -> tuple[str, ...
             moved[i] += d
             if not is_root(ctx, moved):
                 return ()
-        names.append(problem.equations.coordinates[i].name)
+        names.append(problem.variables[i].name)
     return tuple(names)
 
 
@@ -408,6 +432,12 @@ def no_root_reasons(problem: StationaryProblem, setting: Setting, ctx: Search, w
     out = []
     if failed:
         for i in failed:
+            if i >= eqs.n:  # a constraint free of the unknowns that does not hold
+                con = eqs.model.constraints[i - eqs.n]
+                value = complex(sympy.N(problem.static_sympy[i].subs(values)))
+                out.append(f"constraint '{con.name}', {sympy.sstr(con.expression)} = 0, never holds "
+                           f"({value.real:.6g} with these values)")
+                continue
             name = eqs.coordinates[i].name
             row = problem.static_sympy[i]
             dV = to_sympy(eqs.core.V.diff(eqs.core.q[i]))

@@ -28,7 +28,7 @@ from ..errors import ModelError
 from ._setting import Setting, derivatives
 from ._stationary import StationaryProblem, conserved_cyclic, constant_map, state_velocities
 
-__all__ = ["assess", "Assessment", "routh_stiffness", "UNDETERMINED", "DEGENERATE", "NOT_FINITE"]
+__all__ = ["assess", "Assessment", "classify_across", "routh_stiffness", "UNDETERMINED", "DEGENERATE", "NOT_FINITE"]
 
 
 #: The stability of a stationary state where M is singular: no linearization exists there.
@@ -92,7 +92,7 @@ def assess(problem: StationaryProblem, setting: Setting, q: np.ndarray, tangent:
     """Linearize about the stationary state at q and classify it (see the module docstring of
     lagrangian.analysis._equilibria for the classes)."""
     from ..errors import SingularMassMatrixError
-    from ._linearize import classify, linearize_at
+    from ._linearize import linearize_at
 
     eqs = problem.equations
     n = eqs.n
@@ -107,12 +107,28 @@ def assess(problem: StationaryProblem, setting: Setting, q: np.ndarray, tangent:
         return Assessment(None, NOT_FINITE, False, _read_only(np.zeros(0, complex)), qd)
     K = routh_stiffness(problem, setting, q, qd)
     P, kept = _basis(problem, tangent)
+    stability, stable, degenerate, Cp = classify_across(lin.A, K, lin.C, lin.G, P, kept)
+    if degenerate:
+        stability, stable = _higher_order(problem, setting, tangent, exact_solution, Cp)
+    return Assessment(lin, stability, stable, lin.eigenvalues, qd)
+
+
+def classify_across(A, K, C, G, P: np.ndarray, kept: int) -> tuple[str, bool, bool, np.ndarray]:
+    """(stability, stable, degenerate, damping in the basis) of the linearization A (2n x 2n), K, C,
+    G (n x n) in the orthonormal basis P of q-space whose first `kept` columns run across the set of
+    stationary states (the others along it: moving along them changes nothing). `degenerate`: the
+    linearization does not decide (no eigenvalue grows, and K is singular across the set or an
+    eigenvalue on the axis is defective), so a higher-order test must."""
+    from ._linearize import classify
+
+    n = P.shape[0]
     B = np.zeros((2 * n, 2 * n))
     B[:n, :n] = B[n:, n:] = P
-    A = B.T @ np.asarray(lin.A) @ B
-    Kp, Cp, Gp = (P.T @ np.asarray(m) @ P for m in (K, lin.C, lin.G))
+    A = B.T @ np.asarray(A) @ B
+    Kp, Cp, Gp = (P.T @ np.asarray(m) @ P for m in (K, C, G))
     keep = np.arange(kept)
     stability, stable, _ = classify(A, Kp, Cp, Gp, keep)
+    degenerate = False
     if stability in ("unstable", "marginally stable"):
         rows = np.concatenate((keep, n + np.arange(n)))
         lam = np.linalg.eigvals(A[np.ix_(rows, rows)]) if rows.size else np.zeros(0)
@@ -121,9 +137,8 @@ def assess(problem: StationaryProblem, setting: Setting, q: np.ndarray, tangent:
         Kt = Kp[np.ix_(keep, keep)]
         sv = np.linalg.svd(Kt, compute_uv=False) if Kt.size else np.zeros(0)
         singular = bool(sv.size) and sv.min() <= 1e-9 * max(float(sv.max()), 1e-300)
-        if not growing and (stability == "unstable" or singular):
-            stability, stable = _higher_order(problem, setting, tangent, exact_solution, Cp)
-    return Assessment(lin, stability, stable, lin.eigenvalues, qd)
+        degenerate = bool(not growing and (stability == "unstable" or singular))
+    return stability, stable, degenerate, Cp
 
 
 def _higher_order(problem: StationaryProblem, setting: Setting, tangent: np.ndarray, solution: dict | None,

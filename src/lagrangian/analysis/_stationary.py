@@ -15,6 +15,10 @@ as "any x". Rows that contain no unknown are conditions on the parameters.
 This module states the problem (which rows, which unknowns, the exact solutions with symbolic
 parameters, inputs, rates and momenta) and evaluates its residual; ``_roots`` finds and checks the
 roots, ``_stability`` classifies them.
+
+A model with holonomic constraints adds its multipliers to the variables (``_constrained_static``
+states that problem: f + G^T lambda = 0 and g = 0 in (q, lambda)); everything here and in
+``_roots`` works on the variables, the coordinates followed by the multipliers.
 """
 
 from __future__ import annotations
@@ -39,7 +43,8 @@ from ._linearize import cyclic_coordinates
 from ._setting import Setting, derivatives
 
 __all__ = ["StationaryProblem", "stationary_problem", "conserved_cyclic", "state_velocities", "forces",
-           "residual", "conditions_hold", "parameter_conditions", "constant_map", "evaluate_exact", "normalized_exact", "wrap_angles", "same_point"]
+           "residual", "conditions_hold", "parameter_conditions", "constant_map", "evaluate_exact",
+           "normalized_exact", "wrap_angles", "same_point", "solved_exactly"]
 
 #: Seconds SymPy may spend looking for exact solutions before the numerical search takes over.
 EXACT_TIME_LIMIT = 5.0
@@ -49,15 +54,19 @@ _MAX_EXACT_UNKNOWNS = 3
 # --------------------------------------------------------------------------- the problem
 @dataclass(frozen=True, eq=False)
 class StationaryProblem:
-    """f(q, q_dot) = 0 in a stationary state, for one Equations object.
+    """f(q, q_dot) = 0 in a stationary state, for one Equations object; with holonomic constraints,
+    f + G^T lambda = 0 and g = 0 in the variables (q, lambda).
+
+    Indices (unknowns, rows, angles) count the variables: the n coordinates, then the multipliers
+    (none without constraints).
 
     Attributes
     ----------
     equations : Equations
     unknowns : tuple of int
-        The coordinates solved for (those the equations contain).
-    angles : tuple of bool, shape (n,)
-        Which coordinates are angles (the equations are 2 pi-periodic in them).
+        The variables solved for (the coordinates the equations contain, and the multipliers).
+    angles : tuple of bool, shape (n + number of multipliers,)
+        Which variables are angles (the equations are 2 pi-periodic in them).
     family : tuple of str
         Cyclic coordinates (absent from M and f): the state holds for every value of these.
     rows : tuple of int
@@ -81,6 +90,9 @@ class StationaryProblem:
         SymPy ran to completion (then an empty `exact` means it proved there is no solution).
     exact_velocities : tuple of dict
         For each exact solution, the rates found from fixed momenta ({index: expression}).
+    multipliers : tuple of sympy.Symbol
+        The constraints' multipliers, the variables after the coordinates (empty without
+        constraints).
     """
 
     equations: Equations
@@ -97,8 +109,19 @@ class StationaryProblem:
     exact_functions: tuple = ()
     exact_complete: bool = False
     exact_velocities: tuple = ()
+    multipliers: tuple = ()
     _contexts: dict = field(default_factory=dict, repr=False)
     _precise: list = field(default_factory=list, repr=False)
+
+    @property
+    def variables(self) -> tuple:
+        """The symbols of the variables: the coordinates, then the multipliers."""
+        return (*self.equations.coordinates, *self.multipliers)
+
+    @property
+    def size(self) -> int:
+        """The number of variables."""
+        return self.equations.n + len(self.multipliers)
 
     @property
     def moving(self) -> bool:
@@ -207,12 +230,13 @@ def _simplify_relational(c):
     return c
 
 
-def _exact_solutions(equations: Equations, exprs: list, unknowns: tuple[int, ...], constants: tuple,
-                     values: np.ndarray, unknown_rates: dict):
-    """(SymPy's solutions of exprs = 0 for the unknowns, complete): None when it fails or takes too
-    long. `unknown_rates` maps a coordinate index to the expression of its rate (fixed momenta)."""
-    qs = [equations.coordinates[i] for i in unknowns]
-    if not exprs or len(qs) > _MAX_EXACT_UNKNOWNS or sum(sympy.count_ops(e) for e in exprs) > 400:
+def _exact_solutions(variables: tuple, exprs: list, unknowns: tuple[int, ...], constants: tuple,
+                     values: np.ndarray, unknown_rates: dict, most: int = _MAX_EXACT_UNKNOWNS):
+    """(SymPy's solutions of exprs = 0 for the unknowns, complete): None when it fails, takes too
+    long, or has more than `most` unknowns. `variables` are the symbols the unknowns index;
+    `unknown_rates` maps a coordinate index to the expression of its rate (fixed momenta)."""
+    qs = [variables[i] for i in unknowns]
+    if not exprs or len(qs) > most or sum(sympy.count_ops(e) for e in exprs) > 400:
         return None, False
     # constants whose value is positive are solved as positive symbols: conditions simplify
     assumptions = {c: sympy.Symbol(c.name, positive=True) for c, v in zip(constants, values)
@@ -234,7 +258,7 @@ def _exact_solutions(equations: Equations, exprs: list, unknowns: tuple[int, ...
         if any(not s[q].free_symbols <= allowed for q in qs):
             return None, False
         sol = {unknowns[k]: s[q].subs(back) for k, q in enumerate(qs)}
-        at = {equations.coordinates[i]: e for i, e in sol.items()}
+        at = {variables[i]: e for i, e in sol.items()}
         rates.append({i: e.subs(at) for i, e in unknown_rates.items()})
         out.append((sol, _conditions(sol, assumptions)))
     return (tuple(out), tuple(rates)), True
@@ -297,19 +321,28 @@ def stationary_problem(equations: Equations, inputs: Mapping[str, float], t: flo
                                 constants, None)
     if not (exact and unknowns and rows):
         return problem
+    return solved_exactly(problem, inputs, values, unknown_rates)
+
+
+def solved_exactly(problem: StationaryProblem, inputs: Mapping[str, float], values: np.ndarray | None,
+                   unknown_rates: dict | None = None, most: int = _MAX_EXACT_UNKNOWNS) -> StationaryProblem:
+    """The problem with SymPy's solutions, when it finds them all (for at most `most` unknowns, within
+    EXACT_TIME_LIMIT); `values` are the parameter values (for the sign assumptions)."""
+    equations, velocities, momenta = problem.equations, problem.velocities, problem.momenta
+    unknown_rates = unknown_rates or {}
     defaults = np.array([v if v is not None else math.nan for v in equations.parameters.values()], dtype=float)
     given = defaults if values is None else np.where(np.isfinite(values), values, defaults)
     cvalues = np.concatenate((given, [float(inputs.get(u.name, 0.0)) for u in equations.inputs],
                               [velocities[i] for i in sorted(velocities) if velocities[i]],
                               [momenta[i] for i in sorted(momenta)]))
-    found, complete = _exact_solutions(equations, [static[i] for i in rows], unknowns, constants, cvalues,
-                                       unknown_rates)
+    found, complete = _exact_solutions(problem.variables, [problem.static_sympy[i] for i in problem.rows],
+                                       problem.unknowns, problem.constants, cvalues, unknown_rates, most)
     if found is None:
         return _replace(problem, exact_complete=complete)
     sols, rates = found
     conds = parameter_conditions(problem)
     sols = tuple((sol, c + conds) for sol, c in sols)
-    functions = tuple(sympy.lambdify(constants, [sol[i] for i in sorted(sol)], modules="numpy")
+    functions = tuple(sympy.lambdify(problem.constants, [sol[i] for i in sorted(sol)], modules="numpy")
                       for sol, _ in sols)
     return _replace(problem, exact=sols, exact_functions=functions, exact_complete=True, exact_velocities=rates)
 
@@ -407,7 +440,12 @@ def forces(problem: StationaryProblem, setting: Setting, q: np.ndarray):
 
 
 def residual(problem: StationaryProblem, setting: Setting, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(r, dr/dz): the rows that must vanish, and their Jacobian in the unknowns."""
+    """(r, dr/dz): the rows that must vanish, and their Jacobian in the unknowns (q: all the
+    variables, the multipliers after the coordinates)."""
+    if problem.multipliers:
+        from ._constrained_static import constrained_residual
+
+        return constrained_residual(problem, setting, q)
     f, fq, _ = forces(problem, setting, q)
     rows, unk = list(problem.rows), list(problem.unknowns)
     return f[rows], fq[np.ix_(rows, unk)]
@@ -462,7 +500,7 @@ def evaluate_exact(problem: StationaryProblem, setting: Setting, solution: dict,
             zs = problem.exact_functions[k](*np.asarray(problem.constant_values(setting), dtype=complex))
         except (ZeroDivisionError, ValueError, TypeError):
             return None
-    q = np.zeros(problem.equations.n)
+    q = np.zeros(problem.size)
     for i, z in zip(sorted(solution), zs):
         z = complex(z)
         if not (math.isfinite(z.real) and math.isfinite(z.imag)) or abs(z.imag) > 1e-9 * (1 + abs(z.real)):
@@ -472,11 +510,11 @@ def evaluate_exact(problem: StationaryProblem, setting: Setting, solution: dict,
 
 
 def normalized_exact(problem: StationaryProblem, setting: Setting, solution: dict) -> dict[str, sympy.Expr]:
-    """{coordinate name: expression} with whole turns removed from angles so that, at the setting,
+    """{variable name: expression} with whole turns removed from angles so that, at the setting,
     the expression gives the wrapped value (2*pi - acos(c) becomes -acos(c))."""
     raw = evaluate_exact(problem, setting, solution, wrap=False)
     wrapped = wrap_angles(raw, problem.angles)
-    out = {problem.equations.coordinates[i].name: (_wrap_exact(expr, raw[i], wrapped[i]) if problem.angles[i]
+    out = {problem.variables[i].name: (_wrap_exact(expr, raw[i], wrapped[i]) if problem.angles[i]
                                                     else expr) for i, expr in solution.items()}
     for name in problem.family:
         out[name] = sympy.Integer(0)
