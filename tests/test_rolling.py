@@ -319,3 +319,29 @@ def test_modes_of_a_gyroscopic_steady_motion_say_that_the_eigenvalues_decide(dis
     assert (f"gyroscopic terms couple these modes, which are those of M and K alone: the motion's eigenvalues are "
             f"0-{omega:.6g}j, 0, 0, 0, 0, 0+{omega:.6g}j (they, not the kinds above, decide its stability)") in out
     assert lg.modes(lg.linearize(lg.derive(lg.load("double-pendulum")))).coupling == ()  # hanging at rest
+
+
+# --------------------------------------------------------------------------- compiled constrained integration
+
+
+@pytest.mark.parametrize("name, t_end", [("cartesian-pendulum", 20.0), ("four-bar", 5.0), ("slider-crank", 5.0),
+                                         ("whipple-bicycle", 3.0), ("rolling-disk", 5.0)])
+def test_the_compiled_constrained_integration_takes_scipys_steps_and_holds_the_constraints(name, t_end):
+    eqs = lg.derive(lg.load(name))
+    fast = lg.simulate(eqs, t_end=t_end, rtol=1e-10, atol=1e-10)
+    slow = lg.simulate(eqs, t_end=t_end, rtol=1e-10, atol=1e-10, backend="scipy")
+    assert fast.stats["backend"] == "numba" and slow.stats["backend"] == "scipy"
+    assert fast.stats["nstep"] == slow.stats["nstep"]  # the same DOP853 and the same projection
+    for s in eqs.state_names:
+        assert np.max(np.abs(fast[s] - slow[s])) < 1e-6 * (1 + np.max(np.abs(slow[s])))
+    assert np.allclose(fast.multipliers, slow.multipliers, rtol=1e-5, atol=1e-6 * np.max(np.abs(slow.multipliers)))
+    assert fast.stats["constraint_drift"]["position"] < 1e-10
+    assert fast.stats["constraint_drift"]["velocity"] < 1e-12
+    assert abs(fast.energy[-1] - fast.energy[0]) < 1e-7 * max(1.0, abs(fast.energy[0]))
+
+
+def test_the_c_backend_refuses_constraints_with_a_fix():
+    eqs = lg.derive(lg.load("cartesian-pendulum"))
+    with pytest.raises(lg.ModelError, match=r"the C backend does not take constraints yet: use backend='auto' or "
+                                            r"'numba' \(the compiled constrained integration\), or 'scipy'"):
+        lg.simulate(eqs, t_end=1.0, backend="c")

@@ -26,7 +26,7 @@ __all__ = ["cache_dir", "model_key", "numba_source", "c_source", "load_module", 
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "17"
+GENERATOR_VERSION = "19"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",
@@ -66,9 +66,11 @@ def model_key(equations: Equations, backend: str = "numba") -> str:
     core = equations.core
     h = hashlib.sha256()
     h.update(f"{GENERATOR_VERSION}|{backend}|{_names(equations)}".encode())
-    for e in (*core.M, *core.f, core.L, core.D, *core.Q, *core.p):
+    for e in (*core.M, *core.f, core.L, core.D, *core.Q, *core.p, *core.g, *core.w, *core.c):
         h.update(str(e).encode())
         h.update(b"|")
+    if core.G is not None:
+        h.update(str(list(core.G)).encode())
     return h.hexdigest()[:24]
 
 
@@ -474,9 +476,13 @@ def numba_source(equations: Equations, part: str = "main") -> str:
     Mlow, f, h, pm, F = _model_parts(equations, part)
     pr = _Printer(equations, "py")
     out = ['"""' + _header(equations) + '"""', _prelude(), f"N = {n}", f"NU = {nu}", f"NPAR = {npar}"]
-    if n > UNROLL_MAX and part == "main":
+    if n > UNROLL_MAX and part == "main" and not equations.is_constrained:
         out.append(_SOLVE_LOOP.replace("@N@", str(n)).replace("@SINGULAR@", repr(SINGULAR)))
-    if part == "main":
+    if part == "main" and equations.is_constrained:
+        from ._codegen_constrained import constrained_main
+
+        out += constrained_main(equations)
+    elif part == "main":
         out += _cfunc_head("rhs", "_SIG_RHS", (("dx", 2 * n), ("work", n * n + 2 * n)), n, nu, npar,
                            "dx = [q_dot, q_ddot]; returns the inertia measure of M (min_j D_j / M_jj of "
                            "its LDL^T factorization: 0 when singular) or -1.0 when f is not finite.")
@@ -491,6 +497,7 @@ def numba_source(equations: Equations, part: str = "main") -> str:
             out += _ldl(n, "py", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
         else:
             out.append("    return _solve_loop(work, x, dx)")
+    if part == "main":
         out += _cfunc_head("energy", "_SIG_DOUBLE", (), n, nu, npar,
                            "The Jacobi integral h = q_dot . dL/dq_dot - L (the energy T* + V when T* = T2).")
         out += pr.unpack()

@@ -56,6 +56,7 @@ class CompiledModel:
     key: str
     rhs_c: object = field(repr=False)
     energy_c: object = field(repr=False)
+    project_c: object = field(default=None, repr=False)  # a constrained model's projection
 
     @property
     def n(self) -> int:
@@ -239,7 +240,7 @@ def compile_numba(equations: Equations) -> "CompiledModel":
     values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
     cm = CompiledModel(equations, "numba", equations.state_names, tuple(u.name for u in equations.inputs),
                        tuple(p.name for p in equations.parameters), values, str(path), key,
-                       module.rhs, module.energy)
+                       module.rhs, module.energy, getattr(module, "project", None))
     with _LOCK:
         return per.setdefault("numba", cm)
 
@@ -354,8 +355,9 @@ def no_sampling(m: int) -> tuple[Sampling, np.ndarray]:
 
 def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
                first_step: float = 0.0, events=None, terminal=(), progress: bool | None = None,
-               sampling: Sampling | None = None) -> RawRun:
-    """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `events`:
+               sampling: Sampling | None = None, project: int = 0, nwork: int = 0) -> RawRun:
+    """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `project`, `nwork`:
+    a constrained model's projection (its address) and the size of its rhs's work array. `events`:
     the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it.
     `progress`: draw a progress bar (default: when stderr is a terminal and it takes over 1 s).
     `sampling`: the sampled inputs (default: none)."""
@@ -386,7 +388,7 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
                                 max(prog.nstack, events.nstack), rtol, float(atol), float(max_step),
                                 float(first_step), X, info, stats, *stage_table(), events.ops, events.args,
                                 events.starts, eterm, ev_t, ev_k, ev_x, ev_n, sampling.hold, sampling.samples,
-                                sampling.which, hist)
+                                sampling.which, hist, int(project), int(nwork))
 
     status = call() if progress is False else _with_progress(call, stats, len(times), progress)
     k = int(stats[3])

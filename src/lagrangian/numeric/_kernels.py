@@ -598,8 +598,13 @@ def _rms(a, b):
 @njit(cache=True, nogil=True)
 def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_step, first_step,
            X_out, info, stats, aptr, aidx, aval, cc, eops, eargs, estarts, eterm, ev_t, ev_k, ev_x, ev_n,
-           hold, samples, which, hist):
+           hold, samples, which, hist, proj, nwork):
     """Integrate x' = f(t, x, u, p) from (t0, x0) with DOP853; X_out[j] = x(t_out[j]).
+
+    A constrained model passes `proj`, the address of its projection project(t, x, u, p, work,
+    drift) (0: none), called on the state after every accepted step and on the outputs of the step
+    (the right-hand side is evaluated again at the projected state), and `nwork`, the size of the
+    work array its rhs needs (0: the default n * n + 2 n).
 
     Returns the status (see lagrangian.numeric._kernels.STATUS); unless 0, info = [t, inertia
     measure (or, status 4, the event's index), x...] where it stopped; stats = [nfev, accepted
@@ -629,7 +634,9 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
     u = np.empty(max(1, nin))
     held = np.zeros(max(1, nin))
     stack = np.empty(nstack)
-    work = np.empty(n * n + 2 * n)
+    work = np.empty(max(nwork, n * n + 2 * n))
+    drift = np.zeros(2)
+    pdr = _ptr(drift, 0)
     nsw = switch_count(ops, args)
     modes = np.zeros(max(1, nsw))
     mlive = np.zeros(max(1, nsw))
@@ -889,6 +896,7 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
             if stats.shape[0] > 4:
                 stats[4] = nswitch
             return 4
+        j0 = j
         while j < nout and t_out[j] <= tnew:
             if t_out[j] == tnew:
                 for i in range(nx):
@@ -896,6 +904,18 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
             else:
                 _dense(t, h, y, F, t_out[j], X_out[j])
             j += 1
+        if proj != 0:  # onto the constraints: the outputs, then the state the next step starts from
+            for jj in range(j0, j):
+                for i in range(nx):
+                    xs[i] = X_out[jj, i]
+                _vf(proj, t_out[jj], pxs, pu, pp, pw, pdr)
+                for i in range(nx):
+                    X_out[jj, i] = xs[i]
+            _vf(proj, tnew, _ptr(ynew, 0), pu, pp, pw, pdr)
+            rnew = _eval(rc, tnew, ynew, p, ops, args, starts, stack, u, K[12], work, modes, True, hold, held)
+            nfev += 1
+            if rnew < 0.0 or rnew <= SINGULAR_RATIO:
+                return _fail(rnew, tnew, ynew, info, stats, nfev, nstep, nrej, j)
         stats[3] = j  # outputs done so far: read by a progress bar while this runs without the GIL
         if si < ns and tnew >= samples[si]:  # a sample instant: new held inputs, a new f there
             _sample(tnew, ynew, p, ops, args, starts, stack, u, modes, hold, held, which, hist, si)
@@ -936,7 +956,7 @@ def dop853_batch(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
                            max_step, 0.0, X_out[b], INFO[b], STATS[b], aptr, aidx, aval, cc, ei, ef, ei, ei,
                            ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64),
                            np.zeros(max(1, starts.shape[0] - 1), np.int64), np.zeros(0), np.zeros((1, 1), np.int64),
-                           np.zeros((1, max(1, starts.shape[0] - 1))))
+                           np.zeros((1, max(1, starts.shape[0] - 1))), 0, 0)
 
 
 @njit(cache=True)
@@ -1167,7 +1187,7 @@ def dop853_batch_lanes(rc, rcl, n, lanes, X0, t0, t_out, P, ops, args, starts, n
                                max_step, 0.0, X_out[q], INFO[q], STATS[q], aptr, aidx, aval, cc, ei, ef, ei, ei,
                                ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64),
                                np.zeros(max(1, starts.shape[0] - 1), np.int64), np.zeros(0),
-                               np.zeros((1, 1), np.int64), np.zeros((1, max(1, starts.shape[0] - 1))))
+                               np.zeros((1, 1), np.int64), np.zeros((1, max(1, starts.shape[0] - 1))), 0, 0)
 
 
 @njit(cache=True)

@@ -415,7 +415,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     eq = nm.equations
     if eq.is_constrained:
         return _simulate_constrained(nm, x0, times, p, u_of, float(rtol), float(atol), max_step, method,
-                                     initial, defaults.get("initial"))
+                                     initial, defaults.get("initial"), backend, u_exprs, progress)
     fast = _compiled_model(nm, backend, method, u_exprs)
     if fast is not None:
         return _simulate_compiled(fast, method, x0, times, p, u_exprs, float(rtol), float(atol), max_step,
@@ -766,7 +766,8 @@ def _constrained_problems(nm, method, event_exprs, sample_time, problems) -> Non
                                 "give the inputs as functions of t and the state", key="sample_time"))
 
 
-def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, initial, model_initial):
+def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, initial, model_initial,
+                          backend="scipy", u_exprs=None, progress=None):
     """simulate() of a model with constraints: consistent initial state, then the projected
     integration of M q_ddot = f + G^T lambda, G q_ddot = c (see _constrained).
 
@@ -794,9 +795,14 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
                 x0[names.index(k)] = v
     elif initial is None and not independent:
         fixed |= set(model_initial or ())
+    fast = _compiled_constrained(eq, backend, method, u_exprs)
     try:
         x0 = consistent_state(cm, x0, fixed, p)
-        X, U, Lam, stats = integrate(cm, x0, times, p, u_of, rtol, atol, max_step, method)
+        if fast is not None:
+            X, U, Lam, stats = _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
+                                                               max_step, progress)
+        else:
+            X, U, Lam, stats = integrate(cm, x0, times, p, u_of, rtol, atol, max_step, method)
     except ConstraintSingular as s:
         raise SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=-1, time=float(s.t)) from None
     if not np.all(np.isfinite(X)):
@@ -806,8 +812,68 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     if not eq.explicit_time:
         energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)])
         name = "energy" if _is_natural(eq) else "jacobi_integral"
-    stats = {"backend": "scipy", "method": method, **stats}
+    stats = {"backend": "scipy" if fast is None else fast.backend, "method": method, **stats}
     return Trajectory(times, X, nm.state_names, U, nm.input_names, energy, name, eq.is_conservative,
                       dict(zip(nm.parameter_names, map(float, p))), stats["nfev"], "constrained integration finished",
                       stats=stats, model=eq.model, multipliers=Lam,
                       multiplier_names=tuple(m.name for m in eq.multipliers))
+
+
+def _compiled_constrained(eq: Equations, backend: str, method: str, u_exprs):
+    """The numba-compiled constrained model to integrate with, or None for the SciPy path (another
+    method, inputs given as Python functions, or expressions numba cannot compile, with backend
+    'auto')."""
+    if backend == "scipy" or method != "DOP853":
+        return None
+    if backend == "c":
+        raise ModelError("the C backend does not take constraints yet: use backend='auto' or 'numba' (the "
+                         "compiled constrained integration), or 'scipy'")
+    from ._codegen import Unsupported
+    from ._fast import compile_numba
+    from ._inputs import NotCompilable
+
+    try:
+        if u_exprs is None:
+            raise NotCompilable(_CALLABLE_INPUT)
+        _input_programs(eq, u_exprs)
+        return compile_numba(eq)
+    except (Unsupported, NotCompilable) as exc:
+        if backend == "auto":
+            return None
+        raise ModelError(f"backend '{backend}' cannot run this model: {exc}; use backend='scipy'") from None
+
+
+def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress):
+    """The projected integration in compiled code: DOP853 on the saddle-point right-hand side with
+    the projection after every accepted step (see _codegen_constrained); (X, U, Lambda, stats) as
+    _constrained.integrate returns them."""
+    from ._codegen_constrained import work_size
+    from ._fast import _address, inputs_and_energy, run_dop853
+    from ._kernels import STATUS
+
+    prog = _input_programs(fast.equations, u_exprs)
+    raw = run_dop853(fast, x0, times, p, prog, rtol, atol, max_step, progress=progress,
+                     project=_address(fast.project_c), nwork=work_size(cm.n, cm.m))
+    if raw.status in (1, 2) or (raw.status not in (0, 4) and raw.stop_measure < 1e-6 and raw.status != 3):
+        cm.solve(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)  # ConstraintSingular at a dead point
+        raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure)
+    if raw.status == 3:
+        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the state "
+                              f"{_state_text(fast, raw.stop_x)}: check the model's parameters and expressions",
+                              status=-1, time=raw.stop_t)
+    if raw.status != 0:
+        raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
+                              f"(state {_state_text(fast, raw.stop_x)}); try a smaller rtol/atol", status=raw.status,
+                              time=raw.stop_t)
+    X = raw.x
+    U, _ = inputs_and_energy(fast, times, X, p, prog)
+    Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
+    drift_q = drift_v = 0.0
+    for t, x in zip(times, X):
+        g, w = cm.residuals(t, x, p)
+        drift_q = max(drift_q, float(np.max(np.abs(g), initial=0.0)))
+        drift_v = max(drift_v, float(np.max(np.abs(w), initial=0.0)))
+    stats = {"nfev": raw.nfev, "nstep": raw.nstep, "nreject": raw.nreject,
+             "projection": "coordinate projection after every step",
+             "constraint_drift": {"position": drift_q, "velocity": drift_v}}
+    return X, U, Lam, stats
