@@ -1513,30 +1513,16 @@ class _Reader:
             out[name] = e
         self.model.operating_point = out
 
-    def read_independent_speeds(self, value: object) -> list[str] | None:
-        velocities = [f"{c.name}_dot" for c in self.model.q]
+    def read_names(self, value: object, key: str, names: list[str], what: str) -> list[str] | None:
+        """A list of names among `names` (what: "coordinate" or "velocity"), or None after problems."""
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            self.problem("simulation.independent_speeds", f"expected a list of velocity names such as "
-                         f"independent_speeds = [\"{velocities[0] if velocities else 'q1_dot'}\"], got "
-                         f"{_describe(value)}")
+            self.problem(f"simulation.{key}", f"expected a list of {what} names such as {key} = "
+                                              f"[\"{names[0] if names else 'q1'}\"], got {_describe(value)}")
             return None
-        bad = [v for v in value if v not in velocities]
+        bad = [v for v in value if v not in names]
         for v in bad:
-            self.problem("simulation.independent_speeds", f"'{v}' is not a velocity"
-                         f"{_did_you_mean(v, velocities, 0.5)}; the velocities are {', '.join(velocities)}")
-        return None if bad else list(value)
-
-    def read_independent(self, value: object) -> list[str] | None:
-        coordinates = [c.name for c in self.model.q]
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            self.problem("simulation.independent", f"expected a list of coordinate names such as independent = "
-                                                   f"[\"{coordinates[0] if coordinates else 'q1'}\"], got "
-                                                   f"{_describe(value)}")
-            return None
-        bad = [v for v in value if v not in coordinates]
-        for v in bad:
-            self.problem("simulation.independent", f"'{v}' is not a coordinate"
-                         f"{_did_you_mean(v, coordinates, 0.5)}; the coordinates are {', '.join(coordinates)}")
+            self.problem(f"simulation.{key}", f"'{v}' is not a {what}{_did_you_mean(v, names, 0.5)}; "
+                                              f"the {what}s are {', '.join(names)}")
         return None if bad else list(value)
 
     def read_simulation(self, value: object) -> None:
@@ -1562,11 +1548,12 @@ class _Reader:
                 if inputs is not None:
                     out["inputs"] = inputs
             elif name == "independent":
-                independent = self.read_independent(item)
+                independent = self.read_names(item, "independent", [c.name for c in self.model.q], "coordinate")
                 if independent is not None:
                     out["independent"] = independent
             elif name == "independent_speeds":
-                speeds = self.read_independent_speeds(item)
+                speeds = self.read_names(item, "independent_speeds", [f"{c.name}_dot" for c in self.model.q],
+                                         "velocity")
                 if speeds is not None:
                     out["independent_speeds"] = speeds
             elif name == "sample_time":
