@@ -184,10 +184,6 @@ def test_errors_of_constrained_models():
     with pytest.raises(lg.ModelError, match=r"the initial coordinates do not meet constraint 'rod' .*give fewer "
                                             r"coordinates"):
         lg.simulate(cartesian, t_end=1.0, initial={"x": 2.0, "y": 0.0})
-    from lagrangian.export import export_c
-
-    with pytest.raises(lg.ModelError, match=r"export does not handle constraints yet"):
-        export_c(cartesian, "nowhere")
     model = lg.Model("m", coordinates=["x"])
     model.add_constraint("x - 1", name="c")
     with pytest.raises(lg.ModelError, match=r"two constraints are named 'c'"):

@@ -13,7 +13,7 @@ from ..errors import ModelError, Problem
 from ..model import Model
 
 __all__ = ["ExportResult", "equations_of", "identifier", "parameter_values", "start_state", "energy_name",
-           "output_file"]
+           "output_file", "held_names", "consistent_start"]
 
 
 @dataclass(frozen=True)
@@ -38,11 +38,8 @@ class ExportResult:
 
 def equations_of(system) -> Equations:
     """The Equations of a Model, an Equations object, or a built-in example's name or a model file
-    (a constrained model is refused: the writers integrate M q_ddot = f)."""
-    eq = _equations(system)
-    eq.require_unconstrained("export", "its writers integrate M q_ddot = f without multipliers; simulate it "
-                                       "with lagrangian, or export a model written in independent coordinates")
-    return eq
+    (constrained models included: see :func:`start_state` and docs/export.md)."""
+    return _equations(system)
 
 
 def _equations(system) -> Equations:
@@ -94,9 +91,12 @@ def output_file(path, suffix: str, option: str, what: str) -> Path:
     return path
 
 
-def start_state(eq: Equations, initial: Mapping | None) -> list[float]:
+def start_state(eq: Equations, initial: Mapping | None, params: Mapping | None = None) -> list[float]:
     """The start values of x = [q, q_dot]: the model's [simulation] initial values with
-    `initial` overriding them; others 0."""
+    `initial` overriding them; others 0. For a constrained model the state is then moved onto
+    the constraints as :func:`lagrangian.simulate` moves its initial state (the same values held:
+    the independent coordinates and speeds, and those given in `initial`; the others found by
+    Newton from the model file's values), with the parameter values of `params`."""
     from ..numeric._simulate import _named_values
 
     problems: list[Problem] = []
@@ -106,7 +106,37 @@ def start_state(eq: Equations, initial: Mapping | None) -> list[float]:
             x0[i] = v
     if problems:
         raise ModelError(problems)
+    if eq.is_constrained:
+        x0 = [float(v) for v in consistent_start(eq, x0, initial or None, parameter_values(eq, params))]
     return x0
+
+
+def held_names(eq: Equations) -> set[str]:
+    """The coordinates and velocities that the model itself holds when its state is made
+    consistent: [simulation] independent, and independent_speeds (default: the independent
+    coordinates' velocities)."""
+    sim = eq.model.simulation
+    independent = [str(q) for q in sim.get("independent", ())]
+    speeds = [str(v) for v in sim.get("independent_speeds", ())]
+    return set(independent) | (set(speeds) if speeds else {f"{q}_dot" for q in independent})
+
+
+def consistent_start(eq: Equations, x0, initial: Mapping | None, p) -> list[float]:
+    """x0 moved onto the constraints by simulate's rule (numeric._simulate._simulate_constrained):
+    held are the independent coordinates and speeds and the names given in `initial`; without
+    independent coordinates and without `initial`, the model file's initial values."""
+    import numpy as np
+
+    from ..numeric._compiled import compile_equations
+    from ..numeric._constrained import consistent_state, constrained_model
+
+    cm = constrained_model(eq, compile_equations(eq))
+    fixed = held_names(eq)
+    if initial:
+        fixed |= {getattr(k, "name", k) for k in initial}
+    elif not eq.model.simulation.get("independent"):
+        fixed |= set(eq.model.simulation.get("initial") or ())
+    return list(consistent_state(cm, np.array(x0, float), fixed, np.array(p, float)))
 
 
 def energy_name(eq: Equations) -> str:

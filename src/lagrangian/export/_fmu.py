@@ -66,9 +66,12 @@ def _variables(eq: Equations, pvalues, x0) -> list[dict]:
     """The FMU's variables in value-reference order (see fmu_template.c)."""
     n = eq.n
     out = []
+    # a constrained model's start state is made consistent by the FMU (its start values are kept
+    # where they meet the constraints): "approx", the FMU computes them in initialization
+    initial = "approx" if eq.is_constrained else "exact"
     for i, name in enumerate(eq.state_names):
         what = (f"the coordinate {name}" if i < n else f"the velocity of {eq.state_names[i - n]}")
-        out.append(dict(name=name, causality="output", variability="continuous", initial="exact", start=x0[i],
+        out.append(dict(name=name, causality="output", variability="continuous", initial=initial, start=x0[i],
                         description=f"state: {what}"))
     for i, name in enumerate(eq.state_names):
         out.append(dict(name=f"der({name})", causality="local", variability="continuous", initial="calculated",
@@ -81,6 +84,9 @@ def _variables(eq: Equations, pvalues, x0) -> list[dict]:
     energy = energy_name(eq)
     out.append(dict(name=energy, causality="output", variability="continuous", initial="calculated",
                     description="the Jacobi integral h = q_dot . dL/dq_dot - L (the energy T + V when T* = T2)"))
+    for con, lam in zip(eq.model.constraints, eq.multipliers):
+        out.append(dict(name=lam.name, causality="output", variability="continuous", initial="calculated",
+                        description=f"the multiplier of the {con.kind} constraint {con.name}: {con.expression} = 0"))
     notes = {"solver.rtol": "relative tolerance of the Co-Simulation integrator (DOP853)",
              "solver.atol": "absolute tolerance of the Co-Simulation integrator (DOP853)",
              "solver.max_step": "largest step of the Co-Simulation integrator (0: no limit but the communication "
@@ -134,14 +140,16 @@ def _model_description(eq: Equations, ident: str, guid: str, variables: list[dic
         lines.append(f'      <Real {" ".join(real)}/>'.replace("<Real />", "<Real/>"))
         lines.append('    </ScalarVariable>')
     lines.append('  </ModelVariables>')
-    energy_index = next(i for i, v in enumerate(variables) if v["causality"] == "output" and "start" not in v) + 1
-    outputs = [*range(1, n2 + 1), energy_index]
+    # the energy and the multipliers: the outputs without a start value
+    calculated = [i + 1 for i, v in enumerate(variables) if v["causality"] == "output" and "start" not in v]
+    outputs = [*range(1, n2 + 1), *calculated]
+    states = list(range(1, n2 + 1)) if variables[0]["initial"] == "approx" else []
     lines += ['  <ModelStructure>', '    <Outputs>']
     lines += [f'      <Unknown index="{i}"/>' for i in outputs]
     lines += ['    </Outputs>', '    <Derivatives>']
     lines += [f'      <Unknown index="{n2 + i}"/>' for i in range(1, n2 + 1)]
     lines += ['    </Derivatives>', '    <InitialUnknowns>']
-    lines += [f'      <Unknown index="{i}"/>' for i in [*range(n2 + 1, 2 * n2 + 1), energy_index]]
+    lines += [f'      <Unknown index="{i}"/>' for i in [*states, *range(n2 + 1, 2 * n2 + 1), *calculated]]
     lines += ['    </InitialUnknowns>', '  </ModelStructure>', '</fmiModelDescription>', '']
     return "\n".join(lines)
 
@@ -178,6 +186,15 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     each communication step (``fmi2SetupExperiment``'s tolerance, when given, sets both
     tolerances).
 
+    A constrained model's FMU also has the multipliers ``lambda_<name>`` as outputs (after the
+    energy), and x' solves the saddle-point system [M G^T; G 0] [q_ddot; -lambda] = [f; c]. Its
+    states are ``initial="approx"``: when initialization ends the FMU moves them onto the
+    constraints, holding the independent coordinates and speeds and the start values that were
+    set to other values (the exported start values already meet the constraints, made so as
+    :func:`lagrangian.simulate` makes its initial state). Co-Simulation projects the state onto
+    the constraints after every step (the drift stays at round-off); Model Exchange gives the
+    index-1 form to the importing tool, whose integration error makes the constraints drift.
+
     Parameters
     ----------
     system : Model, Equations or str
@@ -200,15 +217,19 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     path = output_file(path, ".fmu", "--fmu", "an FMU's file name")
     ident = identifier(eq.model.name)
     pvalues = parameter_values(eq, params)
-    x0 = start_state(eq, initial)
+    x0 = start_state(eq, initial, params)
     variables = _variables(eq, pvalues, x0)
-    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, f"lagrangian:{model_key(eq, 'fmu')}:{pvalues}:{x0}")) + "}"
+    key = f"lagrangian:{model_key(eq, 'fmu')}:{pvalues}:{x0}"
+    if eq.is_constrained:  # model_key does not see the constraints
+        key += ":" + "|".join(f"{c.kind}:{c.name}:{c.expression}" for c in eq.model.constraints)
+    guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, key)) + "}"
     files = c_files(eq, params, initial)
     template = (_HERE / "fmu_template.c").read_text()
     names = ", ".join(f'"{v["name"]}"' for v in variables)
     starts = ", ".join(repr(float(v.get("start", 0.0))) for v in variables)
     fmu_c = (template.replace("@ID@", ident).replace("@NAME@", eq.model.name).replace("@NX@", str(2 * eq.n))
-             .replace("@NU@", str(len(eq.inputs))).replace("@NP@", str(len(eq.parameters))).replace("@GUID@", guid)
+             .replace("@NU@", str(len(eq.inputs))).replace("@NC@", str(len(eq.multipliers)))
+             .replace("@UP@", ident.upper()).replace("@NP@", str(len(eq.parameters))).replace("@GUID@", guid)
              .replace("@START@", starts).replace("@NAMES@", names).replace("@DOP853@", _dop853_tables()))
     sources = {f"{ident}.h": files[f"{ident}.h"], f"{ident}.c": files[f"{ident}.c"], "fmu.c": fmu_c}
     for header in _HEADERS:
@@ -263,12 +284,20 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
 def _documentation(eq: Equations, variables: list[dict]) -> str:
     from html import escape
 
+    constrained = projected = ""
+    if eq.is_constrained:
+        constrained = escape(" + G(q, t)^T lambda with the constraints " + ", ".join(
+            f"{c.name} ({c.kind}: {c.expression} = 0)" for c in eq.model.constraints)
+            + ": x' and the multipliers solve [M G^T; G 0] [q_ddot; -lambda] = [f; c]")
+        projected = (", the state projected onto the constraints after every step. Model Exchange leaves the "
+                     "integration to the importing tool: the constraints then drift with its integration error")
     rows = "\n".join(f"<tr><td>{vr}</td><td>{escape(v['name'])}</td><td>{v['causality']}</td>"
                      f"<td>{escape(str(v.get('start', '')))}</td><td>{escape(v['description'])}</td></tr>"
                      for vr, v in enumerate(variables))
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{escape(eq.model.name)}</title></head><body>"
             f"<h1>{escape(eq.model.name)}</h1><p>Generated by lagrangian from the model's Lagrange equations "
-            f"M(q, t) q_ddot = f(q, q_dot, t, u), x = [{', '.join(eq.state_names)}]. Co-Simulation integrates them with "
-            "an adaptive DOP853 (solver.rtol, solver.atol, solver.max_step), the inputs held over each communication "
-            f"step.</p><table border='1'><tr><th>value reference</th><th>name</th><th>causality</th><th>start</th>"
+            f"M(q, t) q_ddot = f(q, q_dot, t, u){constrained}, x = [{', '.join(eq.state_names)}]. Co-Simulation "
+            "integrates them with an adaptive DOP853 (solver.rtol, solver.atol, solver.max_step), the inputs held over "
+            f"each communication step{projected}.</p><table border='1'><tr><th>value reference</th><th>name</th>"
+            "<th>causality</th><th>start</th>"
             f"<th>description</th></tr>\n{rows}\n</table></body></html>\n")

@@ -8,12 +8,20 @@
        [2 NX, 2 NX + NP)      the parameters                         parameters, tunable
        [.., + NU)             the inputs                             inputs
        VR_ENERGY              the energy (Jacobi integral)           output, calculated
+       [VR_LAMBDA, + NC)      the multipliers lambda_<name>          outputs, calculated
        VR_RTOL, VR_ATOL,      the embedded integrator of             parameters, tunable
        VR_MAX_STEP            Co-Simulation (DOP853)
 
    The right-hand side, M, the forcing and the energy come from @ID@.c (lagrangian's generated
    C code); Co-Simulation integrates them with the adaptive DOP853 (Hairer, Norsett and Wanner's
-   8(5,3) pair, SciPy's step-size control), the inputs held over each communication step. */
+   8(5,3) pair, SciPy's step-size control), the inputs held over each communication step.
+
+   A constrained model (NC > 0): x' and the multipliers solve the saddle-point system
+   [M G^T; G 0] [q_ddot; -lambda] = [f; c] (@ID@_rhs_multipliers). The start state is made
+   consistent when initialization ends (@ID@_consistent_state, holding the independent coordinates
+   and speeds and the start values that were changed); Co-Simulation projects the state onto the
+   constraints after every step of its integrator (@ID@_project), Model Exchange leaves the
+   integration, and so the drift of the constraints, to the importing tool. */
 
 #include <math.h>
 #include <stdarg.h>
@@ -30,11 +38,15 @@
 #define VR_DER NX
 #define VR_PARAM (2 * NX)
 #define VR_INPUT (2 * NX + NP)
+#define NC @NC@
 #define VR_ENERGY (2 * NX + NP + NU)
-#define VR_RTOL (VR_ENERGY + 1)
-#define VR_ATOL (VR_ENERGY + 2)
-#define VR_MAX_STEP (VR_ENERGY + 3)
-#define NR (VR_ENERGY + 4)
+#define VR_LAMBDA (VR_ENERGY + 1)
+#define VR_RTOL (VR_LAMBDA + NC)
+#define VR_ATOL (VR_RTOL + 1)
+#define VR_MAX_STEP (VR_RTOL + 2)
+#define NR (VR_RTOL + 3)
+/* der(x), the energy and the multipliers: computed by the FMU */
+#define CALCULATED(vr) (((vr) >= VR_DER && (vr) < VR_PARAM) || ((vr) >= VR_ENERGY && (vr) < VR_RTOL))
 #define GUID "@GUID@"
 #define SINGULAR 1e-12
 
@@ -51,8 +63,10 @@ typedef struct {
     int logging;
     double time;
     double r[NR];
-    int dirty;      /* der(x) and the energy need computing */
+    int dirty;      /* der(x), the energy and the multipliers need computing */
     double h;       /* the last step of the Co-Simulation integrator (0: none yet) */
+    int pending;    /* the state is to be made consistent with the constraints (NC > 0) */
+    int changed[NX];  /* start values set to other values than the FMU's (held when made consistent) */
 } Instance;
 
 typedef struct {
@@ -91,15 +105,53 @@ static void release(Instance *c, void *p) {
     else free(p);
 }
 
+#if NC > 0
+static const char *state_text(double measure) {
+    return measure < 0.0 ? "M, f, G or c is not finite (NaN or infinity)" : "the saddle-point system [M G^T; G 0] is "
+        "singular (M singular, or the constraints dependent: G has lost rank, a dead point of the mechanism)";
+}
+
+static const char *constraint_text(int status) {
+    switch (status) {
+    case @UP@_POSITION_NOT_MET: return "the coordinates that may change cannot meet the holonomic constraints";
+    case @UP@_VELOCITY_NOT_MET: return "the velocities that may change cannot meet the constraints";
+    case @UP@_SINGULAR: return "a singular system (the constraints dependent there, or M singular)";
+    default: return "a constraint's residual or Jacobian is not finite";
+    }
+}
+
+/* the state moved onto the constraints (see above); 0 on failure, logged */
+static int assemble(Instance *c) {
+    int held[NX], i, status;
+    for (i = 0; i < NX; i++) held[i] = @ID@_independent[i] || c->changed[i];
+    status = @ID@_consistent_state(c->time, c->r, c->r + VR_PARAM, held);
+    if (status != @UP@_MET) {
+        say(c, fmi2Error, "logStatusError", "at t = %g: the start state cannot be made consistent with the "
+            "constraints: %s (held: the independent coordinates and speeds, and the start values that were "
+            "changed); give start values that meet them, or change fewer", c->time, constraint_text(status));
+        return 0;
+    }
+    c->pending = 0;
+    c->dirty = 1;
+    return 1;
+}
+#else
 static const char *state_text(double measure) {
     return measure < 0.0 ? "the forcing f is not finite (NaN or infinity)" : "the mass matrix M is singular";
 }
+#endif
 
-/* der(x) and the energy at the instance's time and state; 0 when M is singular or f not finite */
+/* der(x), the energy and the multipliers at the instance's time and state; 0 when M (or the
+   saddle-point system) is singular or f not finite */
 static int evaluate(Instance *c) {
     double measure;
     if (!c->dirty) return 1;
+#if NC > 0
+    measure = @ID@_rhs_multipliers(c->time, c->r, c->r + VR_INPUT, c->r + VR_PARAM, c->r + VR_DER,
+                                   c->r + VR_LAMBDA);
+#else
     measure = @ID@_rhs(c->time, c->r, c->r + VR_INPUT, c->r + VR_PARAM, c->r + VR_DER);
+#endif
     if (measure < 0.0 || measure <= SINGULAR) {
         say(c, fmi2Error, "logStatusError", "at t = %g: %s (inertia measure %g); check the state and the "
             "parameters", c->time, state_text(measure), measure);
@@ -229,6 +281,21 @@ static int integrate(Instance *c, double t0, double t1) {
         t = last ? t1 : t + h;
         memcpy(y, ynew, sizeof y);
         memcpy(K[0], K[12], sizeof K[0]);
+#if NC > 0
+        {   /* onto the constraints after every step, the next step from there (as lagrangian) */
+            int status = @ID@_project(t, y, p);
+            if (status != @UP@_MET) {
+                say(c, fmi2Error, "logStatusError", "at t = %g: the projection onto the constraints failed: %s", t,
+                    constraint_text(status));
+                return 0;
+            }
+            measure = @ID@_rhs(t, y, u, p, K[0]);
+            if (measure < 0.0 || measure <= SINGULAR) {
+                say(c, fmi2Error, "logStatusError", "at t = %g: %s", t, state_text(measure));
+                return 0;
+            }
+        }
+#endif
         steps++;
     }
     memcpy(c->r, y, sizeof y);
@@ -283,6 +350,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     c->logging = loggingOn ? 1 : 0;
     memcpy(c->r, start_values, sizeof c->r);
     c->dirty = 1;
+    c->pending = NC > 0;
     c->state = INSTANTIATED;
     return c;
 }
@@ -324,6 +392,12 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     if (!i) return fmi2Error;
     if (i->state != INITIALIZATION) return fail(i, "%s: only in initialization mode", "fmi2ExitInitializationMode");
     i->dirty = 1;
+#if NC > 0
+    if (i->pending && !assemble(i)) {
+        i->state = ERROR;
+        return fmi2Error;
+    }
+#endif
     if (!evaluate(i)) {
         i->state = ERROR;
         return fmi2Error;
@@ -343,9 +417,11 @@ fmi2Status fmi2Reset(fmi2Component c) {
     Instance *i = (Instance *)c;
     if (!i) return fmi2Error;
     memcpy(i->r, start_values, sizeof i->r);
+    memset(i->changed, 0, sizeof i->changed);
     i->time = 0.0;
     i->h = 0.0;
     i->dirty = 1;
+    i->pending = NC > 0;
     i->state = INSTANTIATED;
     return fmi2OK;
 }
@@ -355,9 +431,12 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     size_t k;
     int computed = 0;
     if (!i) return fmi2Error;
+#if NC > 0
+    if (i->pending && i->state == INITIALIZATION && !assemble(i)) return fmi2Error;
+#endif
     for (k = 0; k < nvr; k++) {
         if (vr[k] >= NR) return fail(i, "fmi2GetReal: %s", "no variable has this value reference");
-        if (!computed && ((vr[k] >= VR_DER && vr[k] < VR_PARAM) || vr[k] == VR_ENERGY)) {
+        if (!computed && CALCULATED(vr[k])) {
             if (i->state == INSTANTIATED) {
                 value[k] = 0.0;
                 continue;
@@ -376,12 +455,18 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
     if (!i) return fmi2Error;
     for (k = 0; k < nvr; k++) {
         if (vr[k] >= NR) return fail(i, "fmi2SetReal: %s", "no variable has this value reference");
-        if ((vr[k] >= VR_DER && vr[k] < VR_PARAM) || vr[k] == VR_ENERGY)
+        if (CALCULATED(vr[k]))
             return fail(i, "fmi2SetReal: %s is calculated by the FMU and cannot be set", variable_names[vr[k]]);
         if (vr[k] < NX && i->state != INSTANTIATED && i->state != INITIALIZATION && i->type == fmi2CoSimulation)
             return fail(i, "fmi2SetReal: the state %s can only be set before fmi2ExitInitializationMode",
                         variable_names[vr[k]]);
         i->r[vr[k]] = value[k];
+        if (NC > 0 && (i->state == INSTANTIATED || i->state == INITIALIZATION)) {
+            if (vr[k] < NX) i->changed[vr[k]] = value[k] != start_values[vr[k]];
+            if (vr[k] < NX || (vr[k] >= VR_PARAM && vr[k] < VR_INPUT)) i->pending = 1;
+        } else if (NC > 0 && vr[k] >= VR_PARAM && vr[k] < VR_INPUT && i->type == fmi2CoSimulation) {
+            i->pending = 1;  /* the constraints' parameters may have changed: consistent before the next step */
+        }
     }
     i->dirty = 1;
     return fmi2OK;
@@ -603,6 +688,12 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     if (!(communicationStepSize > 0.0)) return fail(i, "%s: the communication step size must be positive",
                                                     "fmi2DoStep");
     i->time = currentCommunicationPoint;
+#if NC > 0
+    if (i->pending && !assemble(i)) {
+        i->state = ERROR;
+        return fmi2Error;
+    }
+#endif
     if (!integrate(i, currentCommunicationPoint, currentCommunicationPoint + communicationStepSize)) {
         i->state = ERROR;
         return fmi2Error;
