@@ -464,7 +464,7 @@ def wheel_on_a_belt():
     lm = LagrangesMethod(Lagrangian(N, wheel), [X, Y, Z, PHI, TH], hol_coneqs=hol, nonhol_coneqs=nonhol,
                          forcelist=[(B, tau * B.y)], frame=N)
     return System(lg.derive(model), lm, names, hol=hol, nonhol=nonhol,
-                  params={"m": POSITIVE, "A1": (0.2, 0.5), "A3": (0.6, 1.0), "C": POSITIVE, "R": POSITIVE,
+                  params={"m": POSITIVE, "A1": (0.3, 0.5), "A3": (0.6, 0.8), "C": (0.5, 0.9), "R": POSITIVE,
                           "g": (5, 12), "V": POSITIVE, "omega": (1.0, 3.0)}, inputs={"tau": (-1, 1)},
                   coordinates={"phi": (-3.0, 3.0), "theta": (-3.0, 3.0)})
 

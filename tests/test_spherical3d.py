@@ -17,6 +17,7 @@ import pytest
 
 import lagrangian as lg
 from lagrangian.cli import main
+from lagrangian.examples import example_descriptions
 
 from test_constraints_sympy import spherical_3d
 
@@ -27,7 +28,7 @@ def pendulum():
 
 
 def test_the_example_is_listed_and_its_equations_are_sympys(pendulum):
-    assert "spherical-pendulum-3d" in lg.examples.example_descriptions()
+    assert "spherical-pendulum-3d" in example_descriptions()
     assert pendulum.model.simulation["independent"] == ["x", "y"]
     assert [c.name for c in pendulum.coordinates] == ["x", "y", "z"] and pendulum.multipliers[0].name == "lambda_rod"
     reference = spherical_3d()  # the same pendulum in Python and in sympy.physics.mechanics

@@ -6,8 +6,8 @@ model -> derive -> Equations -> simulate -> Trajectory.
 from sympy import (Abs, acos, asin, atan, atan2, cos, cosh, exp, log, pi, sign, sin, sinh, sqrt, tan,
                    tanh)
 
-from .equations import (Equations, LinearSystem, SingularConfiguration, SingularityReport, derive,
-                        singularities)
+from .equations import (ConstraintConfiguration, ConstraintSingularityReport, DeadPoints, Equations, LinearSystem,
+                        SingularConfiguration, SingularityReport, constraint_singularities, derive, singularities)
 from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileError, SimulationError,
                      SingularMassMatrixError, UnknownNameError)
 from .io import load
@@ -32,7 +32,8 @@ def __getattr__(name):
 
 __all__ = [
     "Model", "load", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
-    "SingularConfiguration", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
+    "SingularConfiguration", "constraint_singularities", "ConstraintSingularityReport", "ConstraintConfiguration",
+    "DeadPoints", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate", "simulate_batch", "BatchResult", "grid", "Trajectory", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",

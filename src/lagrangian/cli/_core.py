@@ -36,12 +36,21 @@ def register(sub, fmt) -> None:
                    help="CSV file for the --event crossings: event,t,<states>, in time order")
     s.set_defaults(handler=_cmd_simulate)
 
-    c = sub.add_parser("check", help="check a model and diagnose its mass matrix",
+    c = sub.add_parser("check", help="check a model and diagnose its mass matrix and its constraints",
                        formatter_class=fmt, description="Check a model: report det M in factored form, where it "
-                       "vanishes, the velocity combination with no inertia there, the likely cause and a fix.",
-                       epilog="Examples:\n  lagrangian check cart-pendulum-massless\n  lagrangian check my_model.toml --json")
+                       "vanishes, the velocity combination with no inertia there, the likely cause and a fix. For a "
+                       "model with constraints, also the rank of their Jacobian G at the initial configuration, the "
+                       "configurations where G loses rank (the constraints dependent: which ones, and which motions "
+                       "become free) and the dead points of the coordinates that drive the mechanism ([simulation] "
+                       "independent, a coordinate an input alone acts on, or --driver).",
+                       epilog="Examples:\n  lagrangian check cart-pendulum-massless\n  lagrangian check my_model.toml --json"
+                              "\n  lagrangian check slider-crank --driver s")
     c.add_argument("model", help=MODEL_HELP)
-    c.add_argument("--json", action="store_true", help="print one JSON object (singular, det_mass_matrix, ...)")
+    c.add_argument("--json", action="store_true", help="print one JSON object (singular, det_mass_matrix, ..., "
+                   "constraint_singularities)")
+    c.add_argument("--driver", action="append", metavar="NAMES",
+                   help="coordinates that drive a constrained model (comma-separated: one set driving together; "
+                        "repeatable): their dead points are searched instead of the default drivers'")
     c.set_defaults(handler=_cmd_check)
 
     e = sub.add_parser("examples", help="list the built-in examples", formatter_class=fmt,
@@ -89,16 +98,25 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from .. import derive, load, singularities
+    from .. import constraint_singularities, derive, load, singularities
 
     eqs = derive(load(args.model))
+    drivers = None if args.driver is None else [[k.strip() for k in item.split(",") if k.strip()]
+                                                for item in args.driver]
+    if drivers is not None and not eqs.is_constrained:
+        raise ModelError(f"--driver: model '{eqs.model.name}' has no constraints, so no coordinate drives it through "
+                         "dead points; --driver is for mechanisms (models with [[constraints]])")
+    constraints = constraint_singularities(eqs, drivers) if eqs.is_constrained else None
     report = singularities(eqs)
     if args.json:
-        out = {"model": eqs.model.name, "coordinates": [c.name for c in eqs.coordinates], **report.to_dict()}
+        out = {"model": eqs.model.name, "coordinates": [c.name for c in eqs.coordinates], **report.to_dict(),
+               "constraint_singularities": None if constraints is None else constraints.to_dict()}
         print(json.dumps(out, indent=2))
     else:
         print(f"{eqs.model.name}: {eqs.n} coordinates ({', '.join(c.name for c in eqs.coordinates)}); model is valid.")
         print(report.text())
+        if constraints is not None:
+            print(constraints.text())
     return 0
 
 
