@@ -25,25 +25,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import sympy as sp
-from sympy.physics.mechanics import (LagrangesMethod, Lagrangian, Particle, Point, ReferenceFrame, RigidBody,
-                                     dynamicsymbols, inertia, msubs)
+from sympy.physics.mechanics import LagrangesMethod, Lagrangian, Particle, RigidBody, dynamicsymbols, inertia
 
 import lagrangian as lg
 from lagrangian.numeric._compiled import compile_equations
 from lagrangian.numeric._constrained import constrained_model
-
-T_ = dynamicsymbols._t
-assert T_ == lg.t, "SymPy's time symbol and ours are both Symbol('t')"
+from test_crosscheck_sympy import T_, is_zero, moving_point, pendulum_frame, to_plain
 
 
 # ------------------------------------------------------------------------------- helpers
 def plain(expr, names):
-    """q(t)'' -> q_ddot, q(t)' -> q_dot, q(t) -> q (in that order) in a matrix or a list."""
-    qs = [dynamicsymbols(n) for n in names]
-    sub2 = {q.diff(T_, 2): sp.Symbol(f"{n}_ddot") for q, n in zip(qs, names)}
-    sub1 = {q.diff(T_): sp.Symbol(f"{n}_dot") for q, n in zip(qs, names)}
-    sub0 = {q: sp.Symbol(n) for q, n in zip(qs, names)}
-    out = msubs(msubs(msubs(sp.Matrix(expr), sub2), sub1), sub0)
+    """q(t)'' -> q_ddot, q(t)' -> q_dot, q(t) -> q in a matrix or a list, every one mapped."""
+    out = to_plain(expr, names)
     assert not out.atoms(sp.Derivative), "the mapping to plain symbols is complete"
     return out
 
@@ -73,14 +66,6 @@ def numeric(matrix):
     syms = sorted(matrix.free_symbols, key=str)
     fn = sp.lambdify(syms, matrix, "numpy")
     return lambda values: np.array(fn(*[values[s.name] for s in syms]), dtype=float)
-
-
-def is_zero(e):
-    e = sp.expand(e)
-    if e == 0:
-        return True
-    e = sp.expand(sp.expand_trig(e))
-    return e == 0 or sp.simplify(e) == 0
 
 
 class System:
@@ -181,19 +166,6 @@ class System:
         return out
 
 
-def frame_and_origin():
-    N = ReferenceFrame("N")
-    O = Point("O")
-    O.set_vel(N, 0)
-    return N, O
-
-
-def moving_point(name, O, N, pos):
-    P = O.locatenew(name, pos)
-    P.set_vel(N, P.pos_from(O).dt(N))
-    return P
-
-
 POSITIVE = (0.5, 2.0)
 
 
@@ -206,7 +178,7 @@ def spherical_3d():
     model.add_constraint("l - sqrt(x**2 + y**2 + z**2)", name="rod")
 
     X, Y, Z = dynamicsymbols("x y z")
-    N, O = frame_and_origin()
+    N, O = pendulum_frame()
     P = moving_point("P", O, N, X * N.x + Y * N.y + Z * N.z)
     bob = Particle("bob", P, m)
     bob.potential_energy = m * g * P.pos_from(O).dot(N.z)
@@ -236,7 +208,7 @@ def double_pendulum_cartesian():
     model.add_constraint("l2 - sqrt((x2 - x1)**2 + (y2 - y1)**2)", name="rod2")
 
     X1, Y1, X2, Y2 = dynamicsymbols("x1 y1 x2 y2")
-    N, O = frame_and_origin()
+    N, O = pendulum_frame()
     P1 = moving_point("P1", O, N, X1 * N.x + Y1 * N.y)
     P2 = moving_point("P2", O, N, X2 * N.x + Y2 * N.y)
     a, b = Particle("a", P1, m1), Particle("b", P2, m2)
@@ -280,7 +252,7 @@ def bead_on_rotating_hoop():
     model.add_constraint("x*sin(Omega*t) - y*cos(Omega*t)", name="plane")  # the hoop's plane turns at Omega
 
     X, Y, Z = dynamicsymbols("x y z")
-    N, O = frame_and_origin()
+    N, O = pendulum_frame()
     H = N.orientnew("H", "Axis", (Om * T_, N.z))  # the hoop's frame: its plane is H.x, H.z
     P = moving_point("P", O, N, X * N.x + Y * N.y + Z * N.z)
     bead = Particle("bead", P, m)
@@ -323,7 +295,7 @@ def chaplygin_sled():
     model.add_velocity_constraint("-x_dot*sin(phi) + y_dot*cos(phi)", name="blade")
 
     X, Y, PHI = dynamicsymbols("x y phi")
-    N, O = frame_and_origin()
+    N, O = pendulum_frame()
     B = N.orientnew("B", "Axis", (PHI, N.z))
     B.set_ang_vel(N, PHI.diff(T_) * N.z)
     contact = moving_point("contact", O, N, X * N.x + Y * N.y)  # the blade, along B.x
@@ -363,7 +335,7 @@ def pinned_body():
     model.add_constraint("y + d*cos(theta)", name="pin_y")
 
     X, Y, TH = dynamicsymbols("x y theta")
-    N, O = frame_and_origin()
+    N, O = pendulum_frame()
     B = N.orientnew("B", "Axis", (TH, N.z))
     B.set_ang_vel(N, TH.diff(T_) * N.z)
     C = moving_point("C", O, N, X * N.x + Y * N.y)
@@ -404,7 +376,7 @@ def top_with_held_tip():
     model.add_constraint("z - l*cos(theta)", name="tip_z")
 
     X, Y, Z, PHI, TH, PSI = dynamicsymbols(" ".join(names))
-    N, O = frame_and_origin()
+    N, O = pendulum_frame()
     B = N.orientnew("B", "Body", (PHI, TH, PSI), "ZXZ")
     C = moving_point("C", O, N, X * N.x + Y * N.y + Z * N.z)
     tip = C.locatenew("tip", -l * B.z)
@@ -450,7 +422,7 @@ def wheel_on_a_belt():
     model.add_velocity_constraint("y_dot - R*theta_dot*sin(phi)", name="roll_y")
 
     X, Y, Z, PHI, TH = dynamicsymbols(" ".join(names))
-    N, O = frame_and_origin()
+    N, O = pendulum_frame()
     H = N.orientnew("H", "Axis", (PHI, N.z))
     B = H.orientnew("B", "Axis", (TH, H.y))
     C = moving_point("C", O, N, X * N.x + Y * N.y + Z * N.z)
