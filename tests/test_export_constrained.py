@@ -61,6 +61,19 @@ def _columns(result, names, prefix=""):
     return np.column_stack([result[prefix + n] for n in names])
 
 
+def _pendulum(name, constraint="l - sqrt(x**2 + y**2)", **extra):
+    """The Cartesian pendulum built in Python, with another constraint or generalized forces."""
+    m = lg.Model(name, coordinates=["x", "y"], parameters={"l": 1.0, "g": 9.81}, T="(x_dot**2 + y_dot**2)/2",
+                 V="g*y", **extra)
+    m.add_constraint(constraint, name="rod")
+    return m
+
+
+#: a residual that overflows after t = 4.78 while its derivatives stay finite (log(exp(s)) = s):
+#: the projection, the only part that evaluates g, meets a residual that is not finite
+LATE = "l - sqrt(x**2 + y**2) + log(exp(t + 705)) - t - 705"
+
+
 # ------------------------------------------------------------------------------------------ C
 
 _CHECK = r"""#include <stdio.h>
@@ -200,7 +213,9 @@ def test_c_example_projects_after_every_step_and_follows_lagrangian(name, step, 
 def test_c_reports_a_singular_saddle_point_system_and_a_failed_projection(tmp_path):
     """Two constraints that say the same (the rod's length twice) make [M G^T; G 0] singular: the
     C right-hand side returns at most 1e-12 and sets nothing; a state that is not finite makes the
-    projection return <ID>_NOT_FINITE, and the example says where the constraints cannot be met."""
+    projection return <ID>_NOT_FINITE. The example says each failure: the singular system, a
+    forcing that is not finite, a residual that is not finite at a projection, a start state whose
+    constraints cannot be met."""
     m = lg.Model("twice", coordinates=["x", "y"], parameters={"l": 1.0, "g": 9.81})
     m.add_particle(1, ("x", "y"), name="bob")
     m.add_gravity("g")
@@ -236,6 +251,17 @@ int main(void) {
     example = subprocess.run([str(_build(folder, "four_bar", folder / "main.c"))], capture_output=True, text=True)
     assert example.returncode == 1
     assert example.stderr == "the initial state: the coordinates cannot meet the holonomic constraints\n"
+    for name, model, args, said in [
+            ("kick", _pendulum("kick", Q={"y": "1/(t - 0.5)"}), ["1", "0.125", "1"],
+             "at t = 0.5: M, f, G or c is not finite\n"),
+            ("late", _pendulum("late", LATE), ["5", "0.01", "100"],
+             "at t = 4.79: the projection onto the constraints failed: a residual or a Jacobian entry is not "
+             "finite\n")]:
+        folder = tmp_path / name
+        export_c(lg.derive(model), folder, initial={"x": 1.0, "y": 0.0})
+        example = subprocess.run([str(_build(folder, name, folder / "main.c")), *args], capture_output=True,
+                                 text=True)
+        assert example.returncode == 1 and example.stderr == said
 
 
 # ---------------------------------------------------------------------------------------- FMU
@@ -356,9 +382,10 @@ def _fails(fmpy, path, messages, **kwargs):
 
 def test_constrained_fmu_errors_are_said_through_the_logger(fmus, tmp_path):
     """Start values that cannot be made consistent (every coordinate of the four-bar changed, so
-    held); two constraints that say the same (a singular saddle-point system); a projection that
-    meets a residual that is not finite (a constraint with log(exp(t)), which overflows after
-    t = 709.78 while its derivatives stay finite)."""
+    held; the pendulum's x_dot changed where only y_dot is free, and the rod leaves y_dot free at
+    y = 0); two constraints that say the same (a singular saddle-point system); a projection that
+    meets a residual that is not finite (LATE); a forcing that is not finite (1/(t - 0.5) at
+    t = 0.5)."""
     fmpy = _fmpy()
     messages: list = []
     _fails(fmpy, fmus["four-bar"], messages, fmi_type="CoSimulation", stop_time=1.0,
@@ -376,16 +403,21 @@ def test_constrained_fmu_errors_are_said_through_the_logger(fmus, tmp_path):
     _fails(fmpy, str(tmp_path / "twice.fmu"), messages, fmi_type="ModelExchange", stop_time=1.0)
     assert any(m.startswith("at t = 0: the saddle-point system [M G^T; G 0] is singular (M singular, or the "
                             "constraints dependent: G has lost rank, a dead point of the mechanism)") for m in messages)
-    late = lg.Model("late", coordinates=["x", "y"], parameters={"l": 1.0, "g": 9.81})
-    late.add_particle(1, ("x", "y"), name="bob")
-    late.add_gravity("g")
-    late.add_constraint("l - sqrt(x**2 + y**2) + log(exp(t)) - t", name="rod")
-    export_fmu(lg.derive(late), tmp_path / "late.fmu", initial={"x": 1.0, "y": 0.0})
+    export_fmu(lg.derive(_pendulum("late", LATE)), tmp_path / "late.fmu", initial={"x": 1.0, "y": 0.0})
     messages.clear()
-    _fails(fmpy, str(tmp_path / "late.fmu"), messages, fmi_type="CoSimulation", start_time=709.0, stop_time=711.0,
+    _fails(fmpy, str(tmp_path / "late.fmu"), messages, fmi_type="CoSimulation", start_time=4.0, stop_time=6.0,
            output_interval=1.0)
     assert any("the projection onto the constraints failed: a constraint's residual or Jacobian is not finite" in m
                for m in messages), messages
+    export_fmu(lg.derive(_pendulum("kick", Q={"y": "1/(t - 0.5)"})), tmp_path / "kick.fmu",
+               initial={"x": 1.0, "y": 0.0})
+    messages.clear()
+    _fails(fmpy, str(tmp_path / "kick.fmu"), messages, fmi_type="CoSimulation", start_time=0.5, stop_time=1.0)
+    assert any(m.startswith("at t = 0.5: M, f, G or c is not finite (NaN or infinity)") for m in messages), messages
+    messages.clear()
+    _fails(fmpy, fmus["cartesian-pendulum"], messages, fmi_type="ModelExchange", stop_time=1.0,
+           start_values={"x_dot": 1.0})
+    assert any("the velocities that may change cannot meet the constraints" in m for m in messages), messages
 
 
 # ----------------------------------------------------------------------------------- Modelica
@@ -447,3 +479,7 @@ def test_export_command_takes_a_constrained_model(tmp_path, capsys):
     assert "four_bar_initial_state[] = {" + ", ".join(repr(float(v)) for v in start) + "}" in (
         c / "four_bar.c").read_text()
     assert f"Real th2(start = {float(start[1])!r}, fixed = false)" in mo.read_text()
+    assert main(["export", "cartesian-pendulum", "--c", str(tmp_path / "p"), "--initial", "x=2,y=0"]) == 2
+    assert ("lagrangian export: error: [initial]: the initial coordinates do not meet constraint 'rod' (l - sqrt(x**2 "
+            "+ y**2) = -1, not 0), and changing the coordinates that were not given (none; given: x, y) does not fix "
+            "it: give fewer coordinates (the independent ones) or values that meet it") in capsys.readouterr().err

@@ -124,7 +124,7 @@ int {ident}_project(double t, double *x, const double *p);
    Gauss-Newton (least-norm steps, at most 1 in size) from their values, the velocities by the
    least-norm change, as lagrangian does for an initial state. Returns {up}_MET, or which
    constraints the free values cannot meet ({up}_POSITION_NOT_MET, {up}_VELOCITY_NOT_MET), or
-   {up}_SINGULAR, {up}_NOT_FINITE. */
+   {up}_NOT_FINITE. */
 int {ident}_consistent_state(double t, double *x, const double *p, const int *held);
 """
 
@@ -376,8 +376,9 @@ int @ID@_consistent_state(double t, double *x, const double *p, const int *held)
     if (nv > 0 && lg_max_abs(LG_NC, w) > 0.0) {
         for (k = 0; k < LG_NC; k++)
             for (j = 0; j < nv; j++) A[k * nv + j] = G[k * LG_N + freev[j]];
-        if (!lg_lstsq(LG_NC, nv, A, w, dq)) return @UP@_SINGULAR;
-        for (j = 0; j < nv; j++) x[LG_N + freev[j]] -= dq[j];
+        /* a zero A (the free velocities do not enter the constraints): no change, as lstsq's 0 */
+        if (lg_lstsq(LG_NC, nv, A, w, dq))
+            for (j = 0; j < nv; j++) x[LG_N + freev[j]] -= dq[j];
     }
     @P@gen_constraint_residuals(t, x, u, (double *)p, g, w);
     if (!lg_finite(LG_NC, w)) return @UP@_NOT_FINITE;
