@@ -1,8 +1,9 @@
 """lagrangian against its peers, measured in one run: prints each section's numbers, the ratios,
 and a summary of the targets of issue 4 (fast numerics).
 
-Run:   python benchmarks/bench.py            (about 3 minutes on 2 cores)
-       python benchmarks/bench.py --quick    (fewer repeats, no 20-link KanesMethod)
+Run:   python benchmarks/bench.py            (about 3 minutes on 2 cores, and up to 10 more for the
+                                             bicycle's peer)
+       python benchmarks/bench.py --quick    (fewer repeats, no 20-link KanesMethod, no bicycle peer)
 
 Sections
   derivation   M and f of n-link pendulum chains (n = 5, 10, 20) against sympy.physics.mechanics
@@ -23,6 +24,10 @@ Sections
                pendulum-chain-20 (benchmarks/display.py; the targets of issue 10)
   bodies       M and f of serial arms of rigid bodies in space (robot-arm-3, robot-arm-6) against
                KanesMethod (benchmarks/derive_arm.py; the arm target of the bodies-in-space issue)
+  bicycle      the Whipple bicycle (whipple-bicycle) loaded, derived and linearized at v = 5 m/s in
+               fresh processes, against sympy.physics.mechanics KanesMethod + linearize (one run,
+               stopped after 600 s), the eigenvalues checked against the paper's
+               (benchmarks/bicycle.py; the target of the bicycle issue: under 2 s)
 """
 
 from __future__ import annotations
@@ -406,6 +411,14 @@ def bodies(quick: bool) -> None:
     RESULTS["arm"] = derive_arm.run((3, 6), repeat=3 if quick else 5)
 
 
+# -------------------------------------------------------------------------------- bicycle
+def bicycle(quick: bool) -> None:
+    import bicycle as whipple
+
+    header("The Whipple bicycle: derived and linearized at one speed, against KanesMethod (medians)")
+    RESULTS["bicycle"] = whipple.run(repeat=3 if quick else 5, peer=not quick)
+
+
 # --------------------------------------------------------------------------------- summary
 def summary() -> None:
     header("Targets")
@@ -454,17 +467,22 @@ def summary() -> None:
         ours, kane = R["arm"][6]
         print(f"| a 6-joint arm in space derived >= 20x faster than KanesMethod | {kane / ours:.0f}x | "
               f"{mark(kane / ours >= 20)} |")
+    if "bicycle" in R:
+        import bicycle as whipple
+
+        for target, measured, ok in whipple.targets(R["bicycle"]):
+            print(f"| {target} | {measured} | {mark(ok)} |")
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats; skip the slowest peers")
     ap.add_argument("--only", nargs="*", choices=["derivation", "simulation", "batch", "new-model", "forty",
-                                                  "display", "bodies"],
+                                                  "display", "bodies", "bicycle"],
                     help="run only these sections")
     args = ap.parse_args(argv)
     sections = {"derivation": derivation, "simulation": simulation, "batch": batch, "new-model": new_model,
-                "forty": forty, "display": display, "bodies": bodies}
+                "forty": forty, "display": display, "bodies": bodies, "bicycle": bicycle}
     import platform
 
     print(f"# lagrangian benchmarks ({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
