@@ -58,8 +58,6 @@ def _hessians(equations: Equations, cm):
 def _independent(equations: Equations, G: np.ndarray) -> list[int]:
     """The independent coordinates: those the model declares ([simulation] independent), else the
     ones left when the best-conditioned columns of G (QR with column pivoting) are taken as dependent."""
-    from scipy.linalg import qr
-
     names = [c.name for c in equations.coordinates]
     declared = [str(q) for q in equations.model.simulation.get("independent", ())]
     n, m = len(names), G.shape[0]
@@ -72,8 +70,7 @@ def _independent(equations: Equations, G: np.ndarray) -> list[int]:
                              f"{n - m} independent ones are needed, and the constraints must fix the rest); name "
                              "other independent coordinates or linearize elsewhere")
         return ind
-    _, _, piv = qr(G, pivoting=True)
-    dep = sorted(piv[:m])
+    dep = _pivot_columns(G, m)
     return [i for i in range(n) if i not in dep]
 
 
@@ -206,13 +203,20 @@ def _linearized_parts(equations: Equations, t, q, qd, u, p, qdd, lam):
 
 
 def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
-    """The k best-conditioned columns of A (QR with column pivoting)."""
-    from scipy.linalg import qr
-
-    if k == 0:
-        return []
-    _, _, piv = qr(A, pivoting=True)
-    return sorted(piv[:k])
+    """The k best-conditioned columns of A: QR with column pivoting (Businger and Golub), each
+    step taking the column with the largest part orthogonal to those taken (NumPy only: importing
+    SciPy's QR costs more than a linearization)."""
+    R = np.array(A, float)
+    taken: list[int] = []
+    for _ in range(min(k, R.shape[1])):
+        norms = np.linalg.norm(R, axis=0)
+        norms[taken] = -1.0
+        j = int(np.argmax(norms))
+        taken.append(j)
+        if norms[j] > 0:
+            e = R[:, j] / norms[j]
+            R -= np.outer(e, e @ R)
+    return sorted(taken)
 
 
 def _dependent_speeds(equations: Equations, W: np.ndarray, hol: list[int], dep_q: list[int]) -> list[int]:

@@ -26,7 +26,7 @@ __all__ = ["cache_dir", "model_key", "numba_source", "c_source", "load_module", 
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "19"
+GENERATOR_VERSION = "20"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",

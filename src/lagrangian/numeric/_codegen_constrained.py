@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from ..equations import Equations
 from ..model._constraints import HOLONOMIC
-from ._codegen import SINGULAR, _cfunc_head, _Printer
+from ._codegen import SINGULAR, UNROLL_MAX, _cfunc_head, _ldl, _Printer
 
 __all__ = ["constrained_main", "work_size"]
 
@@ -238,8 +238,14 @@ def constrained_main(equations: Equations) -> list[str]:
     out += lines
     targets = ([f"work[{i * n + j}]" for i, j in lower] + [f"work[{F0 + i}]" for i in range(n)]
                + [f"work[{G0 + k}]" for k in range(m * n)] + [f"work[{C0 + k}]" for k in range(m)])
-    out += stores(exprs, targets)
-    out.append("    return _saddle(work, x, dx)")
+    if n <= UNROLL_MAX and m <= UNROLL_MAX:  # written out: names instead of the work array
+        out += [f"    {name} = {e}" for name, e in zip(
+            [f"m{i}_{j}" for i, j in lower] + [f"f{i}" for i in range(n)]
+            + [f"g{k}_{j}" for k in range(m) for j in range(n)] + [f"c{k}_" for k in range(m)], exprs)]
+        out += _unrolled_saddle(n, m)
+    else:
+        out += stores(exprs, targets)
+        out.append("    return _saddle(work, x, dx)")
 
     # the constraint parts the projection needs, as njit functions of (t, x, u, p, out)
     def parts(name, exprs, doc, places=None):
@@ -313,4 +319,55 @@ def constrained_main(equations: Equations) -> list[str]:
         f"            s += work[{Y0} + i * {m} + k] * w[k]",
         f"        x[{n} + i] -= s",
     ]
+    return out
+
+
+def _unrolled_saddle(n: int, m: int) -> list[str]:
+    """Statements of rhs's saddle-point solve written out (n, m <= UNROLL_MAX), from the names
+    m{i}_{j} (M's lower triangle), f{i}, g{k}_{j} (G) and c{k}_: the LDL^T factors of M (as for an
+    unconstrained model), a = M^-1 f and the columns y{k} = M^-1 G_k^T by substitution, S = G Y by
+    Cholesky, lambda, and q_ddot = a + Y lambda; the same measure as _saddle."""
+    ind = "    "
+    out = _ldl(n, "py", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}", part="factor")
+    out.append(f"{ind}if not math.isfinite({' + '.join(f'f{i}' for i in range(n))}):")
+    out.append(f"{ind}    return -1.0")
+
+    def substitute(rhs, name):  # M^-1 rhs into {name}{i}
+        lines = []
+        for i in range(n):  # L z = rhs
+            terms = "".join(f" - l{i}_{k} * z{name}{k}" for k in range(i))
+            lines.append(f"{ind}z{name}{i} = {rhs(i)}{terms}")
+        for i in range(n - 1, -1, -1):  # L^T v = D^-1 z
+            terms = "".join(f" - l{k}_{i} * {name}{k}" for k in range(i + 1, n))
+            lines.append(f"{ind}{name}{i} = z{name}{i} * i{i}{terms}")
+        return lines
+
+    out += substitute(lambda i: f"f{i}", "a")
+    for k in range(m):
+        out += substitute(lambda i, k=k: f"g{k}_{i}", f"y{k}_")
+    for a in range(m):  # S = G Y, lower triangle
+        for b in range(a + 1):
+            out.append(f"{ind}s{a}_{b} = " + " + ".join(f"g{a}_{i} * y{b}_{i}" for i in range(n)))
+    out.append(f"{ind}rs = 1.0")
+    for j in range(m):  # Cholesky of S
+        terms = "".join(f" - h{j}_{k} * h{j}_{k}" for k in range(j))
+        out.append(f"{ind}e{j} = s{j}_{j}{terms}")
+        out.append(f"{ind}if not (e{j} > 0.0 and s{j}_{j} > 0.0):")
+        out.append(f"{ind}    return 0.0")
+        out.append(f"{ind}rs = min(rs, e{j} / s{j}_{j})")
+        out.append(f"{ind}h{j}_{j} = math.sqrt(e{j})")
+        for i in range(j + 1, m):
+            terms = "".join(f" - h{i}_{k} * h{j}_{k}" for k in range(j))
+            out.append(f"{ind}h{i}_{j} = (s{i}_{j}{terms}) / h{j}_{j}")
+    for k in range(m):  # S lambda = c - G a
+        ga = " + ".join(f"g{k}_{i} * a{i}" for i in range(n))
+        terms = "".join(f" - h{k}_{q} * w{q}" for q in range(k))
+        out.append(f"{ind}w{k} = (c{k}_ - ({ga}){terms}) / h{k}_{k}")
+    for k in range(m - 1, -1, -1):
+        terms = "".join(f" - h{q}_{k} * lam{q}" for q in range(k + 1, m))
+        out.append(f"{ind}lam{k} = (w{k}{terms}) / h{k}_{k}")
+    for i in range(n):
+        out.append(f"{ind}dx[{n + i}] = a{i} + " + " + ".join(f"y{k}_{i} * lam{k}" for k in range(m)))
+        out.append(f"{ind}dx[{i}] = x[{n + i}]")
+    out.append(f"{ind}return min(r, math.sqrt(rs))")
     return out

@@ -247,7 +247,7 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
                 X[j] = projected if times[j] == solver.t else cm.project(times[j], dense(times[j]), p)
                 j += 1
             solver.y = projected
-            if hasattr(solver, "f"):
+            if hasattr(solver, "f") and method != "DOP853":  # DOP853 keeps its last stage, as compiled
                 solver.f = rhs(solver.t, projected)
             if solver.status == "finished" and j < len(times):
                 X[j:] = projected
