@@ -8,6 +8,7 @@ LagrangesMethod with holonomic constraints."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -264,3 +265,35 @@ def test_constraint_names_that_clash_and_tables_with_both_kinds(tmp_path):
     text = str(info.value)
     assert "both.toml:5 [constraints[0]]: a constraint needs exactly one of holonomic" in text and "got both" in text
     assert "both.toml:9 [constraints[1].name]: a constraint's name is a string such as name = \"rod\", got the number 3" in text
+
+
+@pytest.mark.parametrize("name", ["four-bar", "slider-crank"])
+def test_eliminated_to_an_ode_in_the_independent_coordinates_the_loop_moves_as_when_projected(name):
+    eqs = lg.derive(lg.load(name))
+    ode = lg.simulate(eqs, t_end=3.0, rtol=1e-11, atol=1e-11, constraints="eliminate")
+    projected = lg.simulate(eqs, t_end=3.0, rtol=1e-11, atol=1e-11)
+    assert "elimination" in ode.stats and "projection" not in ode.stats
+    for s in eqs.state_names:
+        assert np.max(np.abs(ode[s] - projected[s])) < 1e-7 * (1 + np.max(np.abs(projected[s])))
+    assert np.allclose(ode.multipliers, projected.multipliers, rtol=1e-5, atol=1e-5)
+    assert ode.stats["constraint_drift"]["position"] < 1e-12 * (1 + np.max(np.abs(ode[eqs.state_names[0]])))
+    assert ode.stats["constraint_drift"]["velocity"] < 1e-12
+    assert abs(ode.energy[-1] - ode.energy[0]) < 1e-8 * abs(ode.energy[0])
+
+
+@pytest.mark.parametrize("model, message", [
+    ("cartesian-pendulum", "constraints='eliminate' integrates the independent coordinates: name them under "
+                           "[simulation] independent (e.g. independent = [\"x\"]), or use constraints='project'"),
+    ("rolling-disk", "constraints='eliminate' reduces holonomic constraints to an ODE; velocity constraints cannot "
+                     "be eliminated so: use constraints='project'"),
+    ("double-pendulum", "constraints='eliminate' is for models with constraints; this one has none"),
+])
+def test_what_elimination_refuses_says_why(model, message, capsys):
+    from lagrangian.cli import main
+
+    with pytest.raises(lg.ModelError, match=re.escape(message)):
+        lg.simulate(lg.derive(lg.load(model)), t_end=0.1, constraints="eliminate")
+    assert main(["simulate", model, "--constraints", "eliminate", "--t-end", "0.1"]) == 2
+    assert message in capsys.readouterr().err
+    with pytest.raises(lg.ModelError, match=r"constraints must be 'project' or 'eliminate', got 'reduce'"):
+        lg.simulate(lg.derive(lg.load(model)), t_end=0.1, constraints="reduce")

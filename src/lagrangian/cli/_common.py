@@ -118,6 +118,10 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
                         "zero, e.g. \"upright=cos(q2)\" (repeatable; compiled DOP853 only)")
     s.add_argument("--stop-on", action="append", default=[], metavar="NAME",
                    help="stop at the first crossing of this --event (repeatable)")
+    s.add_argument("--constraints", default="project", choices=("project", "eliminate"),
+                   help="a constrained model: project (default: all coordinates, projected onto the constraints "
+                        "after every step) or eliminate (an ODE in the [simulation] independent coordinates, the "
+                        "others by Newton on g = 0)")
     s.add_argument("--show-equations", action="store_true", help="print the equations before simulating")
 
 
@@ -142,7 +146,8 @@ def run_simulation(args, *, equations_to=None):
                     dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method,
                     backend=getattr(args, "backend", "auto"), step=getattr(args, "step", None),
                     events=events or None, stop_on=tuple(stop_on),
-                    sample_time=sample_time_option(getattr(args, "sample_time", None)))
+                    sample_time=sample_time_option(getattr(args, "sample_time", None)),
+                    constraints=getattr(args, "constraints", "project"))
     return model, eqs, traj
 
 

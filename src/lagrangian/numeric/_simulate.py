@@ -278,7 +278,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
              rtol: float | None = None, atol: float | None = None, method: str = "DOP853",
              max_step: float = math.inf, backend: str = "auto", step: float | None = None,
              events: Mapping[str, str] | None = None, stop_on=(), progress: bool | None = None,
-             sample_time: float | Mapping[str, float] | None = None) -> Trajectory:
+             sample_time: float | Mapping[str, float] | None = None, constraints: str = "project") -> Trajectory:
     """Integrate x' = f(t, x, u, p) from t = 0 to `t_end`.
 
     Parameters
@@ -336,6 +336,12 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         in between (zero-order hold); a number samples every input, a mapping only the named
         ones (``{"F": 0.01}``; the others stay continuous). Default: the model's [simulation]
         sample_time, or none.
+
+    constraints : {"project", "eliminate"}
+        For a model with holonomic constraints: "project" (default) integrates all coordinates and
+        projects onto the constraints after every step (compiled when it can); "eliminate" integrates
+        an ODE in the independent coordinates ([simulation] independent), the others found by Newton on
+        g = 0 at every evaluation (SciPy's integrators; no drift by construction).
 
     Returns
     -------
@@ -403,6 +409,11 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
             problems.append(Problem("method 'variational' needs T* quadratic in the velocities (M free of "
                                     "q_dot); use method='DOP853'", key="method"))
     event_exprs = _event_expressions(nm, events, stop_on, problems)
+    if constraints not in ("project", "eliminate"):
+        problems.append(Problem(f"constraints must be 'project' or 'eliminate', got {constraints!r}",
+                                key="constraints"))
+    elif constraints == "eliminate":
+        _elimination_problems(nm.equations, method, problems)
     if nm.equations.is_constrained:
         _constrained_problems(nm, method, event_exprs, sample_time, problems)
     if event_exprs and method != "DOP853":
@@ -415,7 +426,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     eq = nm.equations
     if eq.is_constrained:
         return _simulate_constrained(nm, x0, times, p, u_of, float(rtol), float(atol), max_step, method,
-                                     initial, defaults.get("initial"), backend, u_exprs, progress)
+                                     initial, defaults.get("initial"), backend, u_exprs, progress, constraints)
     fast = _compiled_model(nm, backend, method, u_exprs)
     if fast is not None:
         return _simulate_compiled(fast, method, x0, times, p, u_exprs, float(rtol), float(atol), max_step,
@@ -767,7 +778,7 @@ def _constrained_problems(nm, method, event_exprs, sample_time, problems) -> Non
 
 
 def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, initial, model_initial,
-                          backend="scipy", u_exprs=None, progress=None):
+                          backend="scipy", u_exprs=None, progress=None, constraints="project"):
     """simulate() of a model with constraints: consistent initial state, then the projected
     integration of M q_ddot = f + G^T lambda, G q_ddot = c (see _constrained).
 
@@ -795,10 +806,15 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
                 x0[names.index(k)] = v
     elif initial is None and not independent:
         fixed |= set(model_initial or ())
-    fast = _compiled_constrained(eq, backend, method, u_exprs)
+    fast = None if constraints == "eliminate" else _compiled_constrained(eq, backend, method, u_exprs)
     try:
         x0 = consistent_state(cm, x0, fixed, p)
-        if fast is not None:
+        if constraints == "eliminate":
+            from ._constrained import integrate_eliminated
+
+            X, U, Lam, stats = integrate_eliminated(cm, x0, times, p, u_of, rtol, atol, max_step, method,
+                                                    [names.index(q) for q in independent])
+        elif fast is not None:
             X, U, Lam, stats = _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
                                                                max_step, progress)
         else:
@@ -877,3 +893,22 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
              "projection": "coordinate projection after every step",
              "constraint_drift": {"position": drift_q, "velocity": drift_v}}
     return X, U, Lam, stats
+
+
+def _elimination_problems(eq: Equations, method: str, problems: list) -> None:
+    """Why constraints='eliminate' cannot run this model, if it cannot."""
+    from ..model._constraints import VELOCITY
+
+    if not eq.is_constrained:
+        problems.append(Problem("constraints='eliminate' is for models with constraints; this one has none",
+                                key="constraints"))
+    elif any(c.kind == VELOCITY for c in eq.model.constraints):
+        problems.append(Problem("constraints='eliminate' reduces holonomic constraints to an ODE; velocity "
+                                "constraints cannot be eliminated so: use constraints='project'", key="constraints"))
+    elif not eq.model.simulation.get("independent"):
+        problems.append(Problem("constraints='eliminate' integrates the independent coordinates: name them under "
+                                f"[simulation] independent (e.g. independent = [\"{eq.coordinates[0].name}\"]), "
+                                "or use constraints='project'", key="constraints"))
+    elif method == "variational":
+        problems.append(Problem("constraints='eliminate' runs on SciPy's integrators: use method='DOP853' or "
+                                "another SciPy method", key="constraints"))
