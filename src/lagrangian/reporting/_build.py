@@ -1,10 +1,14 @@
 """report(equations) -> Report: the derivation, step by step, as the seed's slides teach it.
 
-The steps (Bona's recipe): the bodies and the frame; the generalized coordinates; the position
-and velocity of every element; the kinetic co-energy T* and the potential energy V; the
-dissipation D; the generalized forces Q from virtual work; the Lagrangian L = T* - V; each
-Lagrange equation; the matrix form; the state equations; then the diagnosis of the mass matrix
-and, when the analysis layer provides them, the equilibria and their stability.
+The steps (Bona's recipe): the bodies and the frames (each frame's rotation as elementary
+rotations, its origin and its angular velocity, derived); the generalized coordinates; the
+position and velocity of every element; the kinetic co-energy T* and the potential energy V; the
+dissipation D; the generalized forces Q from virtual work; the constraints, when the model has
+some (g = 0 or the velocity form, the Jacobian G, the multipliers lambda and the constraint forces
+G^T lambda, the acceleration form G q_ddot = c); the Lagrangian L = T* - V; each Lagrange
+equation (with its constraint force); the matrix form (M q_ddot = f + G^T lambda, G q_ddot = c
+with constraints); the state equations; then the diagnosis of the mass matrix and, when the
+analysis layer provides them, the equilibria and their stability. Sections are numbered in order.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import os
 import symengine as se
 import sympy
 
-from ..equations import Equations, derive, singularities
+from ..equations import Equations, constraint_singularities, derive, singularities
 from ..equations._singular import determinant, factored
 from ..errors import LagrangianError
 from ..model import Model
@@ -23,12 +27,14 @@ from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBod
 from ..model._frames import angular_velocity
 from ..model._kinematics import Kinematics
 from ._document import Math, Paragraph, Report, Section, Table
-from ._printing import Partial, TimeDerivative
+from ._printing import ConstraintForce, Given, Partial, Rotation, TimeDerivative
 
 __all__ = ["report"]
 
 S = sympy.Symbol
 _ZERO = sympy.Integer(0)
+#: q_dot after a matrix in a product (not commutative, so that the product keeps its order).
+_ORDERED_QDOT = sympy.Symbol("q_dot", commutative=False)
 
 
 def report(source, *, title: str | None = None, equilibria: bool = True) -> Report:
@@ -69,14 +75,14 @@ def report(source, *, title: str | None = None, equilibria: bool = True) -> Repo
     else:
         raise TypeError(f"report() expects Equations, a Model, or a model name or path, "
                         f"got {type(source).__name__}")
-    eqs.require_unconstrained("the report", "lagrangian derive shows its equations with the constraints and "
-                              "their multipliers, and lagrangian simulate its motion")
     b = _Builder(eqs)
-    sections = [b.bodies(), b.coordinates(), b.kinematics(), b.energies(), b.dissipation(),
-                b.forces(), b.lagrangian(), b.equations(), b.matrix_form(), b.state_form(),
-                b.singularities()]
+    sections = [b.bodies(), b.coordinates(), b.kinematics(), b.energies(), b.dissipation(), b.forces()]
+    if eqs.is_constrained:
+        sections.append(b.constraints())
+    sections += [b.lagrangian(), b.equations(), b.matrix_form(), b.state_form(), b.singularities()]
     if equilibria:
         sections.append(b.equilibria())
+    sections = [Section(s.key, f"{i}. {s.title}", s.blocks) for i, s in enumerate(sections, 1)]
     model = eqs.model
     return Report(title or f"Lagrange's equations of {model.name}", model.name,
                   model.description, tuple(sections))
@@ -107,7 +113,7 @@ class _Builder:
             blocks.append(Paragraph.of(
                 "The model is given by its energies (T*, V, D and Q written directly), without "
                 "elements: there are no bodies or frames to list."))
-            return Section("bodies", "1. Bodies and frame", tuple(blocks))
+            return Section("bodies", "Bodies and frame", tuple(blocks))
         n = len(self.massive)
         frames = self.model.frames
         blocks.append(Paragraph.of(
@@ -120,6 +126,7 @@ class _Builder:
         if frames:
             blocks.append(Table(("frame", "parent", "origin", "rotation"), tuple(
                 (f.name, f.parent, _col(f.origin), _rotation_text(f)) for f in frames.values())))
+            blocks += self._frames()
         dims = {len(e.position) for e in elements if hasattr(e, "position")}
         axes = "x, y, z" if 3 in dims else "x, y"
         blocks.append(Paragraph.of(f"Positions are written in one inertial frame with axes {axes}"
@@ -137,14 +144,56 @@ class _Builder:
             else:
                 rows.append((e.name, e.kind, "", ""))
         blocks.append(Table(("element", "kind", "mass", "inertia"), tuple(rows)))
-        return Section("bodies", "1. Bodies and frame", tuple(blocks))
+        return Section("bodies", "Bodies and frame", tuple(blocks))
+
+    def _frames(self) -> list:
+        """Each frame's rotation (its elementary rotations multiplied out), its origin in world axes
+        and its angular velocity in its own axes, derived as derive() derives it."""
+        from ..model._frames import frame_pose, world_factors
+
+        kin = self.kin
+        frames = self.model.frames
+        blocks = [Paragraph.of(
+            "A frame's rotation R (its axes in its parent's axes: components b in the frame are R b in the "
+            "parent) is the product of its elementary rotations, each about the current axes; its origin in "
+            "world axes is the parent's plus the parent's rotation times its origin. Its angular velocity in "
+            "its own axes is derived, never given: the sum, over the rotations F_1 ... F_k of the chain from "
+            "the world, of each one's rate (a_i' about its axis e_i) carried into the frame's axes by the "
+            "rotations after it, omega = sum_i (F_(i+1) ... F_k)^T a_i' e_i: the vector of the skew-symmetric "
+            "matrix R^T dR/dt, without the products of sines and cosines that R^T dR/dt would have to cancel:")]
+        for f in frames.values():
+            R = f.rotation.applyfunc(self.readable)
+            blocks.append(Paragraph.of(f"Frame {f.name}, in frame {f.parent}: its rotation ",
+                                       Math(_product(f.factors), S(f"R_{f.name}")), ":"))
+            blocks.append(Math(sympy.ImmutableMatrix(R), S(f"R_{f.name}"), key=f"rotation[{f.name}]"))
+            origin, _ = frame_pose(frames, f.name)
+            blocks.append(Math(_col(self.readable(x) for x in origin), S(f"o_{f.name}"), key=f"origin[{f.name}]"))
+            terms = _omega_terms(world_factors(frames, f.name), kin)
+            shown = tuple(_col(self.readable(x) for x in term) for term in terms)
+            total = _col(self.readable(x) for x in _add(terms))
+            if len(shown) > 1:
+                blocks.append(Math(shown, S(f"omega_{f.name}"), key=f"omega-terms[{f.name}]"))
+            blocks.append(Math(total, S(f"omega_{f.name}"), key=f"frame-omega[{f.name}]"))
+        return blocks
 
     # ------------------------------------------------------ 2. coordinates
     def coordinates(self) -> Section:
         eqs = self.eqs
         n = eqs.n
-        blocks = [Paragraph.of(f"{n} generalized coordinate{'s' if n != 1 else ''}, complete and "
-                               "independent; the state is x = [q, q_dot]."),
+        if eqs.is_constrained:
+            kinds = [c.kind for c in self.model.constraints]
+            h, v = kinds.count("holonomic"), kinds.count("velocity")
+            head = (f"{n} generalized coordinates, complete but not independent: "
+                    + (f"{h} holonomic constraint{'s relate' if h != 1 else ' relates'} them (section "
+                       "Constraints), leaving " f"{n - h} of them free" if h else "")
+                    + (", and " if h and v else "")
+                    + (f"{v} velocity constraint{'s' if v != 1 else ''} restrict their velocities to "
+                       f"{n - h - v} free combination{'s' if n - h - v != 1 else ''}" if v else "")
+                    + "; the state is x = [q, q_dot].")
+        else:
+            head = (f"{n} generalized coordinate{'s' if n != 1 else ''}, complete and "
+                    "independent; the state is x = [q, q_dot].")
+        blocks = [Paragraph.of(head),
                   Math(_col(eqs.coordinates), S("q"), key="q"),
                   Math(_col(eqs.velocities), S("q_dot"), key="q_dot")]
         if eqs.parameters:
@@ -154,7 +203,7 @@ class _Builder:
         if eqs.inputs:
             blocks.append(Paragraph.of("Inputs (given as functions of time when simulating): ",
                                        *_join_math(eqs.inputs), "."))
-        return Section("coordinates", "2. Generalized coordinates", tuple(blocks))
+        return Section("coordinates", "Generalized coordinates", tuple(blocks))
 
     # ----------------------------------------------- 3. positions, velocities
     def kinematics(self) -> Section:
@@ -164,7 +213,7 @@ class _Builder:
             blocks.append(Paragraph.of(
                 "This model is written with its energies only, so there are no element positions or "
                 "velocities to list: T*, V and D are given directly (next sections)."))
-            return Section("kinematics", "3. Positions and velocities", tuple(blocks))
+            return Section("kinematics", "Positions and velocities", tuple(blocks))
         j = S("j")
         chain = sympy.Sum(Partial(S("r"), S("q_j")) * S("q_j_dot"), (j, 1, S("n"))) + Partial(S("r"), S("t"))
         blocks.append(Paragraph.of("Velocities are total time derivatives, by the chain rule: ",
@@ -204,9 +253,9 @@ class _Builder:
                 blocks.append(Math(_col(r), S("r"), key=f"position[{name}]"))
                 blocks.append(Math(_col(v), S("v"), key=f"velocity[{name}]"))
                 blocks.append(Paragraph.of(
-                    "Its angular velocity in its own axes, derived from its frame's rotation R (the skew-symmetric "
-                    "matrix of omega is R^T dR/dt; never given), and its kinetic co-energy, translation and "
-                    "rotation, T* = m |v|^2/2 + omega^T I omega/2:"))
+                    f"Its angular velocity in its own axes, that of its frame {e.frame} (derived from the frame's "
+                    "rotation R, as in section 1: the skew-symmetric matrix of omega is R^T dR/dt; never given), and "
+                    "its kinetic co-energy, translation and rotation, T* = m |v|^2/2 + omega^T I omega/2:"))
                 blocks.append(Math(_col(self.readable(w) for w in angular_velocity(e.factors, kin)), S("omega"),
                                    key=f"omega[{name}]"))
                 blocks.append(Math(self.readable(e.contribute(kin).T), S("T^*"), key=f"T[{name}]"))
@@ -231,7 +280,8 @@ class _Builder:
                 blocks.append(Math(self.readable(kin.rate(e.length)), S("ell_dot"), key=f"rate[{name}]"))
                 blocks.append(Math(self.readable(e.contribute(kin).D), S("D"), key=f"D[{name}]"))
             elif isinstance(e, Gravity):
-                direction = e.direction or "(0, -1) in a plane, (0, 0, -1) in space"
+                space = any(len(x.position) == 3 for x in self.model.elements if hasattr(x, "position"))
+                direction = e.direction or ("(0, 0, -1)" if space else "(0, -1)")
                 blocks.append(Paragraph.of("Gravity, of magnitude ", e.g, ", along ",
                                            _col(e.direction) if e.direction else direction,
                                            ", on every body with mass: the sum of ",
@@ -255,7 +305,7 @@ class _Builder:
                                                 S("Q_k")), ":"))
                 blocks.append(Math(e.torque, S("tau"), key=f"torque[{name}]"))
                 blocks.append(Math(_col(self.readable(x) for x in e.contribute(kin).Q), S("Q"), key=f"Q[{name}]"))
-        return Section("kinematics", "3. Positions and velocities", tuple(blocks))
+        return Section("kinematics", "Positions and velocities", tuple(blocks))
 
     # ------------------------------------------------------- 4. energies
     def energies(self) -> Section:
@@ -282,7 +332,7 @@ class _Builder:
                     blocks.append(Math(T0, S("T_0"), key="T0"))
         blocks.append(Paragraph.of("The potential energy V:"))
         blocks.append(Math(self.readable(eqs.V), S("V"), key="V"))
-        return Section("energies", "4. Kinetic co-energy and potential energy", tuple(blocks))
+        return Section("energies", "Kinetic co-energy and potential energy", tuple(blocks))
 
     def _kinetic_split(self):
         core = self.eqs.core
@@ -304,7 +354,7 @@ class _Builder:
             blocks = (Paragraph.of("The Rayleigh dissipation function D (its velocity gradient gives "
                                    "the damping forces -dD/dq_dot):"),
                       Math(self.readable(D), S("D"), key="D"))
-        return Section("dissipation", "5. Dissipation", blocks)
+        return Section("dissipation", "Dissipation", blocks)
 
     # --------------------------------------------------------- 6. forces
     def forces(self) -> Section:
@@ -320,7 +370,49 @@ class _Builder:
             blocks.append(Paragraph.of("Their input matrix ", sympy.Eq(S("B"), Partial(S("Q"), S("u")), evaluate=False),
                                        ", with u = ", _col(eqs.inputs), ":"))
             blocks.append(Math(eqs.input_matrix, S("B"), key="B"))
-        return Section("forces", "6. Generalized forces", tuple(blocks))
+        return Section("forces", "Generalized forces", tuple(blocks))
+
+    # ------------------------------------------------------- constraints
+    def constraints(self) -> Section:
+        """g(q, t) = 0 or a(q, t) q_dot + b = 0, their Jacobian G, the multipliers, the constraint
+        forces G^T lambda and the acceleration form G q_ddot = c (only for a constrained model)."""
+        eqs, model = self.eqs, self.model
+        cons = model.constraints
+        m = len(cons)
+        blocks = [Paragraph.of(
+            f"{m} constraint{'s' if m != 1 else ''}, each with its Lagrange multiplier lambda_<name>: a holonomic "
+            "constraint g(q, t) = 0 restricts the configurations, a velocity (nonholonomic) constraint "
+            "a(q, t) q_dot + b(q, t) = 0 the velocities only.")]
+        for c, g in zip(cons, eqs.constraints.values()):
+            kind = "holonomic" if c.kind == "holonomic" else "velocity (nonholonomic)"
+            blocks.append(Paragraph.of(f"Constraint {c.name}, {kind}, multiplier ", c.multiplier, ":"))
+            blocks.append(Math(_ZERO, self.readable(g), key=f"constraint[{c.name}]"))
+        independent = [str(q) for q in model.simulation.get("independent", ())]
+        if independent:
+            blocks.append(Paragraph.of(f"The independent coordinates ([simulation] independent): "
+                                       f"{', '.join(independent)}; the constraints fix the others."))
+        G = eqs.constraint_jacobian.applyfunc(self.readable)
+        blocks.append(Paragraph.of(
+            "Their Jacobian G, one row per constraint: dg/dq for a holonomic constraint, the velocities' "
+            "coefficients a for a velocity constraint; at velocity level the constraints read ",
+            Math(_ZERO, (S("G") * S("q_dot"), S("b"))), " (b = dg/dt for a holonomic one):"))
+        blocks.append(Math(sympy.ImmutableMatrix(G), S("G"), key="constraint-jacobian"))
+        lam = _col(eqs.multipliers)
+        blocks.append(Paragraph.of("The multipliers and the generalized forces the constraints exert, ",
+                                   sympy.Mul(S("G^T"), S("lambda"), evaluate=False),
+                                   " (with g written as a length, a distance minus a length, dg/dq is a unit vector "
+                                   "and lambda the force along it):"))
+        blocks.append(Math(lam, S("lambda"), key="multipliers"))
+        blocks.append(Math(eqs.constraint_forces.applyfunc(self.readable),
+                           sympy.Mul(S("G^T"), S("lambda"), evaluate=False), key="constraint-forces"))
+        blocks.append(Paragraph.of(
+            "Differentiated to acceleration level (a holonomic constraint twice, a velocity constraint once), "
+            "with the velocity residual w = G q_dot + b, the constraints read ",
+            Math(S("c"), S("G") * S("q_ddot")), ", with ",
+            Math((-sympy.Mul(Partial(S("w"), S("q")), _ORDERED_QDOT, evaluate=False), -Partial(S("w"), S("t"))),
+                 S("c")), ":"))
+        blocks.append(Math(eqs.constraint_acceleration.applyfunc(self.readable), S("c"), key="c"))
+        return Section("constraints", "Constraints", tuple(blocks))
 
     # ----------------------------------------------------- 7. Lagrangian
     def lagrangian(self) -> Section:
@@ -328,29 +420,42 @@ class _Builder:
         blocks = [Math((S("T^*"), -S("V")), S("L"), key="L-definition"),
                   Math(self.readable(eqs.L), S("L"), key="L")]
         h = self.readable(eqs.jacobi_integral)
+        constrained = eqs.is_constrained
         if eqs.is_conservative:
-            conserved = "It is conserved: L does not depend on t explicitly, D = 0 and Q = 0."
+            velocity = any(c.kind != "holonomic" for c in self.model.constraints)
+            conserved = ("It is conserved: L does not depend on t explicitly, D = 0 and Q = 0"
+                         + (", and the constraints do no work (they do not depend on t"
+                            + (", and the velocity constraints have no term free of the velocities"
+                               if velocity else "") + ")." if constrained else "."))
         else:
             why = [w for w, c in (("L depends on t explicitly", eqs.explicit_time), ("D is not zero", eqs.D != 0),
-                                  ("Q is not zero", any(x != 0 for x in eqs.generalized_forces))) if c]
+                                  ("Q is not zero", any(x != 0 for x in eqs.generalized_forces)),
+                                  ("the constraints do work (they depend on t)",
+                                   constrained and not eqs._constraints_scleronomic)) if c]
             conserved = f"It is not conserved here: {', '.join(why)}."
         blocks.append(Paragraph.of("The Jacobi integral ",
                                    Math((sympy.Sum(S("q_i_dot") * Partial(S("L"), S("q_i_dot")), (S("i"), 1, S("n"))),
                                          -S("L")), S("h")),
                                    " (the energy T* + V when T* is quadratic in the velocities). " + conserved))
         blocks.append(Math(h, S("h"), key="h"))
-        return Section("lagrangian", "7. Lagrangian", tuple(blocks))
+        return Section("lagrangian", "Lagrangian", tuple(blocks))
 
     # ------------------------------------------------------- 8. equations
     def equations(self) -> Section:
         eqs, kin = self.eqs, self.kin
         core = eqs.core
         has_D = core.D != 0
-        generic = Math(S("Q_i"), (TimeDerivative(Partial(S("L"), S("q_i_dot"))), -Partial(S("L"), S("q_i")),
-                                  Partial(S("D"), S("q_i_dot"))))
+        constrained = eqs.is_constrained
+        generic_rhs = ((S("Q_i"), sympy.Sum(S("lambda_k") * S("G_ki"), (S("k"), 1, S("m")))) if constrained
+                       else S("Q_i"))
+        generic = Math(generic_rhs, (TimeDerivative(Partial(S("L"), S("q_i_dot"))), -Partial(S("L"), S("q_i")),
+                                     Partial(S("D"), S("q_i_dot"))))
         blocks = [Paragraph.of("One equation for each coordinate, ", generic,
                                ", with d/dt by the chain rule (q, q_dot and q_ddot are independent "
-                               "symbols):")]
+                               "symbols)" + ("; the constraint forces (G^T lambda)_i, with the multipliers "
+                                             "lambda_k as further unknowns, join the generalized forces:"
+                                             if constrained else ":"))]
+        forces = eqs.constraint_forces if constrained else None
         Lsym, Dsym = S("L"), S("D")
         qdd = [se.Symbol(a.name) for a in eqs.accelerations]
         for i, (q, qd) in enumerate(zip(eqs.coordinates, eqs.velocities)):
@@ -359,7 +464,8 @@ class _Builder:
             if has_D:
                 lhs.append(Partial(Dsym, qd))
             blocks.append(Paragraph.of(f"Equation {i + 1}, for coordinate ", q, ":"))
-            blocks.append(Math(Qi, tuple(lhs), key=f"lagrange[{q.name}]", label=f"({i + 1})"))
+            rhs = (Qi, ConstraintForce(i + 1)) if constrained else Qi
+            blocks.append(Math(rhs, tuple(lhs), key=f"lagrange[{q.name}]", label=f"({i + 1})"))
             p = core.p[i]
             dpdt = kin.rate(p) + sum((p.diff(core.qd[j]) * qdd[j] for j in range(eqs.n)), se.Integer(0))
             blocks.append(Math(self.readable(p), Partial(Lsym, qd), key=f"dL/d{qd.name}"))
@@ -368,9 +474,11 @@ class _Builder:
             if has_D:
                 blocks.append(Math(self.readable(core.D.diff(core.qd[i])), Partial(Dsym, qd), key=f"dD/d{qd.name}"))
             blocks.append(Math(self.readable(core.Q[i]), Qi, key=f"Q_{i + 1}"))
+            if constrained:
+                blocks.append(Math(self.readable(forces[i]), ConstraintForce(i + 1), key=f"constraint-force[{q.name}]"))
             blocks.append(Paragraph.of("so that"))
             blocks.append(Math(_ZERO, eqs.equations[i], key=f"equation[{q.name}]", label=f"({i + 1})"))
-        return Section("equations", "8. Lagrange's equations", tuple(blocks))
+        return Section("equations", "Lagrange's equations", tuple(blocks))
 
     # ----------------------------------------------------- 9. matrix form
     def matrix_form(self) -> Section:
@@ -381,11 +489,14 @@ class _Builder:
         except LagrangianError as exc:
             C = None
             blocks.append(Paragraph.of(f"{exc}."))
+        constrained = eqs.is_constrained
+        # with constraints G is their Jacobian: the potential's gradient is written dV/dq
+        gradient = Partial(S("V"), S("q")) if constrained else S("G")
         lhs = [S("M") * S("q_ddot")]
         rhs = [S("Q")]
         parts = []
         if C is not None:
-            lhs += [S("C") * S("q_dot"), S("G")]
+            lhs += [S("C") * S("q_dot"), gradient]
             if any(x != 0 for x in eqs.gyroscopic_matrix):
                 rhs.append(-S("Gamma") * S("q_dot"))
                 parts.append(Math(eqs.gyroscopic_matrix, S("Gamma"), key="Gamma"))
@@ -400,17 +511,35 @@ class _Builder:
             rhs.append(-Partial(S("D"), S("q_dot")))
             parts.append(Math(eqs.damping_forces.applyfunc(self.readable), -Partial(S("D"), S("q_dot")),
                               key="damping"))
-        blocks.append(Paragraph.of("The equations in matrix form (the seed's H(q) is M(q)):"))
+        if constrained:
+            rhs.append(sympy.Mul(S("G^T"), S("lambda"), evaluate=False))
+        blocks.append(Paragraph.of("The equations in matrix form (the seed's H(q) is M(q))"
+                                   + (", with the constraint forces and the constraints at acceleration level "
+                                      "(G the constraints' Jacobian):" if constrained else ":")))
         blocks.append(Math(tuple(rhs), tuple(lhs), key="matrix-form"))
+        if constrained:
+            blocks.append(Math(S("c"), S("G") * S("q_ddot"), key="matrix-form-constraints"))
         blocks.append(Paragraph.of("with the mass matrix M = d2T*/dq_dot2 (symmetric)"
                                    + (", the Coriolis and centrifugal matrix C from the Christoffel symbols "
-                                      "of M, the gradient G = dV/dq" if C is not None else "") + ":"))
+                                      "of M, the gradient " + ("dV/dq" if constrained else "G = dV/dq")
+                                      if C is not None else "") + ":"))
         blocks.append(Math(eqs.mass_matrix, S("M"), key="M"))
         if C is not None:
             blocks.append(Math(C.applyfunc(self.readable), S("C"), key="C"))
-            blocks.append(Math(eqs.potential_gradient.applyfunc(self.readable), S("G"), key="G"))
+            blocks.append(Math(eqs.potential_gradient.applyfunc(self.readable), gradient, key="G"))
         blocks += parts
-        blocks.append(Paragraph.of("Equivalently M q_ddot = f, the form the simulation solves, with the forcing"))
+        if constrained:
+            blocks.append(Paragraph.of(
+                "Equivalently, with the forcing f below and G and c of the constraints' section, the form the "
+                "simulation solves, for the accelerations and the multipliers together (a saddle-point system, "
+                "solved numerically at each step: never by a symbolic inverse):"))
+            blocks.append(Math((S("f"), sympy.Mul(S("G^T"), S("lambda"), evaluate=False)), S("M") * S("q_ddot"),
+                               key="constrained-form"))
+            saddle = sympy.MatMul(sympy.ImmutableMatrix([[S("M"), S("G^T")], [S("G"), 0]]),
+                                  sympy.ImmutableMatrix([S("q_ddot"), -S("lambda")]), evaluate=False)
+            blocks.append(Math(sympy.ImmutableMatrix([S("f"), S("c")]), saddle, key="saddle-point"))
+        else:
+            blocks.append(Paragraph.of("Equivalently M q_ddot = f, the form the simulation solves, with the forcing"))
         blocks.append(Math(eqs.forcing, S("f"), key="f"))
         lin = eqs.linear
         if lin is not None:
@@ -418,12 +547,27 @@ class _Builder:
                                        "M x'' + C x' + K x = f with constant matrices"))
             for k in ("M", "C", "K", "f"):
                 blocks.append(Math(getattr(lin, k), S(k), key=f"linear.{k}"))
-        return Section("matrix-form", "9. Matrix form", tuple(blocks))
+        return Section("matrix-form", "Matrix form", tuple(blocks))
 
     # ------------------------------------------------------ 10. state form
     def state_form(self) -> Section:
         eqs = self.eqs
         x = _col((*eqs.coordinates, *eqs.velocities))
+        if eqs.is_constrained:
+            blocks = [Paragraph.of("With the state x = [q, q_dot], the state equations x' = f(t, x, u, p) are"),
+                      Math(x, S("x"), key="x"),
+                      Math(sympy.ImmutableMatrix([[S("q_dot")], [S("q_ddot")]]), S("x_dot"), key="x_dot"),
+                      Paragraph.of(
+                          "with q_ddot (and lambda) from the saddle-point system of the matrix form, solved "
+                          "numerically at each evaluation. The accelerations are not solved for symbolically. "
+                          "Integrated alone, these equations let g and G q_dot + b drift with the integration "
+                          "error, so the simulation projects the state back onto the constraints after every "
+                          "step (the coordinates onto g = 0, the velocities onto G q_dot + b = 0)."),
+                      Paragraph.of(f"Order of the state: {', '.join(eqs.state_names)}; inputs: "
+                                   f"{', '.join(u.name for u in eqs.inputs) or 'none'}; parameters: "
+                                   f"{', '.join(p.name for p in eqs.parameters) or 'none'}; multipliers: "
+                                   f"{', '.join(mu.name for mu in eqs.multipliers)}.")]
+            return Section("state-form", "State equations", tuple(blocks))
         blocks = [Paragraph.of("With the state x = [q, q_dot], the state equations x' = f(t, x, u, p) are"),
                   Math(x, S("x"), key="x"),
                   Math(sympy.ImmutableMatrix([[S("q_dot")], [S("M^-1") * S("f")]]), S("x_dot"), key="x_dot")]
@@ -440,7 +584,7 @@ class _Builder:
         inputs = ", ".join(u.name for u in eqs.inputs) or "none"
         params = ", ".join(p.name for p in eqs.parameters) or "none"
         blocks.append(Paragraph.of(f"Order of the state: {names}; inputs: {inputs}; parameters: {params}."))
-        return Section("state-form", "10. State equations", tuple(blocks))
+        return Section("state-form", "State equations", tuple(blocks))
 
     def _accelerations(self):
         eqs = self.eqs
@@ -473,11 +617,29 @@ class _Builder:
         if lines and lines[0].startswith("det M"):
             lines = lines[1:]
         blocks += [Paragraph.of(line) for line in lines]
-        return Section("singularities", "11. Mass matrix diagnosis", tuple(blocks))
+        if not self.eqs.is_constrained:
+            return Section("singularities", "Mass matrix diagnosis", tuple(blocks))
+        blocks.append(Paragraph.of(
+            "With constraints, what the simulation needs to be regular is the saddle-point matrix "
+            "[M, G^T; G, 0] rather than M alone: G of full rank (independent constraints; G loses rank at a "
+            "mechanism's singular configurations, where the simulation stops and names the constraints that "
+            "became dependent) and M positive definite on the motions the constraints allow (G q_dot = 0). "
+            "The constraints' diagnosis (lagrangian check):"))
+        try:
+            crep = constraint_singularities(self.eqs)
+        except (LagrangianError, ValueError, NotImplementedError) as exc:
+            blocks.append(Paragraph.of(f"The constraints could not be diagnosed: {exc}"))
+        else:
+            lines = crep.text().splitlines()
+            if crep.gram_determinant is not None:
+                blocks.append(Math(crep.gram_determinant, sympy.Function("det")(S("G") * S("G^T")), key="det G G^T"))
+                lines = [line for line in lines if not line.startswith("det(G G^T) =")]
+            blocks += [Paragraph.of(line) for line in lines]
+        return Section("singularities", "Mass matrix and constraints diagnosis", tuple(blocks))
 
     # ------------------------------------------------------- 12. equilibria
     def equilibria(self) -> Section:
-        title = "12. Equilibria and stability"
+        title = "Equilibria and stability"
         try:
             from ..analysis import equilibria
         except ImportError:
@@ -491,24 +653,93 @@ class _Builder:
             return Section("equilibria", title, (Paragraph.of(
                 "There is no equilibrium (with the inputs at zero and the parameter values):"),
                 *(Paragraph.of(f"{_sentence(note)}.") for note in getattr(found, "notes", ()))))
-        blocks = [Paragraph.of("Equilibria with the inputs at zero and the parameter values, and their "
-                               "stability from the linearized equations:")]
+        constrained = self.eqs.is_constrained
+        if constrained:
+            blocks = [Paragraph.of(
+                "Equilibria with the inputs at zero and the parameter values: at rest the forces are balanced by "
+                "forces the constraints can exert, on the constraints, ",
+                Math(_ZERO, (S("f"), sympy.Mul(S("G^T"), S("lambda"), evaluate=False))), " and ",
+                Math(_ZERO, S("g")), ", solved for q and the multipliers; their stability from the equations "
+                "linearized in the independent coordinates (the constraints eliminated at each equilibrium, "
+                "with the stiffness of the constraint forces):")]
+        else:
+            blocks = [Paragraph.of("Equilibria with the inputs at zero and the parameter values, and their "
+                                   "stability from the linearized equations:")]
         rows = []
         for i, e in enumerate(found):
-            exact = getattr(e, "exact", None) or {}
-            coords = []
-            for name, value in e.coordinates.items():
-                ex = exact.get(name)
-                val = ex if ex is not None else sympy.Float(value, 6)
-                coords.append(sympy.Eq(S(name), val, evaluate=False))
+            coords = _relations(e.coordinates, getattr(e, "exact", None))
             eig = getattr(e, "eigenvalues", None)
             eig_text = ""
             if eig is not None:
                 eig_text = ", ".join(_complex_text(z) for z in list(eig)[:8])
-            rows.append((str(i + 1), *([_join_inline(coords)] if coords else [""]),
-                         getattr(e, "stability", "stable" if e.stable else "unstable"), eig_text))
-        blocks.append(Table(("", "configuration", "stability", "eigenvalues"), tuple(rows)))
+            stability = getattr(e, "stability", "stable" if e.stable else "unstable")
+            if not getattr(e, "isolated", True):
+                from ..analysis._equilibria import _set_text
+
+                stability += f" (non-isolated: {_set_text(e.dimension, e.along, 'equilibria')})"
+            row = [str(i + 1), coords]
+            if constrained:
+                row.append(_relations(e.multipliers, e.exact_multipliers))
+            rows.append((*row, stability, eig_text))
+        header = ("", "configuration", "multipliers", "stability", "eigenvalues") if constrained else \
+            ("", "configuration", "stability", "eigenvalues")
+        blocks.append(Table(header, tuple(rows)))
+        blocks += [Paragraph.of(f"{_sentence(note)}.") for note in getattr(found, "notes", ())]
         return Section("equilibria", title, tuple(blocks))
+
+
+def _relations(values, exact) -> object:
+    """name = value (exact where known) for each item, as one inline tuple ("" when none)."""
+    exact = exact or {}
+    out = []
+    for name, value in values.items():
+        ex = exact.get(name)
+        out.append(sympy.Eq(S(name), ex if ex is not None else sympy.Float(value, 6), evaluate=False))
+    return _join_inline(out) if out else ""
+
+
+def _product(factors) -> sympy.Expr:
+    """A rotation's factors as an unevaluated product R_z(phi) R_x(theta) ... (I when there is none)."""
+    parts = []
+    for f in factors:
+        if f.matrix is not None:
+            parts.append(Given(f.matrix))
+        else:
+            axis = {(1, 0, 0): "x", (0, 1, 0): "y", (0, 0, 1): "z"}.get(
+                tuple(int(a) if a.is_Integer else a for a in f.axis))
+            parts.append(Rotation(axis or tuple(f.axis), f.angle))
+    if not parts:
+        return S("I")
+    return parts[0] if len(parts) == 1 else sympy.Mul(*parts, evaluate=False)
+
+
+def _omega_terms(factors, kin) -> list:
+    """The angular velocity of the rotation F1 F2 ... Fk in the last frame's axes as its terms, one
+    per factor: (F_(i+1) ... F_k)^T w_i, with w_i = a_i' e_i (the vector of F_i^T F_i' for a matrix);
+    their sum is model._frames.angular_velocity. Factors with a constant angle give no term."""
+    from ..model._frames import elementary
+
+    terms: list = []
+    for f in factors:
+        if f.matrix is not None:
+            F = se.DenseMatrix(3, 3, [kin.se(x) for row in f.matrix for x in row])
+            dF = se.DenseMatrix(3, 3, [kin.rate(x) for row in f.matrix for x in row])
+            W = F.T * dF
+            w = [(W[2, 1] - W[1, 2]) / 2, (W[0, 2] - W[2, 0]) / 2, (W[1, 0] - W[0, 1]) / 2]
+        else:
+            F = se.DenseMatrix(3, 3, [kin.se(x) for x in elementary(f.axis, f.angle)])
+            rate = kin.rate(f.angle)
+            w = [kin.se(a) * rate for a in f.axis]
+        terms = [list(F.T * se.DenseMatrix(3, 1, t)) for t in terms]
+        terms.append(w)
+    return [t for t in terms if any(se.expand(x) != 0 for x in t)]
+
+
+def _add(terms) -> list:
+    out = [se.Integer(0)] * 3
+    for t in terms:
+        out = [a + b for a, b in zip(out, t)]
+    return out
 
 
 def _sentence(text: str) -> str:

@@ -1,6 +1,7 @@
 """Printing for reports: LaTeX and presentation MathML with the project's symbol names
-(``q1_dot`` as q with a dot and subscript 1, ``theta`` as the Greek letter), two unevaluated
-operators (partial and total time derivatives) and a size guard for large expressions."""
+(``q1_dot`` as q with a dot and subscript 1, ``theta`` as the Greek letter), unevaluated
+operators (partial and total time derivatives, elementary rotations, the constraint forces
+(G^T lambda)_i) and a size guard for large expressions."""
 
 from __future__ import annotations
 
@@ -13,7 +14,8 @@ from sympy.printing.latex import LatexPrinter
 from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
-__all__ = ["Partial", "TimeDerivative", "latex", "mathml", "too_large", "MAX_NODES"]
+__all__ = ["Partial", "TimeDerivative", "Rotation", "Given", "ConstraintForce", "latex", "mathml", "too_large",
+           "MAX_NODES"]
 
 #: Expressions with more nodes than this are not printed (the report says so instead).
 MAX_NODES = 2500
@@ -80,6 +82,99 @@ class TimeDerivative(sympy.Expr):
 
     def _sympystr(self, printer):
         return f"d/dt({printer._print(self.args[0])})"
+
+
+class Rotation(sympy.Expr):
+    """The unevaluated elementary rotation R_axis(angle) (printing only; not commutative, so that
+    a product of rotations keeps its order). `axis` is "x", "y", "z" or a unit vector."""
+
+    is_commutative = False
+
+    def __new__(cls, axis, angle):
+        axis = sympy.Symbol(axis) if isinstance(axis, str) else sympy.ImmutableMatrix(axis).T
+        return sympy.Expr.__new__(cls, axis, sympy.sympify(angle))
+
+    def _latex(self, printer):
+        axis, angle = self.args
+        return f"R_{{{printer._print(axis)}}}\\left({printer._print(angle)}\\right)"
+
+    def _mathml_presentation(self, printer):
+        axis, angle = self.args
+        dom = printer.dom
+        row = dom.createElement("mrow")
+        sub = dom.createElement("msub")
+        mi = dom.createElement("mi")
+        mi.appendChild(dom.createTextNode("R"))
+        sub.appendChild(mi)
+        sub.appendChild(printer._print(axis))
+        row.appendChild(sub)
+        for piece in ("(", None, ")"):
+            if piece is None:
+                row.appendChild(printer._print(angle))
+            else:
+                mo = dom.createElement("mo")
+                mo.appendChild(dom.createTextNode(piece))
+                row.appendChild(mo)
+        return row
+
+    def _sympystr(self, printer):
+        axis, angle = self.args
+        axis = axis.name if isinstance(axis, sympy.Symbol) else printer._print(list(axis))
+        return f"R_{axis}({printer._print(angle)})"
+
+
+class Given(sympy.Expr):
+    """A given matrix as a factor of a product of rotations (printing only; not commutative)."""
+
+    is_commutative = False
+
+    def __new__(cls, matrix):
+        return sympy.Expr.__new__(cls, sympy.ImmutableMatrix(matrix))
+
+    def _latex(self, printer):
+        return printer._print(self.args[0])
+
+    def _mathml_presentation(self, printer):
+        return printer._print(self.args[0])
+
+    def _sympystr(self, printer):
+        return printer._print(self.args[0])
+
+
+class ConstraintForce(sympy.Expr):
+    """The unevaluated i-th generalized constraint force (G^T lambda)_i (printing only)."""
+
+    def __new__(cls, i):
+        return sympy.Expr.__new__(cls, sympy.sympify(i))
+
+    def _latex(self, printer):
+        return f"\\left(G^{{T}} \\lambda\\right)_{{{printer._print(self.args[0])}}}"
+
+    def _mathml_presentation(self, printer):
+        dom = printer.dom
+        sub = dom.createElement("msub")
+        row = dom.createElement("mrow")
+
+        def add(tag, text):
+            el = dom.createElement(tag)
+            el.appendChild(dom.createTextNode(text))
+            row.appendChild(el)
+
+        add("mo", "(")
+        sup = dom.createElement("msup")
+        for text in ("G", "T"):
+            mi = dom.createElement("mi")
+            mi.appendChild(dom.createTextNode(text))
+            sup.appendChild(mi)
+        row.appendChild(sup)
+        add("mi", "\u03bb")
+        add("mo", ")")
+        sub.appendChild(row)
+        sub.appendChild(printer._print(self.args[0]))
+        return sub
+
+    def _sympystr(self, printer):
+        return f"(G^T*lambda)_{printer._print(self.args[0])}"
 
 
 def _split_name(name: str) -> tuple[str, str | None]:
