@@ -345,3 +345,12 @@ def test_the_c_backend_refuses_constraints_with_a_fix():
     with pytest.raises(lg.ModelError, match=r"the C backend does not take constraints yet: use backend='auto' or "
                                             r"'numba' \(the compiled constrained integration\), or 'scipy'"):
         lg.simulate(eqs, t_end=1.0, backend="c")
+
+
+def test_check_of_the_bicycle_finishes_and_names_the_gimbal_lock_of_its_angles(bicycle):
+    report = lg.singularities(bicycle)  # M of 8 coordinates: searched numerically (it used to hang)
+    assert report.singular
+    c = report.configurations[0]
+    assert abs(abs(float(c.where["phi"])) - math.pi / 2) < 1e-5  # lying flat: yaw and pitch about one axis
+    assert {k for k, v in c.null_velocity.items() if v != 0} >= {"psi_dot", "theta_dot"}
+    assert report.cause.startswith("the coordinates ") and "the gimbal lock of successive rotations" in report.cause

@@ -269,8 +269,12 @@ def _numeric_zero_search(eqs: Equations, det_num: sympy.Expr) -> list[dict]:
     return [{q: sympy.Float(v, 8) for q, v in zip(qs, x)} for x in found[:4]]
 
 
-def _null_direction(M: sympy.Matrix, M_values: sympy.Matrix, where: dict) -> sympy.Matrix | None:
-    for mat in (M, M_values):
+def _null_direction(M: sympy.Matrix, M_values: sympy.Matrix, where: dict,
+                    numeric: bool = False) -> sympy.Matrix | None:
+    """The velocity combination without inertia at `where`: SymPy's null space (exact), or, with
+    `numeric` (large models, whose symbolic null space would not finish), the eigenvector of M's
+    smallest eigenvalue there."""
+    for mat in (() if numeric else (M, M_values)):
         at = mat.subs(where)
         try:
             ns = at.nullspace(simplify=True)
@@ -285,6 +289,8 @@ def _null_direction(M: sympy.Matrix, M_values: sympy.Matrix, where: dict) -> sym
     w, V = np.linalg.eigh(A)
     v = V[:, 0]
     v = v / v[np.argmax(np.abs(v))]
+    if numeric:  # floats as they are (a fraction made of a rounded float reads as noise)
+        return sympy.Matrix([sympy.Integer(0) if abs(x) < 1e-6 else sympy.Float(round(x, 6), 6) for x in v])
     return sympy.Matrix([sympy.nsimplify(round(x, 10)) for x in v])
 
 
@@ -371,7 +377,7 @@ def singularities(equations: Equations) -> SingularityReport:
             if key in seen:
                 continue
             seen.add(key)
-            configurations.append(_configuration(eqs, M, M_values, z, values))
+            configurations.append(_configuration(eqs, M, M_values, z, values, numeric=not symbolic_ok))
     singular = bool(configurations)
     cause = fix = ""
     if singular:
@@ -380,8 +386,8 @@ def singularities(equations: Equations) -> SingularityReport:
                              cause, fix, tuple(q.name for q in eqs.coordinates))
 
 
-def _configuration(eqs, M, M_values, where, values) -> SingularConfiguration:
-    direction = _null_direction(M, M_values, where)
+def _configuration(eqs, M, M_values, where, values, numeric: bool = False) -> SingularConfiguration:
+    direction = _null_direction(M, M_values, where, numeric)
     cond = " and ".join(f"{q.name} = {sympy.sstr(v)}" for q, v in where.items())
     still, massless = _element_motion(eqs, where, direction, values) if direction is not None else ((), ())
     nv = {d.name: x for d, x in zip(eqs.velocities, direction)} if direction is not None else {}
@@ -397,6 +403,17 @@ def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tu
                  "every body with mass stays still, so the motion has no inertia.")
         fix = ("give the massless part a positive mass (set its mass parameter > 0), "
                f"or eliminate coordinate {q.name} if it is not a real degree of freedom.")
+        return cause, fix
+    angles = {f.angle for fr in eqs.model.frames.values() for f in fr.factors if f.matrix is None}
+    rotated = [v for v, x in zip(eqs.coordinates, direction) if x != 0
+               and any(v in sympy.sympify(a).free_symbols for a in angles)]
+    if eqs.model.frames and len(rotated) >= 2 and not c.moving_massless:
+        moving = [v.name for v, x in zip(eqs.coordinates, direction) if x != 0]
+        cause = (f"the coordinates {', '.join(moving)} together describe no motion there: the frames' rotations by "
+                 f"{', '.join(v.name for v in rotated)} turn about axes that line up in this configuration (the "
+                 "gimbal lock of successive rotations), so the coordinates, not the bodies, are singular.")
+        fix = ("keep the motion away from these configurations, or describe the rotation by other angles (another "
+               "order of the elementary rotations) that are regular where the motion goes.")
         return cause, fix
     if has_elements:
         still = f" ({_still(c.still)})" if c.still else ""
