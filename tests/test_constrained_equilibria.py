@@ -222,3 +222,17 @@ def test_equilibria_modes_and_linearize_commands_on_constrained_models(capsys):
     assert lin["state_names"] == ["th1", "th1_dot"] and lin["stable"]
     assert lin["operating_point"]["th1"] == pytest.approx(-1.65824, abs=1e-5)  # the stable one nearest q = 0
     assert lin["constrained"]["dependent"]["th2"] == pytest.approx(-0.429576, abs=1e-6)
+
+
+def test_a_particle_on_a_slope_has_no_equilibrium_and_the_search_claims_no_fading_force():
+    m = lg.Model("incline", coordinates=["x", "y"], parameters={"m": 1.0, "g": 9.81, "a": 0.3})
+    m.add_particle("m", ("x", "y"))
+    m.add_gravity("g")
+    m.add_constraint("y - x*tan(a)", name="slope")
+    found = lg.equilibria(lg.derive(m))
+    assert list(found) == []
+    text = found.text()
+    assert "SymPy finds no solution of -lambda_slope*tan(a) = 0, -g*m + lambda_slope = 0" in text
+    assert "where the forces tend to 0" not in text  # the slope's pull never fades
+    kepler = lg.equilibria(lg.derive(lg.load("kepler"))).text()
+    assert "ran away towards r = +-infinity, where the forces tend to 0" in kepler  # -m mu / r**2 does

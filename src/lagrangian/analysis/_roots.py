@@ -51,6 +51,7 @@ class Search:
     far: float
     starts: int = 0
     runaway: dict = field(default_factory=dict)  # coordinate name -> number of starts that ran away along it
+    lasting: set = field(default_factory=set)  # names along which a runaway ended where the forces had not faded
 
 
 def search_context(problem: StationaryProblem, setting: Setting) -> Search:
@@ -189,6 +190,10 @@ def _note_runaway(ctx: Search, start: np.ndarray, end: np.ndarray) -> None:
         if not problem.angles[i] and (not math.isfinite(end[i]) or abs(end[i]) > 1e4 * (1 + abs(start[i]))):
             name = problem.variables[i].name
             ctx.runaway[name] = ctx.runaway.get(name, 0) + 1
+            with np.errstate(all="ignore"):
+                r = residual(problem, ctx.setting, end)[0] if np.all(np.isfinite(end)) else np.array([np.nan])
+            if not (r.size == 0 or np.abs(r).max() <= 1e-3 * ctx.force_scale):
+                ctx.lasting.add(name)
 
 
 def _starts(problem: StationaryProblem, setting: Setting, count: int, seed: int) -> list[np.ndarray]:
@@ -471,8 +476,9 @@ def completeness_notes(problem: StationaryProblem, ctx: Search, what: str) -> tu
 
 def runaway_notes(ctx: Search, what: str) -> tuple[str, ...]:
     """What the search saw run away: a root at infinity is not a stationary state."""
-    return tuple(f"{count} of the {ctx.starts} searches ran away towards {name} = +-infinity, where the forces "
-                 f"tend to 0: a root at infinity is not {what}" for name, count in sorted(ctx.runaway.items()))
+    return tuple(f"{count} of the {ctx.starts} searches ran away towards {name} = +-infinity"
+                 + ("" if name in ctx.lasting else ", where the forces tend to 0")
+                 + f": a root at infinity is not {what}" for name, count in sorted(ctx.runaway.items()))
 
 
 def _negate(text: str) -> str:
