@@ -212,12 +212,27 @@ def consistent_state(cm: ConstrainedModel, x0, fixed_names, p) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------- integration
-def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, method="DOP853"):
-    """(X at `times`, Lambda at `times`, stats): the projected integration (see the module)."""
+def multipliers_and_drift(cm: ConstrainedModel, times, X, U, p) -> tuple[np.ndarray, dict]:
+    """The multipliers at the outputs (one row each), and the largest |g| ("position") and
+    |G q_dot + b| ("velocity") there: the trajectory's constraint_drift."""
+    Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
+    drift_q = drift_v = 0.0
+    for t, x in zip(times, X):
+        g, w = cm.residuals(t, x, p)
+        drift_q = max(drift_q, float(np.max(np.abs(g), initial=0.0)))
+        drift_v = max(drift_v, float(np.max(np.abs(w), initial=0.0)))
+    return Lam, {"position": drift_q, "velocity": drift_v}
+
+
+def _solver(method: str):
+    """SciPy's OdeSolver class of `method`."""
     from scipy import integrate as si
 
-    solvers = {"DOP853": si.DOP853, "RK45": si.RK45, "RK23": si.RK23, "Radau": si.Radau, "BDF": si.BDF,
-               "LSODA": si.LSODA}
+    return getattr(si, method)
+
+
+def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, method="DOP853"):
+    """(X at `times`, Lambda at `times`, stats): the projected integration (see the module)."""
     n = cm.n
     nfev = 0
 
@@ -233,7 +248,7 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
         rhs(0.0, x0)
         nstep = 0
     else:
-        solver = solvers[method](rhs, 0.0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
+        solver = _solver(method)(rhs, 0.0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j, nstep = 1, 0
         while j < len(times):
             message = solver.step()
@@ -253,14 +268,9 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
                 X[j:] = projected
                 break
     U = np.array([u_of(t, x) for t, x in zip(times, X)]).reshape(len(times), -1)
-    Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
-    drift_q = drift_v = 0.0
-    for t, x in zip(times, X):
-        g, w = cm.residuals(t, x, p)
-        drift_q = max(drift_q, float(np.max(np.abs(g), initial=0.0)))
-        drift_v = max(drift_v, float(np.max(np.abs(w), initial=0.0)))
+    Lam, drift = multipliers_and_drift(cm, times, X, U, p)
     stats = {"nfev": nfev, "nstep": nstep, "projection": "coordinate projection after every step",
-             "constraint_drift": {"position": drift_q, "velocity": drift_v}}
+             "constraint_drift": drift}
     return X, U, Lam, stats
 
 
@@ -299,10 +309,6 @@ def integrate_eliminated(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, m
     its assembly branch), their velocities from G q_dot + b = 0, and q_ddot_i from the saddle-point
     system. The constraints hold to Newton's tolerance at every output by construction: no drift,
     and no projection."""
-    from scipy import integrate as si
-
-    solvers = {"DOP853": si.DOP853, "RK45": si.RK45, "RK23": si.RK23, "Radau": si.Radau, "BDF": si.BDF,
-               "LSODA": si.LSODA}
     n = cm.n
     ind = list(independent)
     dep = [i for i in range(n) if i not in ind]
@@ -344,7 +350,7 @@ def integrate_eliminated(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, m
     X[0] = full(0.0, z0)
     nstep = 0
     if times[-1] > 0:
-        solver = solvers[method](rhs, 0.0, z0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
+        solver = _solver(method)(rhs, 0.0, z0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j = 1
         while j < len(times):
             message = solver.step()
@@ -361,14 +367,9 @@ def integrate_eliminated(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, m
                 X[j:] = full(solver.t, solver.y)
                 break
     U = np.array([u_of(t, x) for t, x in zip(times, X)]).reshape(len(times), -1)
-    Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
-    drift_q = drift_v = 0.0
-    for t, x in zip(times, X):
-        g, w = cm.residuals(t, x, p)
-        drift_q = max(drift_q, float(np.max(np.abs(g), initial=0.0)))
-        drift_v = max(drift_v, float(np.max(np.abs(w), initial=0.0)))
+    Lam, drift = multipliers_and_drift(cm, times, X, U, p)
     stats = {"nfev": nfev, "nstep": nstep,
              "elimination": "an ODE in the independent coordinates (the others by Newton on g = 0 at every "
                             "evaluation)",
-             "constraint_drift": {"position": drift_q, "velocity": drift_v}}
+             "constraint_drift": drift}
     return X, U, Lam, stats

@@ -864,6 +864,7 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
     the projection after every accepted step (see _codegen_constrained); (X, U, Lambda, stats) as
     _constrained.integrate returns them."""
     from ._codegen_constrained import work_size
+    from ._constrained import multipliers_and_drift
     from ._fast import _address, inputs_and_energy, run_dop853
     from ._kernels import STATUS
 
@@ -883,15 +884,10 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
                               time=raw.stop_t)
     X = raw.x
     U, _ = inputs_and_energy(fast, times, X, p, prog)
-    Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
-    drift_q = drift_v = 0.0
-    for t, x in zip(times, X):
-        g, w = cm.residuals(t, x, p)
-        drift_q = max(drift_q, float(np.max(np.abs(g), initial=0.0)))
-        drift_v = max(drift_v, float(np.max(np.abs(w), initial=0.0)))
+    Lam, drift = multipliers_and_drift(cm, times, X, U, p)
     stats = {"nfev": raw.nfev, "nstep": raw.nstep, "nreject": raw.nreject,
              "projection": "coordinate projection after every step",
-             "constraint_drift": {"position": drift_q, "velocity": drift_v}}
+             "constraint_drift": drift}
     return X, U, Lam, stats
 
 
