@@ -22,8 +22,9 @@ admissible perturbations y = (dq, dq_dot) satisfy the linearized constraints
 and the linearized dynamics M dq'' + (d(M q_ddot0)/dq - df/dq - d(W^T lambda0)/dq) dq - df/dq_dot dq'
 = W^T dlambda + df/du du with W dq'' = dc (the constraints twice differentiated) give dq'' from the
 saddle-point system. With z = (the independent coordinates, the independent speeds) and y = Z z
-(the dependent parts solved from the constraints at the point), z' = S L Z z: exact derivatives
-(SymEngine), numbers only at the point. Coordinates on which nothing depends (the position of a
+(the dependent parts solved from the constraints at the point), z' = S L Z z. The derivatives at the
+point are central differences of the compiled M, f, W, c and w extrapolated twice (error O(h^6),
+checked against the exact ones and the bicycle's published eigenvalues in the tests). Coordinates on which nothing depends (the position of a
 rolling wheel on the ground, its heading, its spin angle: columns of zeros) are ignorable: they are
 left out, which is what makes a motion at constant rates steady. What remains is in second-order
 form over the coordinates of the independent speeds, with M = T^T M T (T = dq_dot/du).
@@ -31,7 +32,6 @@ form over the coordinates of the independent speeds, with M = T^T M T (T = dq_do
 
 from __future__ import annotations
 
-import weakref
 from types import MappingProxyType
 
 import numpy as np
@@ -143,32 +143,6 @@ def linearize_constrained(equations: Equations, at: dict, given: set, setting):
 
 
 # ------------------------------------------------------------------ steady motions, velocity constraints
-def _point_function(equations: Equations):
-    """(t, q, q_dot, u, p) -> M, f, W, c, w (all constraints' rows), compiled once per Equations."""
-    hit = _FUNCTIONS.get(equations)
-    if hit is not None:
-        return hit
-    core = equations.core
-    n, m = equations.n, len(core.g)
-    inputs = [se.Symbol(v.name) for v in equations.inputs]
-    params = [se.Symbol(v.name) for v in equations.parameters]
-    exprs = ([core.M[i, j] for i in range(n) for j in range(n)] + list(core.f)
-             + [core.G[k, j] for k in range(m) for j in range(n)] + list(core.c) + list(core.w))
-    f = se.Lambdify([core.t, *core.q, *core.qd, *inputs, *params], exprs, cse=True, real=True)
-    sizes = np.cumsum([n * n, n, m * n, m])
-
-    def evaluate(t, q, qd, u, p):
-        out = np.asarray(f(np.concatenate(([t], q, qd, u, p))), float).ravel()
-        M, fv, W, c, w = np.split(out, sizes)
-        return M.reshape(n, n), fv, W.reshape(m, n), c, w
-
-    _FUNCTIONS[equations] = evaluate
-    return evaluate
-
-
-_FUNCTIONS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-
-
 def _jacobian(F, x: np.ndarray) -> np.ndarray:
     """dF/dx by central differences extrapolated twice (Richardson: the error is O(h^6), about 1e-12
     of F's scale for the smooth functions of mechanics; checked against exact derivatives in the tests)."""
@@ -185,19 +159,20 @@ def _jacobian(F, x: np.ndarray) -> np.ndarray:
     return np.array(cols).T
 
 
-def _linearized_parts(equations: Equations, t, q, qd, u, p, qdd, lam):
+def _linearized_parts(cm, t, q, qd, u, p, qdd, lam):
     """At the point: M, f_q, f_qd, f_u, d(M q_ddot0)/dq, d(W^T lambda0)/dq, d(W q_ddot0 - c)/dq and /dq_dot,
-    N = dw/dq."""
-    F = _point_function(equations)
-    n = equations.n
+    N = dw/dq (cm: the ConstrainedModel, whose compiled M, f, W, c and w are differentiated)."""
+    n = cm.n
 
     def dynamic(z):  # M q_ddot0 - f - W^T lambda0 and W q_ddot0 - c and w, of (q, q_dot, u)
-        M, f, W, c, w = F(t, z[:n], z[n:2 * n], z[2 * n:], p)
+        x = z[:2 * n]
+        M, f, W, c = cm.parts(t, x, z[2 * n:], p)
+        w = cm._velocity_parts(t, x, p)[0]
         return np.concatenate((M @ qdd - f - W.T @ lam, W @ qdd - c, w))
 
     J = _jacobian(dynamic, np.concatenate((q, qd, u)))
     m = len(lam)
-    M = F(t, q, qd, u, p)[0]
+    M = cm.parts(t, np.concatenate((q, qd)), u, p)[0]
     dyn, con, vel = J[:n], J[n:n + m], J[n + m:]
     return M, dyn[:, :n], dyn[:, n:2 * n], dyn[:, 2 * n:], con[:, :n], con[:, n:2 * n], vel[:, :n]
 
@@ -286,7 +261,7 @@ def linearize_steady(equations: Equations, at: dict, given: set, setting):
                          f"{', '.join(c + '_dot' for c in still)} change there ("
                          + ", ".join(f"{coords[i]}_ddot = {qdd[i]:.3g}" for i in ind_v if coords[i] in still)
                          + "); linearize about a motion at constant rates, or simulate it")
-    M, Kq, Dq, Fu, Rq, Rqd, N = _linearized_parts(equations, t, q0, v0, u, p, qdd, lam)
+    M, Kq, Dq, Fu, Rq, Rqd, N = _linearized_parts(cm, t, q0, v0, u, p, qdd, lam)
     m = W.shape[0]
     # dq'' = P [dq; dq'] + Bq du, from [M -W^T; W 0] [dq''; dlambda] = -[Kq dq + Dq dq' + Fu du; Rq dq + Rqd dq']
     # (Kq, Dq, Fu: the derivatives of the residual M q_ddot0 - f - W^T lambda0)

@@ -62,14 +62,17 @@ class ConstrainedModel:
     def m(self) -> int:
         return len(self.equations.multipliers)
 
+    def parts(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(M, f, G, c) at the state."""
+        n, m = self.n, self.m
+        out = np.asarray(self._parts(np.concatenate(([t], x, u, p))), float).ravel()
+        return (out[:n * n].reshape(n, n), out[n * n:n * n + n], out[n * n + n:n * n + n + m * n].reshape(m, n),
+                out[n * n + n + m * n:])
+
     def solve(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray]:
         """(q_ddot, lambda) at the state."""
         n, m = self.n, self.m
-        out = np.asarray(self._parts(np.concatenate(([t], x, u, p))), float).ravel()
-        M = out[:n * n].reshape(n, n)
-        f = out[n * n:n * n + n]
-        G = out[n * n + n:n * n + n + m * n].reshape(m, n)
-        c = out[n * n + n + m * n:]
+        M, f, G, c = self.parts(t, x, u, p)
         _check_rank(G, t, x)
         K = np.zeros((n + m, n + m))
         K[:n, :n], K[:n, n:], K[n:, :n] = M, G.T, G
