@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -354,3 +355,25 @@ def test_check_of_the_bicycle_finishes_and_names_the_gimbal_lock_of_its_angles(b
     assert abs(abs(float(c.where["phi"])) - math.pi / 2) < 1e-5  # lying flat: yaw and pitch about one axis
     assert {k for k, v in c.null_velocity.items() if v != 0} >= {"psi_dot", "theta_dot"}
     assert report.cause.startswith("the coordinates ") and "the gimbal lock of successive rotations" in report.cause
+
+
+def test_independent_speeds_that_cannot_serve_are_refused_with_the_reason():
+    disk = lg.load("rolling-disk")
+    disk.simulation["independent_speeds"] = ["x_dot", "y_dot", "phi_dot"]  # x_dot, y_dot follow theta_dot
+    with pytest.raises(lg.ModelError, match=re.escape(
+            "the independent speeds x_dot, y_dot, phi_dot ([simulation] independent_speeds) do not determine the "
+            "other rates at this state (5 velocities, 2 constraints: 3 independent speeds are needed, and the "
+            "constraints must fix the rest); name other independent speeds")):
+        lg.linearize(lg.derive(disk), {"x_dot": 1.5})
+    sled = lg.Model("sled", coordinates=["x", "y", "phi"], parameters={"m": 1.0, "k": 2.0})
+    sled.add_energy(T="m*(x_dot**2 + y_dot**2 + phi_dot**2)/2", V="k*x**2/2")  # a spring on x: x matters
+    sled.add_velocity_constraint("x_dot*sin(phi) - y_dot*cos(phi)", name="blade")
+    sled.simulation["independent_speeds"] = ["phi_dot", "y_dot"]
+    with pytest.raises(lg.ModelError, match=re.escape(
+            "the linearization keeps the coordinates x whose rates are not independent speeds, and the motion "
+            "depends on them: choose independent speeds that include their rates ([simulation] "
+            "independent_speeds), where the constraints allow it")):
+        lg.linearize(lg.derive(sled), {"phi": 0.7})
+    sled.simulation["independent_speeds"] = ["phi_dot", "x_dot"]  # with x's rate independent it linearizes
+    lin = lg.linearize(lg.derive(sled), {"phi": 0.7})
+    assert lin.state_names == ("x", "phi", "x_dot", "phi_dot") and lin.constrained["ignorable"] == ["y"]

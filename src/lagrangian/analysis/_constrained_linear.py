@@ -252,9 +252,6 @@ def linearize_steady(equations: Equations, at: dict, given: set, setting):
     dep_v = _dependent_speeds(equations, W, hol, dep_q)
     ind_q = [i for i in range(n) if i not in dep_q]
     ind_v = [i for i in range(n) if i not in dep_v]
-    if not declared and not set(ind_v) <= set(ind_q):
-        raise ModelError("the independent speeds chosen at this state are not rates of independent coordinates; "
-                         "name them in [simulation] independent_speeds (and independent)")
     still = [coords[i] for i in ind_v if abs(qdd[i]) > 1e-9 * (1.0 + np.max(np.abs(qdd)))]
     if still:
         raise ModelError(f"the state {_state_text(names, x)} is not a steady motion: the independent speeds "
