@@ -346,6 +346,10 @@ def test_the_c_backend_refuses_constraints_with_a_fix():
     with pytest.raises(lg.ModelError, match=r"the C backend does not take constraints yet: use backend='auto' or "
                                             r"'numba' \(the compiled constrained integration\), or 'scipy'"):
         lg.simulate(eqs, t_end=1.0, backend="c")
+    from lagrangian.numeric._compiled import compile_equations
+
+    with pytest.raises(lg.ModelError, match=r"the C backend does not take constraints yet"):
+        lg.simulate(compile_equations(eqs, backend="c"), t_end=1.0)  # a C model passed in
 
 
 def test_check_of_the_bicycle_finishes_and_names_the_gimbal_lock_of_its_angles(bicycle):

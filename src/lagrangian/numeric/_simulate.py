@@ -791,6 +791,7 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
         singular_constraint_message
 
     eq = nm.equations
+    fast = None if constraints == "eliminate" else _compiled_constrained(nm, backend, method, u_exprs)
     if not isinstance(nm, NumericModel):
         nm = compile_equations(eq)
     cm = constrained_model(eq, nm)
@@ -806,7 +807,6 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
                 x0[names.index(k)] = v
     elif initial is None and not independent:
         fixed |= set(model_initial or ())
-    fast = None if constraints == "eliminate" else _compiled_constrained(eq, backend, method, u_exprs)
     try:
         x0 = consistent_state(cm, x0, fixed, p)
         if constraints == "eliminate":
@@ -835,28 +835,18 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
                       multiplier_names=tuple(m.name for m in eq.multipliers))
 
 
-def _compiled_constrained(eq: Equations, backend: str, method: str, u_exprs):
-    """The numba-compiled constrained model to integrate with, or None for the SciPy path (another
-    method, inputs given as Python functions, or expressions numba cannot compile, with backend
-    'auto')."""
-    if backend == "scipy" or method != "DOP853":
-        return None
+def _compiled_constrained(nm, backend: str, method: str, u_exprs):
+    """The numba-compiled constrained model to integrate with (its module carries the saddle-point
+    rhs and the projection), or None for the SciPy path, as _compiled_model decides; the C backend
+    refuses constraints."""
+    message = ("the C backend does not take constraints yet: use backend='auto' or 'numba' (the compiled "
+               "constrained integration), or 'scipy'")
     if backend == "c":
-        raise ModelError("the C backend does not take constraints yet: use backend='auto' or 'numba' (the "
-                         "compiled constrained integration), or 'scipy'")
-    from ._codegen import Unsupported
-    from ._fast import compile_numba
-    from ._inputs import NotCompilable
-
-    try:
-        if u_exprs is None:
-            raise NotCompilable(_CALLABLE_INPUT)
-        _input_programs(eq, u_exprs)
-        return compile_numba(eq)
-    except (Unsupported, NotCompilable) as exc:
-        if backend == "auto":
-            return None
-        raise ModelError(f"backend '{backend}' cannot run this model: {exc}; use backend='scipy'") from None
+        raise ModelError(message)
+    fast = _compiled_model(nm, backend, method, u_exprs)
+    if fast is not None and fast.project_c is None:  # a model compiled by the C backend, passed in
+        raise ModelError(message)
+    return fast
 
 
 def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress):
