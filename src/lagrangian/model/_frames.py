@@ -32,7 +32,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._kinematics import Kinematics
 
 __all__ = ["Frame", "WORLD", "AXES", "Factor", "elementary", "rotation_product", "chain", "frame_pose",
-           "angular_velocity"]
+           "angular_velocity", "factor_rate"]
 
 #: The name of the inertial frame every frame is chained from.
 WORLD = "world"
@@ -132,6 +132,21 @@ def world_factors(frames: Mapping[str, Frame], name: str) -> tuple[Factor, ...]:
     return tuple(f for frame in chain(frames, name) for f in frame.factors)
 
 
+def factor_rate(f: Factor, kin: "Kinematics"):
+    """(F, w) of one factor (SymEngine): its matrix and its own angular velocity in its axes,
+    w = a' e for an elementary rotation about the unit axis e, the vector of F^T F' for a matrix."""
+    import symengine as se
+
+    if f.matrix is not None:
+        F = se.DenseMatrix(3, 3, [kin.se(x) for row in f.matrix for x in row])
+        dF = se.DenseMatrix(3, 3, [kin.rate(x) for row in f.matrix for x in row])
+        W = F.T * dF
+        return F, [(W[2, 1] - W[1, 2]) / 2, (W[0, 2] - W[2, 0]) / 2, (W[1, 0] - W[0, 1]) / 2]
+    F = se.DenseMatrix(3, 3, [kin.se(x) for x in elementary(f.axis, f.angle)])
+    rate = kin.rate(f.angle)
+    return F, [kin.se(a) * rate for a in f.axis]
+
+
 def angular_velocity(factors, kin: "Kinematics") -> list:
     """The angular velocity, in the axes of the last factor's frame, of the rotation F1 F2 ... Fk
     (SymEngine expressions of q, q_dot and t): sum_i (F_{i+1} ... F_k)^T w_i."""
@@ -139,15 +154,7 @@ def angular_velocity(factors, kin: "Kinematics") -> list:
 
     omega = [se.Integer(0)] * 3
     for f in factors:  # omega_new = F^T omega_old + w
-        if f.matrix is not None:
-            F = se.DenseMatrix(3, 3, [kin.se(x) for row in f.matrix for x in row])
-            dF = se.DenseMatrix(3, 3, [kin.rate(x) for row in f.matrix for x in row])
-            W = F.T * dF
-            w = [(W[2, 1] - W[1, 2]) / 2, (W[0, 2] - W[2, 0]) / 2, (W[1, 0] - W[0, 1]) / 2]
-        else:
-            F = se.DenseMatrix(3, 3, [kin.se(x) for x in elementary(f.axis, f.angle)])
-            rate = kin.rate(f.angle)
-            w = [kin.se(a) * rate for a in f.axis]
+        F, w = factor_rate(f, kin)
         rotated = F.T * se.DenseMatrix(3, 1, omega)
         omega = [rotated[i] + w[i] for i in range(3)]
     return omega

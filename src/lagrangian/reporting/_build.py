@@ -717,19 +717,11 @@ def _omega_terms(factors, kin) -> list:
     """The angular velocity of the rotation F1 F2 ... Fk in the last frame's axes as its terms, one
     per factor: (F_(i+1) ... F_k)^T w_i, with w_i = a_i' e_i (the vector of F_i^T F_i' for a matrix);
     their sum is model._frames.angular_velocity. Factors with a constant angle give no term."""
-    from ..model._frames import elementary
+    from ..model._frames import factor_rate
 
     terms: list = []
     for f in factors:
-        if f.matrix is not None:
-            F = se.DenseMatrix(3, 3, [kin.se(x) for row in f.matrix for x in row])
-            dF = se.DenseMatrix(3, 3, [kin.rate(x) for row in f.matrix for x in row])
-            W = F.T * dF
-            w = [(W[2, 1] - W[1, 2]) / 2, (W[0, 2] - W[2, 0]) / 2, (W[1, 0] - W[0, 1]) / 2]
-        else:
-            F = se.DenseMatrix(3, 3, [kin.se(x) for x in elementary(f.axis, f.angle)])
-            rate = kin.rate(f.angle)
-            w = [kin.se(a) * rate for a in f.axis]
+        F, w = factor_rate(f, kin)
         terms = [list(F.T * se.DenseMatrix(3, 1, t)) for t in terms]
         terms.append(w)
     return [t for t in terms if any(se.expand(x) != 0 for x in t)]
