@@ -17,8 +17,9 @@ The stability comes from the linearization in independent coordinates
 (``_constrained_linear.linearize_constrained``: the reduced M, D and K with the constraint forces'
 stiffness), with the directions along a non-isolated set left out as for unconstrained models.
 
-Only scleronomic holonomic constraints: a velocity constraint is refused (not handled yet), and a
-constraint that depends on t moves, so that no state stays at rest.
+Only scleronomic holonomic constraints: a model with velocity constraints is searched numerically in
+its shape coordinates (``_constrained_steady``), and a constraint that depends on t moves, so that no
+state stays at rest.
 """
 
 from __future__ import annotations
@@ -96,21 +97,16 @@ def _statics(equations: Equations) -> _Statics:
 # --------------------------------------------------------------------------- the problem
 def constrained_problem(equations: Equations, inputs, t: float, exact: bool = True,
                         values: np.ndarray | None = None) -> StationaryProblem:
-    """The stationary problem of a model with holonomic constraints, in the variables (q, lambda).
+    """The stationary problem of a model with holonomic constraints only (velocity constraints:
+    ``_constrained_steady``), in the variables (q, lambda).
 
     Raises
     ------
     ModelError
-        A velocity constraint, a constraint that depends on t, or equations that depend on t at rest.
+        A constraint that depends on t, or equations that depend on t at rest.
     """
     model = equations.model
     core = equations.core
-    velocity = [c.name for c in model.constraints if c.kind == VELOCITY]
-    if velocity:
-        raise ModelError(
-            f"the search for equilibria does not handle velocity (nonholonomic) constraints yet, and model "
-            f"'{model.name}' has {len(velocity)} ({', '.join(velocity)}): linearize it about a state you choose "
-            "(lagrangian linearize MODEL --at ...), which handles them, or simulate it")
     moving = [c.name for c, g in zip(model.constraints, core.g) if _depends_on(g, core.t)]
     if moving:
         raise ModelError(
@@ -190,27 +186,31 @@ def balancing_multipliers(problem: StationaryProblem, setting: Setting, z: np.nd
 
 # --------------------------------------------------------------------------- stability
 def assess_constrained(problem: StationaryProblem, setting: Setting, z: np.ndarray,
-                       tangent: np.ndarray) -> tuple[Assessment, dict[str, float]]:
-    """The linearization in independent coordinates about the equilibrium z = (q, lambda), its
-    stability across the set of equilibria through it (`tangent`, in the variables), and the
-    dependent coordinates' values there."""
+                       tangent: np.ndarray, velocities: np.ndarray | None = None) -> tuple[Assessment, dict[str, float]]:
+    """The linearization in independent coordinates about the equilibrium z = (q, lambda), or about
+    the steady motion at q with `velocities`, its stability across the set of stationary states
+    through it (`tangent`, in the variables), and the dependent coordinates' values there."""
     from ._constrained_linear import _independent, linearize_constrained
 
     eqs = problem.equations
     n = eqs.n
     names = [c.name for c in eqs.coordinates]
-    point = {**dict(zip(names, map(float, z[:n]))), **{v.name: 0.0 for v in eqs.velocities}}
+    qd = np.zeros(n) if velocities is None else np.asarray(velocities, float)
+    point = {**dict(zip(names, map(float, z[:n]))), **{v.name: float(w) for v, w in zip(eqs.velocities, qd)}}
+    energy = not (np.any(qd != 0) or any(c.kind == VELOCITY for c in eqs.model.constraints))
     empty = np.zeros(0, complex)
     try:
         lin = linearize_constrained(eqs, point, set(names), setting)
     except ModelError as exc:
+        if problem.evaluator is not None:  # a steady motion, or a model with velocity constraints
+            return Assessment(None, f"undetermined (no linearization there: {exc})", False, empty, qd), {}
         _, _, _, G = _statics(eqs)(z, setting.t, setting.u, setting.p)
         try:
             dep = [i for i in range(n) if i not in _independent(eqs, G)]
         except ModelError:
             dep = []
         reason = NO_REDUCTION if "independent coordinates" in str(exc) else CONSTRAINTS_DEPENDENT
-        return Assessment(None, reason, False, empty, np.zeros(n)), {names[i]: float(z[i]) for i in dep}
+        return Assessment(None, reason, False, empty, qd), {names[i]: float(z[i]) for i in dep}
     ind = [names.index(c) for c in lin.coordinate_names]
     r = len(ind)
     along = [tangent[ind, k] for k in range(tangent.shape[1])]
@@ -222,11 +222,11 @@ def assess_constrained(problem: StationaryProblem, setting: Setting, z: np.ndarr
         P = np.hstack((across, t))
     else:
         P, across = np.eye(r), np.eye(r)
-    stability, stable, degenerate, _ = classify_across(lin.A, lin.K, lin.C, lin.G, P, across.shape[1])
+    stability, stable, degenerate, _ = classify_across(lin.A, lin.K, lin.C, lin.G, P, across.shape[1], energy)
     if degenerate:
         stability, stable = DEGENERATE, False
     dependent = dict(lin.constrained["dependent"])
-    return Assessment(lin, stability, stable, lin.eigenvalues, np.zeros(n)), dependent
+    return Assessment(lin, stability, stable, lin.eigenvalues, qd), dependent
 
 
 def forceless_note(problem: StationaryProblem, setting: Setting) -> tuple[str, ...]:

@@ -26,6 +26,10 @@ with the steady motions.
   f + G^T lambda = 0 on g = 0. Each equilibrium has its multipliers (the forces the constraints
   exert to hold it) and the coordinates taken as dependent; its stability comes from the
   linearization in the independent coordinates.
+* With velocity (nonholonomic) constraints (``_constrained_steady``) the unknowns are the shape
+  coordinates (those the motion depends on), solved numerically from q_ddot = 0 with the
+  multipliers from the saddle-point system; the ignorable coordinates (a wheel's position, heading
+  and spin) are a family.
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ import numpy as np
 import sympy
 
 from ..equations import Equations
+from ..model._constraints import VELOCITY
 from ._linearize import LinearModel
 from ._setting import Setting, resolve_setting
 from ._roots import (RootSet, completeness_notes, free_axes, group_roots, is_root, no_root_reasons, numeric_roots,
@@ -218,7 +223,7 @@ def found_points(problem: StationaryProblem, setting: Setting, *, starts, seed) 
         for q in numeric_roots(problem, setting, starts=starts, seed=seed, ctx=ctx):
             if not any(same_point(q, other.q, problem.angles) for other in points):
                 points.append(RootSet(q, np.zeros((len(q), 0))))
-    elif not conditions_hold(problem, setting):
+    elif not conditions_hold(problem, setting) and (problem.evaluator is None or is_root(ctx, np.zeros(size))):
         points.append(RootSet(np.zeros(size), np.zeros((size, 0)),
                               {v.name: sympy.Integer(0) for v in problem.variables},
                               parameter_conditions(problem), {}))
@@ -259,27 +264,36 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     Raises
     ------
     ModelError
-        Bad names or values, equations that depend on t at rest, a constraint that depends on t, or
-        a velocity (nonholonomic) constraint.
+        Bad names or values, equations that depend on t at rest, or a constraint that depends on t.
 
     Notes
     -----
     With holonomic constraints g(q) = 0 the equilibria solve f + G^T lambda = 0, g = 0 for q and
     the multipliers; each has its `multipliers` and `dependent` coordinates, and its stability
-    from the linearization in the independent coordinates.
+    from the linearization in the independent coordinates. With velocity constraints the search is
+    numerical, in the coordinates the motion depends on (see ``steady_motions``), the others a family.
     """
     setting = resolve_setting(equations, params, inputs, t)
-    if equations.is_constrained:
+    if any(c.kind == VELOCITY for c in equations.model.constraints):
+        from ._constrained_steady import steady_problem
+
+        problem = steady_problem(equations, setting, {})
+    elif equations.is_constrained:
         from ._constrained_static import constrained_problem
 
         problem = constrained_problem(equations, setting.inputs, setting.t, exact, values=setting.p)
     else:
         problem = stationary_problem(equations, setting.inputs, setting.t, exact, values=setting.p)
     points, ctx = found_points(problem, setting, starts=starts, seed=seed)
+    below: tuple[str, ...] = ()
+    if problem.evaluator is not None:
+        from ._constrained_steady import above_ground
+
+        points, below = above_ground(problem, setting, points)
     found = tuple(make_equilibrium(problem, setting, r.q, r.exact, r.conditions, r.tangent, r.solution)
                   for r in points)
-    notes = (no_root_reasons(problem, setting, ctx, "an equilibrium") if not found
-             else completeness_notes(problem, ctx, "the equilibria"))
+    notes = below + (no_root_reasons(problem, setting, ctx, "an equilibrium") if not found
+                     else completeness_notes(problem, ctx, "the equilibria"))
     if problem.multipliers:
         from ._constrained_static import forceless_note
 
@@ -293,6 +307,15 @@ def make_equilibrium(problem: StationaryProblem, setting: Setting, q: np.ndarray
     tangent = np.zeros((problem.size, 0)) if tangent is None else tangent
     coords = MappingProxyType({c.name: float(v) for c, v in zip(eqs.coordinates, q)})
     along = free_axes(search_context(problem, setting), q, tangent)
+    if problem.evaluator is not None:  # velocity constraints: the shape found numerically
+        from ._constrained_static import assess_constrained
+        from ._constrained_steady import steady_details
+
+        qd, multipliers = steady_details(problem, setting, q)
+        a, dependent = assess_constrained(problem, setting, q, tangent, qd)
+        return Equilibrium(coords, a.stable, a.stability, a.eigenvalues, None, (), problem.family, a.linear_model,
+                           not tangent.shape[1], tangent.shape[1], along, multipliers=multipliers,
+                           dependent=MappingProxyType(dependent))
     if problem.multipliers:
         from ._constrained_static import assess_constrained, multiplier_values
 

@@ -59,7 +59,7 @@ class SymbolicLinearization:
 
 
 def classify(A: np.ndarray, K: np.ndarray, C: np.ndarray, G: np.ndarray,
-             keep: np.ndarray | None = None) -> tuple[str, bool, bool | None]:
+             keep: np.ndarray | None = None, energy: bool = True) -> tuple[str, bool, bool | None]:
     """(stability class, stable, Lagrange-Dirichlet applies and holds) of a linearization.
 
     `keep` selects the coordinates whose positions matter: a cyclic coordinate (one the equations do
@@ -69,7 +69,8 @@ def classify(A: np.ndarray, K: np.ndarray, C: np.ndarray, G: np.ndarray,
     * asymptotically stable: every eigenvalue in the open left half-plane;
     * stable: Lagrange-Dirichlet: K symmetric positive definite (a strict minimum of the potential,
       centrifugal potential included), damping positive semi-definite: stable for the nonlinear
-      system too;
+      system too (only with `energy`: False for a linearization about a steady motion of a
+      constrained model, or with velocity constraints, whose K is not the Hessian of a potential);
     * marginally stable: eigenvalues on the imaginary axis, non-defective: the linearization is
       bounded but does not decide the nonlinear system.
     """
@@ -82,7 +83,7 @@ def classify(A: np.ndarray, K: np.ndarray, C: np.ndarray, G: np.ndarray,
     tol = 1e-7 * scale
     Kr = K[np.ix_(keep, keep)]
     ld = None
-    if Kr.size and np.allclose(Kr, Kr.T, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(Kr).max())):
+    if energy and Kr.size and np.allclose(Kr, Kr.T, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(Kr).max())):
         Cs = (C + C.T) / 2
         c_ok = not Cs.size or np.linalg.eigvalsh(Cs).min() >= -1e-9 * max(1.0, np.abs(Cs).max())
         kmin = np.linalg.eigvalsh((Kr + Kr.T) / 2).min()
@@ -187,7 +188,8 @@ class LinearModel:
     @cached_property
     def _stability(self):
         keep = [i for i, c in enumerate(self.coordinate_names) if c not in self.family]
-        return classify(self.A, self.K, self.C, self.G, np.array(keep, dtype=int))
+        steady = bool(self.constrained) and "rates" in self.constrained  # velocity constraints or moving
+        return classify(self.A, self.K, self.C, self.G, np.array(keep, dtype=int), energy=not steady)
 
     @property
     def stability(self) -> str:

@@ -68,7 +68,12 @@ def search_context(problem: StationaryProblem, setting: Setting) -> Search:
             r, _ = residual(problem, setting, q)
         if r.size and np.all(np.isfinite(r)) and np.abs(r).max() > 0:
             magnitudes.append(float(np.abs(r).max()))
-    ctx = Search(problem, setting, float(np.median(magnitudes)) if magnitudes else 1.0, 1e6 * big)
+    scale = float(np.median(magnitudes)) if magnitudes else 1.0
+    if problem.evaluator is not None:  # a numerical residual that vanishes everywhere (no force) is round-off
+        terms = [problem.evaluator.term_scale(setting, q) for q in _starts(problem, setting, 12, 11)[:16]]
+        terms = [x for x in terms if math.isfinite(x) and x > 0]
+        scale = max(scale, float(np.median(terms)) if terms else 1.0)
+    ctx = Search(problem, setting, scale, 1e6 * big)
     if len(problem._contexts) > 64:
         problem._contexts.clear()
     problem._contexts[key] = ctx
@@ -110,7 +115,10 @@ def is_root(ctx: Search, q: np.ndarray) -> bool:
     sv = np.linalg.svd(J, compute_uv=False) if J.size else np.zeros(0)
     if sv.size and sv.min() <= 1e-8 * sv.max(initial=0.0) or (sv.size and sv.max() == 0):
         # a singular Jacobian: a multiple or non-isolated root, or forces that underflow to 0 far
-        # away (exp(-x**2) at x = 45): decide in 50-digit arithmetic
+        # away (exp(-x**2) at x = 45): decide in 50-digit arithmetic, or, for a numerical residual
+        # (no symbolic rows), ask for one at round-off
+        if problem.evaluator is not None:
+            return bool(np.abs(r).max() <= 1e-12 * max(ctx.force_scale, float(np.abs(J).max())))
         return _precise_newton_ok(ctx, q)
     return True
 
@@ -293,6 +301,8 @@ def _tangent(ctx: Search, q: np.ndarray) -> np.ndarray:
     with np.errstate(all="ignore"):
         _, J = residual(problem, ctx.setting, q)
     k = len(unk)
+    if not np.all(np.isfinite(J)):  # no derivative there (a numerical residual next to a singular point)
+        return np.zeros((n, 0))
     if J.size:
         s, vt = np.linalg.svd(J)[1:]
         rank = int(np.sum(s > 1e-9 * s.max())) if s.size and s.max() > 0 else 0
@@ -470,6 +480,10 @@ def completeness_notes(problem: StationaryProblem, ctx: Search, what: str) -> tu
     otherwise)."""
     if problem.exact is not None or not problem.rows:
         return ()
+    if problem.evaluator is not None:
+        return (f"found by a numerical search from {ctx.starts} starting points (a constrained model's steady "
+                f"motions, and its equilibria with velocity constraints, are found numerically only): there may be "
+                f"others",)
     return (f"found by a numerical search from {ctx.starts} starting points, SymPy not having solved for "
             f"{what}: there may be others",)
 

@@ -113,12 +113,13 @@ def assess(problem: StationaryProblem, setting: Setting, q: np.ndarray, tangent:
     return Assessment(lin, stability, stable, lin.eigenvalues, qd)
 
 
-def classify_across(A, K, C, G, P: np.ndarray, kept: int) -> tuple[str, bool, bool, np.ndarray]:
+def classify_across(A, K, C, G, P: np.ndarray, kept: int, energy: bool = True) -> tuple[str, bool, bool, np.ndarray]:
     """(stability, stable, degenerate, damping in the basis) of the linearization A (2n x 2n), K, C,
     G (n x n) in the orthonormal basis P of q-space whose first `kept` columns run across the set of
     stationary states (the others along it: moving along them changes nothing). `degenerate`: the
     linearization does not decide (no eigenvalue grows, and K is singular across the set or an
-    eigenvalue on the axis is defective), so a higher-order test must."""
+    eigenvalue on the axis is defective), so a higher-order test must. `energy`: whether
+    Lagrange-Dirichlet may decide (see `classify`)."""
     from ._linearize import classify
 
     n = P.shape[0]
@@ -127,7 +128,7 @@ def classify_across(A, K, C, G, P: np.ndarray, kept: int) -> tuple[str, bool, bo
     A = B.T @ np.asarray(A) @ B
     Kp, Cp, Gp = (P.T @ np.asarray(m) @ P for m in (K, C, G))
     keep = np.arange(kept)
-    stability, stable, _ = classify(A, Kp, Cp, Gp, keep)
+    stability, stable, _ = classify(A, Kp, Cp, Gp, keep, energy)
     degenerate = False
     if stability in ("unstable", "marginally stable"):
         rows = np.concatenate((keep, n + np.arange(n)))

@@ -93,6 +93,9 @@ class StationaryProblem:
     multipliers : tuple of sympy.Symbol
         The constraints' multipliers, the variables after the coordinates (empty without
         constraints).
+    evaluator : callable or None
+        A numerical residual ``(setting, q) -> (r, dr/dz)`` that replaces the symbolic rows (the
+        steady motions of constrained models, ``_constrained_steady``: `static_sympy` is empty).
     """
 
     equations: Equations
@@ -110,6 +113,7 @@ class StationaryProblem:
     exact_complete: bool = False
     exact_velocities: tuple = ()
     multipliers: tuple = ()
+    evaluator: object = None
     _contexts: dict = field(default_factory=dict, repr=False)
     _precise: list = field(default_factory=list, repr=False)
 
@@ -442,6 +446,8 @@ def forces(problem: StationaryProblem, setting: Setting, q: np.ndarray):
 def residual(problem: StationaryProblem, setting: Setting, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(r, dr/dz): the rows that must vanish, and their Jacobian in the unknowns (q: all the
     variables, the multipliers after the coordinates)."""
+    if problem.evaluator is not None:
+        return problem.evaluator(setting, q)
     if problem.multipliers:
         from ._constrained_static import constrained_residual
 

@@ -62,15 +62,16 @@ class SteadyMotion(Equilibrium):
 
     def to_dict(self) -> dict:
         """The JSON contract: coordinates, velocities, stable, eigenvalues ([re, im] pairs of the
-        full 2n-state linearization), and momenta, stability, exact, exact_velocities,
-        conditions, family, isolated, dimension."""
+        full 2n-state linearization; of the linearization in the independent speeds with
+        constraints), and momenta, stability, exact, exact_velocities, conditions, family, isolated,
+        dimension, multipliers and dependent ({} without constraints)."""
         out = super().to_dict()
         out["velocities"] = dict(self.velocities)
         out["momenta"] = dict(self.momenta)
         out["exact_velocities"] = (None if self.exact_velocities is None else
                                    {k: sympy.sstr(v) for k, v in self.exact_velocities.items()})
         order = ["coordinates", "velocities", "stable", "eigenvalues", "stability", "momenta", "exact",
-                 "exact_velocities", "conditions", "family", "isolated", "dimension"]
+                 "exact_velocities", "conditions", "family", "isolated", "dimension", "multipliers", "dependent"]
         return {k: out[k] for k in order}
 
     def text(self) -> str:
@@ -111,19 +112,25 @@ class SteadyMotions(Equilibria):
 
 
 def _fixed(equations: Equations, velocities: Mapping | None, momenta: Mapping | None,
-           problems: list[Problem]) -> tuple[dict[int, float], dict[int, float]]:
-    """The checked rates and momenta, by coordinate index."""
+           problems: list[Problem], cyclic: tuple[int, ...] | None = None,
+           why_not=None) -> tuple[dict[int, float], dict[int, float]]:
+    """The checked rates and momenta, by coordinate index. `cyclic`: the coordinates that may move
+    (default: the conserved cyclic ones); `why_not(i)`: why coordinate i may not."""
     names = [c.name for c in equations.coordinates]
-    cyclic = conserved_cyclic(equations)
+    word = "cyclic" if cyclic is None else "ignorable"
+    cyclic = conserved_cyclic(equations) if cyclic is None else cyclic
+    why_not = why_not or (lambda i: _why_not_cyclic(equations, i))
     allowed_v = [f"{names[i]}_dot" for i in cyclic]
     allowed_p = [f"p_{names[i]}" for i in cyclic]
     none = (f"{equations.model.name} has no cyclic coordinate (one absent from L with no force on it), so its "
-            "only steady motions are its equilibria (lagrangian equilibria)")
+            "only steady motions are its equilibria (lagrangian equilibria)") if word == "cyclic" else (
+            f"{equations.model.name} has no ignorable coordinate (one the motion does not depend on), so its only "
+            "steady motions are its equilibria (lagrangian equilibria)")
     out_v: dict[int, float] = {}
     out_p: dict[int, float] = {}
 
     def check(kind, given, prefix, suffix, allowed, out):
-        choices = f"the cyclic coordinates' {'velocities' if kind == 'velocity' else 'momenta'} are " \
+        choices = f"the {word} coordinates' {'velocities' if kind == 'velocity' else 'momenta'} are " \
                   f"{', '.join(allowed)}" if allowed else none
         for key, value in (given or {}).items():
             key = str(getattr(key, "name", key))
@@ -138,7 +145,7 @@ def _fixed(equations: Equations, velocities: Mapping | None, momenta: Mapping | 
                 continue
             i = names.index(base)
             if i not in cyclic:
-                problems.append(Problem(f"{base} is not cyclic ({_why_not_cyclic(equations, i)}), so it "
+                problems.append(Problem(f"{base} is not {word} ({why_not(i)}), so it "
                                         f"cannot move at a constant rate in a steady motion; {choices}", key=key))
             elif number is None:
                 problems.append(Problem(f"the value of '{key}' must be a finite number, got {value!r}", key=key))
@@ -201,7 +208,8 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
         Bad names or values: a velocity of a coordinate that is not cyclic, a rate and a momentum
         for the same coordinate, unknown parameters or inputs.
     """
-    equations.require_unconstrained("the search for steady motions")
+    if equations.is_constrained:
+        return _constrained_steady_motions(equations, velocities, momenta, params, inputs, t, starts, seed)
     problems: list[Problem] = []
     setting = collect_setting(equations, params, inputs, t, problems)
     fixed_v, fixed_p = _fixed(equations, velocities, momenta, problems)
@@ -233,3 +241,46 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
              else completeness_notes(problem, ctx, "the steady motions"))
     given = {**{f"{names[i]}_dot": v for i, v in fixed_v.items()}, **{f"p_{names[i]}": v for i, v in fixed_p.items()}}
     return SteadyMotions(tuple(found), notes, given)
+
+
+def _constrained_steady_motions(equations: Equations, velocities, momenta, params, inputs, t, starts,
+                                seed) -> SteadyMotions:
+    """steady_motions() of a constrained model: numerically, in the shape coordinates (see
+    ``_constrained_steady``)."""
+    from ._constrained_static import assess_constrained
+    from ._constrained_steady import above_ground, ignorable_coordinates, steady_details, steady_problem
+
+    problems: list[Problem] = []
+    names = [c.name for c in equations.coordinates]
+    if momenta:
+        key = str(getattr(next(iter(momenta)), "name", next(iter(momenta))))
+        problems.append(Problem(
+            f"'{equations.model.name}' has constraints, and steady motions of a constrained model are found for "
+            f"given rates, not momenta (velocity constraints do not conserve momenta): fix the rates instead "
+            f"(velocities={{...}}, --velocity), e.g. {key[2:] if key.startswith('p_') else key}_dot", key=key))
+    setting = collect_setting(equations, params, inputs, t, problems)
+    ignorable: tuple[int, ...] = ()
+    fixed_v: dict[int, float] = {}
+    if setting is not None:
+        ignorable = ignorable_coordinates(equations, setting)
+        why = "the motion depends on its value, or a holonomic constraint contains it"
+        fixed_v, _ = _fixed(equations, velocities, None, problems, ignorable, lambda i: why)
+    if problems:
+        raise ModelError(problems)
+    problem = steady_problem(equations, setting, fixed_v, ignorable)
+    points, ctx = found_points(problem, setting, starts=starts, seed=seed)
+    points, below = above_ground(problem, setting, points)
+    found = []
+    for r in points:
+        qd, multipliers = steady_details(problem, setting, r.q)
+        if not np.all(np.isfinite(qd)):
+            continue
+        a, dependent = assess_constrained(problem, setting, r.q, r.tangent, qd)
+        found.append(SteadyMotion(
+            MappingProxyType({n: float(v) for n, v in zip(names, r.q)}), a.stable, a.stability, a.eigenvalues,
+            None, (), problem.family, a.linear_model, not r.dimension, r.dimension, free_axes(ctx, r.q, r.tangent),
+            MappingProxyType({f"{n}_dot": float(v) + 0.0 for n, v in zip(names, qd)}), MappingProxyType({}), None,
+            multipliers=multipliers, dependent=MappingProxyType(dependent)))
+    notes = below + (no_root_reasons(problem, setting, ctx, "a steady motion") if not found
+                     else completeness_notes(problem, ctx, "the steady motions"))
+    return SteadyMotions(tuple(found), notes, {f"{names[i]}_dot": v for i, v in fixed_v.items()})

@@ -29,10 +29,14 @@ def register(sub, fmt) -> None:
                         "contain constant, each cyclic coordinate turning at a constant rate, given by --velocity or "
                         "through its momentum by --momentum (Routh). Exactly when SymPy can, by a multi-start "
                         "numerical search otherwise; stability from the eigenvalues of the linearization about each "
-                        "(all 2n states) and Routh's criterion.",
+                        "(all 2n states) and Routh's criterion. With constraints: the rates of ignorable "
+                        "coordinates (those the motion does not depend on: a wheel's position, heading and spin) "
+                        "are given, the others follow from the constraints, the shape is found numerically, with "
+                        "the multipliers.",
                         epilog="Examples:\n  lagrangian steady spherical-pendulum --velocity phi_dot=4\n"
                                "  lagrangian steady kepler --momentum p_phi=1 --json\n"
-                               "  lagrangian steady heavy-top --velocity phi_dot=2,psi_dot=50")
+                               "  lagrangian steady heavy-top --velocity phi_dot=2,psi_dot=50\n"
+                               "  lagrangian steady rolling-disk --velocity psi_dot=2,theta_dot=20")
     st.add_argument("model", help=MODEL_HELP)
     st.add_argument("--velocity", action="append", default=[], metavar="NAME_dot=VALUE",
                     help="the rate of a cyclic coordinate, e.g. phi_dot=4 (repeatable, or comma-separated); "
@@ -42,7 +46,7 @@ def register(sub, fmt) -> None:
     _values(st)
     st.add_argument("--json", action="store_true",
                     help="print a JSON list of {coordinates, velocities, stable, eigenvalues, stability, momenta, "
-                         "exact, ...}")
+                         "exact, ..., multipliers, dependent}")
     st.set_defaults(handler=_cmd_steady)
 
     lin = sub.add_parser("linearize", help="linearize about an operating point", formatter_class=fmt,

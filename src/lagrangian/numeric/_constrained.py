@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import symengine as se
@@ -58,9 +59,9 @@ class ConstrainedModel:
     def n(self) -> int:
         return self.nm.n
 
-    @property
+    @cached_property
     def m(self) -> int:
-        return len(self.equations.multipliers)
+        return len(self.equations.model.constraints)
 
     def parts(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(M, f, G, c) at the state."""

@@ -1,0 +1,377 @@
+"""Steady motions of constrained models, and equilibria of models with velocity constraints.
+
+A steady motion keeps the *shape* of the system constant while it moves along symmetries: a coin
+rolling on a circle at a constant lean, a bicycle running straight or turning steadily. With
+constraints the symmetries are not always single coordinates absent from L: the coin's heading psi
+appears in its kinetic energy (written with the contact point's velocity), and the no-slip
+conditions turn x_dot, y_dot with psi. What matters is whether the motion *reduced* to the
+independent speeds depends on a coordinate's value, so that is what is tested:
+
+* **Ignorable coordinates.** Coordinate q_i is ignorable when the holonomic constraints do not
+  contain it and shifting it changes none of the independent accelerations (those of the
+  independent speeds, with the dependent speeds found from the constraints at the shifted state),
+  at random states made consistent (three of them, at the model's parameter values). The test is
+  numerical, as the periodicity test of the equilibria is; it can miss a symmetry that the chosen
+  independent speeds hide (then fewer steady motions are found, never false ones), and it never
+  calls a coordinate that matters ignorable. The coin: x, y, psi and the spin; the bicycle: x, y,
+  the yaw, both wheels' rotations.
+* **The state.** The other coordinates (the shape) are constant: their rates are 0 and their
+  values are the unknowns. The user fixes the rates of ignorable coordinates (``theta_dot = 20``);
+  the rates of the other ignorable ones follow from the constraints W q_dot + b = 0 (least
+  squares; those the constraints leave free stay at rest, and a set of rates that the
+  constraints couple without fixing is refused). Ignorable coordinates sit at 0: the motion is the
+  same at any value of them.
+* **The equations.** The constrained accelerations q_ddot (and the multipliers) come from the
+  saddle-point system [M W^T; W 0] at that state, as in a simulation. Steady means q_ddot = 0 for
+  the shape and for the coordinates whose rates are fixed, with g(q) = 0 and the constraints met by
+  the rates (rows that can fail when a given rate over-determines the others: a bicycle's yaw rate
+  and speed fix its steer angle). Those rows are solved for the shape by the shared multi-start
+  search of ``_roots`` (least squares where rows outnumber unknowns: the rows the symmetry makes
+  dependent, as energy conservation makes a bicycle's wheel acceleration vanish once roll and steer
+  are steady). The Jacobian is a central difference (about 1e-10 relative: the roots are
+  polished by the residual, which is exact, and the Jacobian only steers).
+  Everything is numerical: no symbolic solve of the constraints, so no exact solutions.
+* **Stability** comes from the linearization about the steady motion in the independent speeds
+  (``_constrained_linear.linearize_steady``) with the ignorable coordinates left out. Its
+  eigenvalues decide "unstable" and "asymptotically stable"; otherwise the answer is "marginally
+  stable" at best: with velocity constraints energy does not give Lagrange-Dirichlet's or Routh's
+  "stable" (the linearization's K is not the Hessian of a potential), and a steady motion whose
+  nearby steady motions (another speed, another lean) have a zero eigenvalue is never asymptotically
+  stable.
+
+Momenta are not conserved under velocity constraints in general (the coin's angular momentum about
+the vertical changes as friction turns it), so rates are given, not momenta.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from types import MappingProxyType
+
+import numpy as np
+
+from ..equations import Equations
+from ..errors import ModelError, Problem
+from ..model._constraints import VELOCITY
+from ._setting import Setting
+from ._stationary import StationaryProblem
+
+__all__ = ["ignorable_coordinates", "steady_problem", "SteadyState"]
+
+#: Relative size below which a change of an acceleration under a shift counts as round-off.
+_SAME = 1e-9
+
+
+def _model(equations: Equations):
+    from ..numeric._compiled import compile_equations
+    from ..numeric._constrained import constrained_model
+
+    return constrained_model(equations, compile_equations(equations))
+
+
+def _speeds(equations: Equations, cm, t, q, p) -> tuple[list[int], list[int]]:
+    """(dependent coordinates, dependent speeds) at q, as the linearization chooses them."""
+    from ._constrained_linear import _dependent_speeds, _independent
+
+    n = cm.n
+    hol = [int(k) for k in cm.holonomic]
+    W = cm._velocity_parts(t, np.concatenate((q, np.zeros(n))), p)[1]
+    dep_q = [] if not hol else [i for i in range(n) if i not in _independent(equations, W[hol])]
+    return dep_q, _dependent_speeds(equations, W, hol, dep_q)
+
+
+def _completed(cm, t, q, qd, dep, p) -> np.ndarray:
+    """The state (q, q_dot) with the dependent speeds `dep` solved from the constraints."""
+    n = cm.n
+    x = np.concatenate((q, qd))
+    x[n + np.array(dep, int)] = 0.0
+    w0, W, _ = cm._velocity_parts(t, x, p)
+    x[n + np.array(dep, int)] = np.linalg.solve(W[:, dep], -w0) if dep else []
+    return x
+
+
+_IGNORABLE: "weakref.WeakKeyDictionary[Equations, dict]" = weakref.WeakKeyDictionary()
+
+
+def ignorable_coordinates(equations: Equations, setting: Setting) -> tuple[int, ...]:
+    """Indices of the coordinates on whose values the motion reduced to the independent speeds does
+    not depend (see the module), at the setting's parameter values."""
+    key = (tuple(setting.p), tuple(setting.u), setting.t)
+    cache = _IGNORABLE.setdefault(equations, {})
+    if key in cache:
+        return cache[key]
+    from ..numeric._constrained import ConstraintSingular
+
+    cm = _model(equations)
+    n, t, p, u = cm.n, setting.t, setting.p, setting.u
+    rng = np.random.default_rng(11)
+    candidates = set(range(n))
+    for _ in range(3):
+        for _attempt in range(20):  # a random state where the constraints are regular
+            q = rng.uniform(-0.6, 0.6, n)
+            try:
+                x = cm.project(t, np.concatenate((q, np.zeros(n))), p)
+                dep_q, dep_v = _speeds(equations, cm, t, x[:n], p)
+                ind_v = [i for i in range(n) if i not in dep_v]
+                qd = np.zeros(n)
+                qd[ind_v] = rng.uniform(-1.5, 1.5, len(ind_v))
+                x = _completed(cm, t, x[:n], qd, dep_v, p)
+                with np.errstate(all="ignore"):
+                    qdd = cm.solve(t, x, u, p)[0]
+                    G = cm._holonomic(t, x, p)[1]
+            except (ConstraintSingular, np.linalg.LinAlgError):
+                continue
+            if np.all(np.isfinite(qdd)) and np.all(np.isfinite(x)):
+                break
+        else:
+            candidates.clear()
+            break
+        scale = 1.0 + float(np.max(np.abs(qdd)))
+        gscale = 1.0 + float(np.max(np.abs(G), initial=0.0))
+        for i in sorted(candidates):
+            if G.size and np.max(np.abs(G[:, i])) > 1e-12 * gscale:
+                candidates.discard(i)
+                continue
+            shifted = x[:n].copy()
+            shifted[i] += 1.3
+            try:
+                y = _completed(cm, t, shifted, x[n:], dep_v, p)
+                with np.errstate(all="ignore"):
+                    qdd1 = cm.solve(t, y, u, p)[0]
+            except (ConstraintSingular, np.linalg.LinAlgError):
+                candidates.discard(i)
+                continue
+            held = ind_v + [j for j in dep_v if G.size and np.max(np.abs(G[:, j])) > 0]
+            if not (np.all(np.isfinite(qdd1)) and np.allclose(qdd1[ind_v], qdd[ind_v], rtol=0, atol=_SAME * scale)
+                    and np.allclose(y[n:][held], x[n:][held], rtol=0, atol=_SAME * (1 + np.abs(x[n:]).max()))):
+                candidates.discard(i)
+    out = cache[key] = tuple(sorted(candidates))
+    return out
+
+
+class SteadyState:
+    """The residual of the steady conditions in the shape coordinates (the `evaluator` of a
+    StationaryProblem: see the module), and the state, accelerations and multipliers at a root."""
+
+    def __init__(self, equations: Equations, setting: Setting, shape: list[int], given: dict[int, float],
+                 free: list[int]):
+        self.equations = equations
+        self.cm = _model(equations)
+        self.shape, self.given, self.free = shape, dict(given), free
+        self.held = sorted(set(shape) | set(given))   # their accelerations must vanish
+        self.setting = setting
+
+    def state(self, setting: Setting, q: np.ndarray) -> np.ndarray:
+        """(q, q_dot): given rates, the free ignorable ones from the constraints, the shape at rest."""
+        n = self.cm.n
+        x = np.concatenate((np.asarray(q, float)[:n], np.zeros(n)))
+        for i, v in self.given.items():
+            x[n + i] = v
+        if self.free:
+            w0, W, _ = self.cm._velocity_parts(setting.t, x, setting.p)
+            # least squares, cut off against W as a whole: where the free rates' columns vanish (a
+            # knife edge across its rail) they stay finite and the constraint row is left unmet
+            U, sv, Vt = np.linalg.svd(W[:, self.free], full_matrices=False)
+            keep = sv > 1e-10 * max(float(np.max(np.abs(W), initial=0.0)), 1e-300)
+            x[n + np.array(self.free)] = Vt[keep].T @ ((U[:, keep].T @ -w0) / sv[keep])
+        return x
+
+    def values(self, setting: Setting, q: np.ndarray):
+        """(x, q_ddot, lambda, r): the state, its accelerations and multipliers, the residual rows."""
+        from ..numeric._constrained import ConstraintSingular
+
+        cm, t, p = self.cm, setting.t, setting.p
+        n = cm.n
+        with np.errstate(all="ignore"):
+            try:
+                x = self.state(setting, q)
+                qdd, lam = cm.solve(t, x, setting.u, p)
+                g, w = cm.residuals(t, x, p)
+            except (ConstraintSingular, np.linalg.LinAlgError, ValueError):
+                nan = np.full(n, np.nan)
+                return np.concatenate((q[:n], nan)), nan, np.full(cm.m, np.nan), np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan)
+        return x, qdd, lam, np.concatenate((qdd[self.held], g, w))
+
+    def term_scale(self, setting: Setting, q: np.ndarray) -> float:
+        """The size of the accelerations the terms of the equations make at q (forces over masses,
+        the constraints' c, the squared rates): the scale against which a residual is round-off."""
+        with np.errstate(all="ignore"):
+            x = self.state(setting, np.asarray(q, float))
+            M, f, _, c = self.cm.parts(setting.t, x, setting.u, setting.p)
+        n = self.cm.n
+        mass = float(np.max(np.abs(np.diag(M)), initial=0.0))
+        forces = float(np.max(np.abs(f), initial=0.0)) / mass if mass > 0 else 0.0
+        return forces + float(np.max(np.abs(c), initial=0.0)) + float(np.max(x[n:] ** 2, initial=0.0))
+
+    def __call__(self, setting: Setting, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(r, dr/dz) in the shape coordinates z."""
+        q = np.asarray(q, float)
+        r = self.values(setting, q)[3]
+        if not np.all(np.isfinite(r)):
+            return r, np.full((len(r), len(self.shape)), np.nan)
+
+        def rows(z):
+            moved = q.copy()
+            moved[self.shape] = z
+            return self.values(setting, moved)[3]
+
+        z = q[self.shape]
+        J = np.zeros((len(r), len(z)))
+        with np.errstate(all="ignore"):
+            for j in range(len(z)):  # central differences: error O(h^2) + round-off/h, about 1e-10 relative
+                h = 1e-5 * (1.0 + abs(z[j]))
+                e = np.zeros_like(z)
+                e[j] = h
+                J[:, j] = (rows(z + e) - rows(z - e)) / (2 * h)
+            # round-off of the differences (about 1e-11 of the terms) as exact zeros, so that a set of
+            # steady motions (a knife edge sliding at any heading) shows as a singular Jacobian
+            a, k = len(self.held), len(self.cm.holonomic)
+            x = self.state(setting, q)
+            W = self.cm._velocity_parts(setting.t, x, setting.p)[1]
+            n = self.cm.n
+            floor = np.concatenate((np.full(a, self.term_scale(setting, q)), np.full(k, 1.0 + np.max(np.abs(q))),
+                                    np.full(len(r) - a - k, (1.0 + np.max(np.abs(x[n:]))) * (1.0 + np.max(np.abs(W), initial=0.0)))))
+            J[np.abs(J) <= 1e-8 * floor[:, None]] = 0.0
+        return r, J
+
+
+def _angles(evaluator: SteadyState, setting: Setting, n: int) -> tuple[bool, ...]:
+    """Which shape coordinates the steady conditions are 2 pi-periodic in (at random points)."""
+    rng = np.random.default_rng(7)
+    out = [False] * n
+    for i in evaluator.shape:
+        periodic = True
+        for _ in range(3):
+            q = np.zeros(n)
+            q[evaluator.shape] = rng.uniform(-1.0, 1.0, len(evaluator.shape))
+            shifted = q.copy()
+            shifted[i] += 2 * math.pi
+            a, b = evaluator.values(setting, q)[3], evaluator.values(setting, shifted)[3]
+            if not (np.all(np.isfinite(a)) and np.allclose(a, b, rtol=0, atol=1e-9 * (1 + np.abs(a).max()))):
+                periodic = False
+                break
+        out[i] = periodic
+    return tuple(out)
+
+
+def check_rates(equations: Equations, setting: Setting, given: dict[int, float], problems: list[Problem],
+                keys: dict[int, str]) -> tuple[int, ...]:
+    """The ignorable coordinates; a problem for each given rate of a coordinate that is not one."""
+    names = [c.name for c in equations.coordinates]
+    ignorable = ignorable_coordinates(equations, setting)
+    allowed = ", ".join(f"{names[i]}_dot" for i in ignorable) or "none"
+    for i in given:
+        if i not in ignorable:
+            problems.append(Problem(
+                f"{names[i]} is not ignorable in '{equations.model.name}': the motion depends on its value (or a holonomic "
+                f"constraint contains it), so it cannot move at a constant rate while the rest stays steady; the rates "
+                f"that can be fixed are those of the ignorable coordinates: {allowed}", key=keys[i]))
+    return ignorable
+
+
+def steady_problem(equations: Equations, setting: Setting, given: dict[int, float],
+                   ignorable: tuple[int, ...] | None = None) -> StationaryProblem:
+    """The steady motions (or, with no rate given, the equilibria) of a constrained model as a
+    StationaryProblem in its shape coordinates, whose residual is numerical (see the module).
+
+    Raises
+    ------
+    ModelError
+        A constraint that depends on t, or free ignorable rates that the constraints couple without
+        fixing them.
+    """
+    from ..equations._equations import _depends_on
+
+    model = equations.model
+    core = equations.core
+    moving = [c.name for c, g in zip(model.constraints, core.g) if _depends_on(g, core.t)]
+    moving += [c.name for c, w in zip(model.constraints, core.w) if c.kind == VELOCITY and _depends_on(w, core.t)]
+    if moving:
+        raise ModelError(
+            f"{model.name}: constraint{'s' if len(moving) > 1 else ''} {', '.join(moving)} depend"
+            f"{'' if len(moving) > 1 else 's'} on the time t, so no motion of it stays steady; linearize about a "
+            "chosen state instead, with linearize(equations, at=..., t=...), or simulate it")
+    n = equations.n
+    names = [c.name for c in equations.coordinates]
+    ignorable = ignorable_coordinates(equations, setting) if ignorable is None else ignorable
+    shape = [i for i in range(n) if i not in ignorable]
+    free = [i for i in ignorable if i not in given]
+    evaluator = SteadyState(equations, setting, shape, given, free)
+    if free and _coupled(evaluator, setting):
+        coupled = ", ".join(f"{names[i]}_dot" for i in free)
+        raise ModelError(f"the constraints of '{model.name}' couple the rates {coupled} without fixing them, and the "
+                         "given rates move them: give the rate of one more of them (velocities={...}, --velocity), "
+                         "so that the others follow")
+    rows = len(evaluator.held) + len(evaluator.cm.holonomic) + evaluator.cm.m
+    return StationaryProblem(
+        equations, tuple(shape), _angles(evaluator, setting, n), tuple(names[i] for i in ignorable),
+        tuple(range(rows)), (), MappingProxyType(dict(given)), MappingProxyType({}), (), (), None,
+        evaluator=evaluator)
+
+
+def _coupled(evaluator: SteadyState, setting: Setting) -> bool:
+    """Whether the constraints leave the free ignorable rates undetermined (W's columns of them
+    dependent) while the given rates push them (a right-hand side that is not 0): at rest, the
+    free rates stay 0, as cyclic coordinates given no rate do without constraints. Tested at the
+    zero shape and two random ones."""
+    cm, n, free = evaluator.cm, evaluator.cm.n, evaluator.free
+    rng = np.random.default_rng(5)
+    for k in range(3):
+        q = np.zeros(n)
+        if k:
+            q[evaluator.shape] = rng.uniform(-0.5, 0.5, len(evaluator.shape))
+        x = evaluator.state(setting, q)
+        x[n + np.array(free)] = 0.0
+        with np.errstate(all="ignore"):
+            w0, W, _ = cm._velocity_parts(setting.t, x, setting.p)
+        if not (np.all(np.isfinite(W)) and np.all(np.isfinite(w0))):
+            continue
+        Wf = W[:, free]
+        tiny = 1e-12 * max(float(np.max(np.abs(W), initial=0.0)), 1e-300)
+        if np.linalg.matrix_rank(Wf) < sum(1 for j in range(len(free)) if np.max(np.abs(Wf[:, j])) > tiny) \
+                and np.max(np.abs(w0)) > 1e-12 * (1.0 + np.max(np.abs(x[n:]))):
+            return True
+    return False
+
+
+def _wheel_heights(equations: Equations):
+    """(q, p) -> the heights of the wheels' centres above the ground (empty without wheels)."""
+    import sympy
+
+    from ..model._frames import frame_pose
+
+    model = equations.model
+    heights = []
+    for wheel in model.wheels:
+        origin, R = frame_pose(model.frames, wheel.frame)
+        heights.append((sympy.Matrix(origin) + R * sympy.Matrix(wheel.center))[2])
+    if not heights:
+        return lambda q, p: np.zeros(0)
+    f = sympy.lambdify([list(equations.coordinates), list(equations.parameters)], heights, modules="numpy")
+    return lambda q, p: np.asarray(f(list(q), list(p)), float)
+
+
+def above_ground(problem: StationaryProblem, setting: Setting, points: list) -> tuple[list, tuple[str, ...]]:
+    """The points whose wheels all have their centres above the ground, and a note on those left out:
+    where the coordinates keep a wheel on the ground, they allow it to touch the ground from below
+    (its centre under the ground, the contact at the top of the rim), which is no rolling state."""
+    if not problem.equations.model.wheels:
+        return points, ()
+    height = _wheel_heights(problem.equations)
+    kept = [r for r in points if np.all(height(r.q, setting.p) > 0)]
+    left = len(points) - len(kept)
+    if not left:
+        return kept, ()
+    return kept, (f"{left} solution{'s' if left > 1 else ''} with a wheel's centre below the ground (touching it from "
+                  f"below, which the coordinates allow) {'are' if left > 1 else 'is'} left out",)
+
+
+def steady_details(problem: StationaryProblem, setting: Setting, q: np.ndarray):
+    """(velocities, multipliers) at a root of a steady problem."""
+    ev = problem.evaluator
+    x, _, lam, _ = ev.values(setting, q)
+    n = problem.equations.n
+    qd = np.where(np.abs(x[n:]) <= 1e-13 * (1.0 + np.abs(x[n:]).max()), 0.0, x[n:])
+    mult = MappingProxyType({mu.name: float(v) + 0.0 for mu, v in zip(problem.equations.multipliers, lam)})
+    return qd, mult
