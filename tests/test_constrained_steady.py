@@ -93,6 +93,15 @@ def test_a_hands_free_steady_turn_of_the_bicycle_is_kept_by_the_simulation(bicyc
     assert turn.stability == "unstable"
 
 
+def test_a_speed_and_a_yaw_rate_together_overdetermine_a_hands_free_turn_and_none_is_invented(bicycle):
+    # steady turns without steer torque have isolated radii at each speed: 10 m at 5 m/s is not one of them
+    found = steady_motions(bicycle, {"thetaR_dot": 5 / 0.3, "psi_dot": 0.5}, starts=16)
+    assert not found
+    assert found.notes[-1] == "the numerical search from 24 starting points found none"
+    assert found.text("whipple-bicycle").startswith(
+        "Steady motions of whipple-bicycle with thetaR_dot = 16.6667, psi_dot = 0.5: none.")
+
+
 def test_a_conical_pendulum_written_with_a_length_constraint():
     m = lg.Model("rod", coordinates=["r", "theta", "phi"], parameters={"m": 2.0, "l": 1.5, "g": 9.81})
     m.add_energy(T="m*(r_dot**2 + r**2*theta_dot**2 + r**2*sin(theta)**2*phi_dot**2)/2", V="-m*g*r*cos(theta)")

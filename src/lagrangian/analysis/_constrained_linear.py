@@ -38,7 +38,7 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
-from ..errors import ModelError, Problem
+from ..errors import ModelError
 from ..model._constraints import VELOCITY
 
 __all__ = ["linearize_constrained"]

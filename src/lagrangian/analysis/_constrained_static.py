@@ -24,7 +24,6 @@ state stays at rest.
 
 from __future__ import annotations
 
-import math
 import weakref
 from types import MappingProxyType
 
@@ -35,11 +34,10 @@ import sympy
 from ..equations import Equations
 from ..equations._equations import _depends_on
 from ..errors import ModelError
-from ..model._constraints import VELOCITY
 from ..model._kinematics import to_sympy
 from ._setting import Setting
 from ._stability import DEGENERATE, Assessment, classify_across
-from ._stationary import StationaryProblem, _is_zero, _replace, solved_exactly, stationary_problem
+from ._stationary import StationaryProblem, _is_zero, _replace, periodic_in, solved_exactly, stationary_problem
 
 __all__ = ["constrained_problem", "constrained_residual", "balancing_multipliers", "assess_constrained",
            "CONSTRAINTS_DEPENDENT", "NO_REDUCTION"]
@@ -143,17 +141,8 @@ def _periodic_constraints(equations: Equations, i: int) -> bool:
     p = np.array([v if v is not None else 1.0 for v in equations.parameters.values()], dtype=float)
     p = np.where(np.isfinite(p), p, 1.0)
     u = rng.uniform(-1, 1, len(equations.inputs))
-    for _ in range(3):
-        z = np.concatenate((rng.uniform(-2, 2, s.n), rng.uniform(-1, 1, s.m)))
-        shifted = z.copy()
-        shifted[i] += 2 * math.pi
-        with np.errstate(all="ignore"):
-            a, b = s(z, 0.3, u, p), s(shifted, 0.3, u, p)
-        for x, y in zip(a, b):
-            scale = 1.0 + np.abs(x).max(initial=0.0)
-            if not (np.all(np.isfinite(x)) and np.allclose(x, y, atol=1e-9 * scale)):
-                return False
-    return True
+    points = [np.concatenate((rng.uniform(-2, 2, s.n), rng.uniform(-1, 1, s.m))) for _ in range(3)]
+    return periodic_in(lambda z: s(z, 0.3, u, p), points, i, rtol=1e-5)
 
 
 def constrained_residual(problem: StationaryProblem, setting: Setting, z: np.ndarray):
@@ -197,7 +186,6 @@ def assess_constrained(problem: StationaryProblem, setting: Setting, z: np.ndarr
     names = [c.name for c in eqs.coordinates]
     qd = np.zeros(n) if velocities is None else np.asarray(velocities, float)
     point = {**dict(zip(names, map(float, z[:n]))), **{v.name: float(w) for v, w in zip(eqs.velocities, qd)}}
-    energy = not (np.any(qd != 0) or any(c.kind == VELOCITY for c in eqs.model.constraints))
     empty = np.zeros(0, complex)
     try:
         lin = linearize_constrained(eqs, point, set(names), setting)
@@ -222,7 +210,8 @@ def assess_constrained(problem: StationaryProblem, setting: Setting, z: np.ndarr
         P = np.hstack((across, t))
     else:
         P, across = np.eye(r), np.eye(r)
-    stability, stable, degenerate, _ = classify_across(lin.A, lin.K, lin.C, lin.G, P, across.shape[1], energy)
+    stability, stable, degenerate, _ = classify_across(lin.A, lin.K, lin.C, lin.G, P, across.shape[1],
+                                                      lin.lagrange_dirichlet_applies)
     if degenerate:
         stability, stable = DEGENERATE, False
     dependent = dict(lin.constrained["dependent"])

@@ -45,19 +45,18 @@ the vertical changes as friction turns it), so rates are given, not momenta.
 
 from __future__ import annotations
 
-import math
 import weakref
 from types import MappingProxyType
 
 import numpy as np
 
 from ..equations import Equations
-from ..errors import ModelError, Problem
+from ..errors import ModelError
 from ..model._constraints import VELOCITY
 from ._setting import Setting
-from ._stationary import StationaryProblem
+from ._stationary import StationaryProblem, periodic_in
 
-__all__ = ["ignorable_coordinates", "steady_problem", "SteadyState"]
+__all__ = ["ignorable_coordinates", "steady_problem", "SteadyState", "above_ground", "steady_details"]
 
 #: Relative size below which a change of an acceleration under a shift counts as round-off.
 _SAME = 1e-9
@@ -70,15 +69,15 @@ def _model(equations: Equations):
     return constrained_model(equations, compile_equations(equations))
 
 
-def _speeds(equations: Equations, cm, t, q, p) -> tuple[list[int], list[int]]:
-    """(dependent coordinates, dependent speeds) at q, as the linearization chooses them."""
+def _dependent_speeds_at(equations: Equations, cm, t, q, p) -> list[int]:
+    """The dependent speeds at q, as the linearization chooses them."""
     from ._constrained_linear import _dependent_speeds, _independent
 
     n = cm.n
     hol = [int(k) for k in cm.holonomic]
     W = cm._velocity_parts(t, np.concatenate((q, np.zeros(n))), p)[1]
     dep_q = [] if not hol else [i for i in range(n) if i not in _independent(equations, W[hol])]
-    return dep_q, _dependent_speeds(equations, W, hol, dep_q)
+    return _dependent_speeds(equations, W, hol, dep_q)
 
 
 def _completed(cm, t, q, qd, dep, p) -> np.ndarray:
@@ -112,7 +111,7 @@ def ignorable_coordinates(equations: Equations, setting: Setting) -> tuple[int, 
             q = rng.uniform(-0.6, 0.6, n)
             try:
                 x = cm.project(t, np.concatenate((q, np.zeros(n))), p)
-                dep_q, dep_v = _speeds(equations, cm, t, x[:n], p)
+                dep_v = _dependent_speeds_at(equations, cm, t, x[:n], p)
                 ind_v = [i for i in range(n) if i not in dep_v]
                 qd = np.zeros(n)
                 qd[ind_v] = rng.uniform(-1.5, 1.5, len(ind_v))
@@ -129,6 +128,7 @@ def ignorable_coordinates(equations: Equations, setting: Setting) -> tuple[int, 
             break
         scale = 1.0 + float(np.max(np.abs(qdd)))
         gscale = 1.0 + float(np.max(np.abs(G), initial=0.0))
+        held = ind_v + [j for j in dep_v if G.size and np.max(np.abs(G[:, j])) > 0]
         for i in sorted(candidates):
             if G.size and np.max(np.abs(G[:, i])) > 1e-12 * gscale:
                 candidates.discard(i)
@@ -142,7 +142,6 @@ def ignorable_coordinates(equations: Equations, setting: Setting) -> tuple[int, 
             except (ConstraintSingular, np.linalg.LinAlgError):
                 candidates.discard(i)
                 continue
-            held = ind_v + [j for j in dep_v if G.size and np.max(np.abs(G[:, j])) > 0]
             if not (np.all(np.isfinite(qdd1)) and np.allclose(qdd1[ind_v], qdd[ind_v], rtol=0, atol=_SAME * scale)
                     and np.allclose(y[n:][held], x[n:][held], rtol=0, atol=_SAME * (1 + np.abs(x[n:]).max()))):
                 candidates.discard(i)
@@ -154,28 +153,32 @@ class SteadyState:
     """The residual of the steady conditions in the shape coordinates (the `evaluator` of a
     StationaryProblem: see the module), and the state, accelerations and multipliers at a root."""
 
-    def __init__(self, equations: Equations, setting: Setting, shape: list[int], given: dict[int, float],
-                 free: list[int]):
+    def __init__(self, equations: Equations, shape: list[int], given: dict[int, float], free: list[int]):
         self.equations = equations
         self.cm = _model(equations)
         self.shape, self.given, self.free = shape, dict(given), free
         self.held = sorted(set(shape) | set(given))   # their accelerations must vanish
-        self.setting = setting
 
     def state(self, setting: Setting, q: np.ndarray) -> np.ndarray:
         """(q, q_dot): given rates, the free ignorable ones from the constraints, the shape at rest."""
+        return self._state(setting, q)[0]
+
+    def _state(self, setting: Setting, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(state, w = W q_dot + b there, W)."""
         n = self.cm.n
         x = np.concatenate((np.asarray(q, float)[:n], np.zeros(n)))
         for i, v in self.given.items():
             x[n + i] = v
+        w, W, _ = self.cm._velocity_parts(setting.t, x, setting.p)
         if self.free:
-            w0, W, _ = self.cm._velocity_parts(setting.t, x, setting.p)
             # least squares, cut off against W as a whole: where the free rates' columns vanish (a
             # knife edge across its rail) they stay finite and the constraint row is left unmet
             U, sv, Vt = np.linalg.svd(W[:, self.free], full_matrices=False)
             keep = sv > 1e-10 * max(float(np.max(np.abs(W), initial=0.0)), 1e-300)
-            x[n + np.array(self.free)] = Vt[keep].T @ ((U[:, keep].T @ -w0) / sv[keep])
-        return x
+            rates = Vt[keep].T @ ((U[:, keep].T @ -w) / sv[keep])
+            x[n + np.array(self.free)] = rates
+            w = w + W[:, self.free] @ rates  # w is affine in q_dot
+        return x, w, W
 
     def values(self, setting: Setting, q: np.ndarray):
         """(x, q_ddot, lambda, r): the state, its accelerations and multipliers, the residual rows."""
@@ -185,9 +188,9 @@ class SteadyState:
         n = cm.n
         with np.errstate(all="ignore"):
             try:
-                x = self.state(setting, q)
+                x, w, _ = self._state(setting, q)
                 qdd, lam = cm.solve(t, x, setting.u, p)
-                g, w = cm.residuals(t, x, p)
+                g = cm._holonomic(t, x, p)[0]
             except (ConstraintSingular, np.linalg.LinAlgError, ValueError):
                 nan = np.full(n, np.nan)
                 return np.concatenate((q[:n], nan)), nan, np.full(cm.m, np.nan), np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan)
@@ -227,8 +230,7 @@ class SteadyState:
             # round-off of the differences (about 1e-11 of the terms) as exact zeros, so that a set of
             # steady motions (a knife edge sliding at any heading) shows as a singular Jacobian
             a, k = len(self.held), len(self.cm.holonomic)
-            x = self.state(setting, q)
-            W = self.cm._velocity_parts(setting.t, x, setting.p)[1]
+            x, _, W = self._state(setting, q)
             n = self.cm.n
             floor = np.concatenate((np.full(a, self.term_scale(setting, q)), np.full(k, 1.0 + np.max(np.abs(q))),
                                     np.full(len(r) - a - k, (1.0 + np.max(np.abs(x[n:]))) * (1.0 + np.max(np.abs(W), initial=0.0)))))
@@ -239,39 +241,16 @@ class SteadyState:
 def _angles(evaluator: SteadyState, setting: Setting, n: int) -> tuple[bool, ...]:
     """Which shape coordinates the steady conditions are 2 pi-periodic in (at random points)."""
     rng = np.random.default_rng(7)
-    out = [False] * n
-    for i in evaluator.shape:
-        periodic = True
-        for _ in range(3):
-            q = np.zeros(n)
-            q[evaluator.shape] = rng.uniform(-1.0, 1.0, len(evaluator.shape))
-            shifted = q.copy()
-            shifted[i] += 2 * math.pi
-            a, b = evaluator.values(setting, q)[3], evaluator.values(setting, shifted)[3]
-            if not (np.all(np.isfinite(a)) and np.allclose(a, b, rtol=0, atol=1e-9 * (1 + np.abs(a).max()))):
-                periodic = False
-                break
-        out[i] = periodic
-    return tuple(out)
+    points = []
+    for _ in range(3):
+        q = np.zeros(n)
+        q[evaluator.shape] = rng.uniform(-1.0, 1.0, len(evaluator.shape))
+        points.append(q)
+    rows = lambda q: (evaluator.values(setting, q)[3],)  # noqa: E731
+    return tuple(i in evaluator.shape and periodic_in(rows, points, i) for i in range(n))
 
 
-def check_rates(equations: Equations, setting: Setting, given: dict[int, float], problems: list[Problem],
-                keys: dict[int, str]) -> tuple[int, ...]:
-    """The ignorable coordinates; a problem for each given rate of a coordinate that is not one."""
-    names = [c.name for c in equations.coordinates]
-    ignorable = ignorable_coordinates(equations, setting)
-    allowed = ", ".join(f"{names[i]}_dot" for i in ignorable) or "none"
-    for i in given:
-        if i not in ignorable:
-            problems.append(Problem(
-                f"{names[i]} is not ignorable in '{equations.model.name}': the motion depends on its value (or a holonomic "
-                f"constraint contains it), so it cannot move at a constant rate while the rest stays steady; the rates "
-                f"that can be fixed are those of the ignorable coordinates: {allowed}", key=keys[i]))
-    return ignorable
-
-
-def steady_problem(equations: Equations, setting: Setting, given: dict[int, float],
-                   ignorable: tuple[int, ...] | None = None) -> StationaryProblem:
+def steady_problem(equations: Equations, setting: Setting, given: dict[int, float]) -> StationaryProblem:
     """The steady motions (or, with no rate given, the equilibria) of a constrained model as a
     StationaryProblem in its shape coordinates, whose residual is numerical (see the module).
 
@@ -294,10 +273,10 @@ def steady_problem(equations: Equations, setting: Setting, given: dict[int, floa
             "chosen state instead, with linearize(equations, at=..., t=...), or simulate it")
     n = equations.n
     names = [c.name for c in equations.coordinates]
-    ignorable = ignorable_coordinates(equations, setting) if ignorable is None else ignorable
+    ignorable = ignorable_coordinates(equations, setting)
     shape = [i for i in range(n) if i not in ignorable]
     free = [i for i in ignorable if i not in given]
-    evaluator = SteadyState(equations, setting, shape, given, free)
+    evaluator = SteadyState(equations, shape, given, free)
     if free and _coupled(evaluator, setting):
         coupled = ", ".join(f"{names[i]}_dot" for i in free)
         raise ModelError(f"the constraints of '{model.name}' couple the rates {coupled} without fixing them, and the "

@@ -185,11 +185,17 @@ class LinearModel:
         lam = lam[np.lexsort((lam.imag, lam.real))]
         return read_only(lam)
 
+    @property
+    def lagrange_dirichlet_applies(self) -> bool:
+        """Whether K is the Hessian of a potential, so that Lagrange-Dirichlet may decide: not about a
+        steady motion of a constrained model, nor with velocity constraints."""
+        return not (self.constrained and "rates" in self.constrained)
+
     @cached_property
     def _stability(self):
         keep = [i for i, c in enumerate(self.coordinate_names) if c not in self.family]
-        steady = bool(self.constrained) and "rates" in self.constrained  # velocity constraints or moving
-        return classify(self.A, self.K, self.C, self.G, np.array(keep, dtype=int), energy=not steady)
+        return classify(self.A, self.K, self.C, self.G, np.array(keep, dtype=int),
+                        energy=self.lagrange_dirichlet_applies)
 
     @property
     def stability(self) -> str:

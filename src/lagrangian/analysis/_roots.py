@@ -63,14 +63,15 @@ def search_context(problem: StationaryProblem, setting: Setting) -> Search:
     p = setting.p[np.isfinite(setting.p)]
     big = max([1.0, *np.abs(p)])
     magnitudes = []
-    for q in _starts(problem, setting, 12, 11)[:16]:
+    starts = _starts(problem, setting, 12, 11)[:16]
+    for q in starts:
         with np.errstate(all="ignore"):
             r, _ = residual(problem, setting, q)
         if r.size and np.all(np.isfinite(r)) and np.abs(r).max() > 0:
             magnitudes.append(float(np.abs(r).max()))
     scale = float(np.median(magnitudes)) if magnitudes else 1.0
     if problem.evaluator is not None:  # a numerical residual that vanishes everywhere (no force) is round-off
-        terms = [problem.evaluator.term_scale(setting, q) for q in _starts(problem, setting, 12, 11)[:16]]
+        terms = [problem.evaluator.term_scale(setting, q) for q in starts]
         terms = [x for x in terms if math.isfinite(x) and x > 0]
         scale = max(scale, float(np.median(terms)) if terms else 1.0)
     ctx = Search(problem, setting, scale, 1e6 * big)

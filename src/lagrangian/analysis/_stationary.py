@@ -44,7 +44,7 @@ from ._setting import Setting, derivatives
 
 __all__ = ["StationaryProblem", "stationary_problem", "conserved_cyclic", "state_velocities", "forces",
            "residual", "conditions_hold", "parameter_conditions", "constant_map", "evaluate_exact",
-           "normalized_exact", "wrap_angles", "same_point", "solved_exactly"]
+           "normalized_exact", "wrap_angles", "same_point", "solved_exactly", "periodic_in"]
 
 #: Seconds SymPy may spend looking for exact solutions before the numerical search takes over.
 EXACT_TIME_LIMIT = 5.0
@@ -164,6 +164,22 @@ def _periodic(equations: Equations, i: int) -> bool:
         if not (np.all(np.isfinite(f1)) and np.allclose(f1, f2, atol=1e-9 * scale)
                 and np.allclose(J1, J2, atol=1e-9 * scale)):
             return False
+    return True
+
+
+def periodic_in(evaluate, points, i: int, rtol: float = 0.0) -> bool:
+    """Whether `evaluate` (a point -> a tuple of arrays) gives the same arrays, finite, with
+    coordinate i a whole turn further, at every one of `points` (to 1e-9 of each array's size, and
+    `rtol`)."""
+    for z in points:
+        shifted = np.array(z, float)
+        shifted[i] += 2 * math.pi
+        with np.errstate(all="ignore"):
+            a, b = evaluate(np.array(z, float)), evaluate(shifted)
+        for x, y in zip(a, b):
+            scale = 1.0 + np.abs(x).max(initial=0.0)
+            if not (np.all(np.isfinite(x)) and np.allclose(x, y, rtol=rtol, atol=1e-9 * scale)):
+                return False
     return True
 
 

@@ -267,7 +267,7 @@ def _constrained_steady_motions(equations: Equations, velocities, momenta, param
         fixed_v, _ = _fixed(equations, velocities, None, problems, ignorable, lambda i: why)
     if problems:
         raise ModelError(problems)
-    problem = steady_problem(equations, setting, fixed_v, ignorable)
+    problem = steady_problem(equations, setting, fixed_v)
     points, ctx = found_points(problem, setting, starts=starts, seed=seed)
     points, below = above_ground(problem, setting, points)
     found = []
