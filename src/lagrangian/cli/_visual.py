@@ -19,7 +19,8 @@ def register(sub, fmt) -> None:
                        "have no geometry and cannot be drawn.",
                        epilog="Examples:\n  lagrangian animate cart-pendulum -o cart.gif\n"
                               "  lagrangian animate double-pendulum --t-end 10 --trace bob2 --fps 20 -o double.html\n"
-                              "  lagrangian animate cart-pendulum --input \"F=1.5*sin(3*t)\" --speed 0.5 -o cart.mp4")
+                              "  lagrangian animate cart-pendulum --input \"F=1.5*sin(3*t)\" --speed 0.5 -o cart.mp4\n"
+                              "  lagrangian animate whipple-bicycle -o bicycle.gif   (the view follows it)")
     a.add_argument("model", help=MODEL_HELP)
     add_simulation_options(a)
     a.add_argument("--output", "-o", required=True, metavar="FILE",
@@ -30,6 +31,10 @@ def register(sub, fmt) -> None:
     a.add_argument("--trace", action="append", default=[], metavar="NAME",
                    help="draw the path of this point, particle or body (repeatable)")
     a.add_argument("--dpi", type=float, default=80.0, help="resolution in dots per inch (default 80)")
+    a.add_argument("--view", choices=("auto", "fixed", "follow"), default="auto",
+                   help="fixed: one box holds the whole motion; follow: the view moves with the mechanism's "
+                        "centre of mass; auto (default): follow when the motion reaches more than 3 times the "
+                        "mechanism's own size (a bicycle riding away)")
     a.set_defaults(handler=_cmd_animate)
 
 
@@ -50,7 +55,7 @@ def _cmd_animate(args: argparse.Namespace) -> int:
     check_writable(args.output, "out.gif")
     check_drawable(load(args.model), args.trace)  # before the simulation, not after it
     _, _, traj = run_simulation(args)
-    anim = animate(traj, fps=args.fps, speed=args.speed, trace=args.trace, dpi=args.dpi)
+    anim = animate(traj, fps=args.fps, speed=args.speed, trace=args.trace, dpi=args.dpi, view=args.view)
     folder = os.path.dirname(os.path.abspath(args.output))
     suffix = os.path.splitext(args.output)[1]
     fd, tmp = tempfile.mkstemp(prefix=".lagrangian-", suffix=suffix, dir=folder)

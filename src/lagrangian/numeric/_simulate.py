@@ -777,6 +777,27 @@ def _constrained_problems(nm, method, event_exprs, sample_time, problems) -> Non
                                 "give the inputs as functions of t and the state", key="sample_time"))
 
 
+def _independent_state_names(model) -> set[str]:
+    """[simulation] independent coordinates and independent speeds (default: the independent
+    coordinates' velocities)."""
+    independent = [str(q) for q in model.simulation.get("independent", ())]
+    speeds = [str(v) for v in model.simulation.get("independent_speeds", ())]
+    return set(independent) | (set(speeds) if speeds else {f"{q}_dot" for q in independent})
+
+
+def given_initial_names(model) -> list[str]:
+    """The initial coordinates and velocities that a simulation of `model` with its own initial values
+    keeps as given, in state order: the model file's initial values; with constraints and
+    independent coordinates named, those and the independent speeds instead (the file's other values
+    are starting guesses for the assembly). Giving these names' values (and any others the user
+    sets) simulates as the defaults do: the playground's sliders send them."""
+    names = _independent_state_names(model) if model.constraints else set()
+    if not (model.constraints and model.simulation.get("independent")):
+        names |= {str(k) for k in (model.simulation.get("initial") or {})}
+    order = [q.name for q in model.coordinates] + [f"{q.name}_dot" for q in model.coordinates]
+    return [n for n in order if n in names]
+
+
 def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, initial, model_initial,
                           backend="scipy", u_exprs=None, progress=None, constraints="project"):
     """simulate() of a model with constraints: consistent initial state, then the projected
@@ -797,16 +818,15 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     cm = constrained_model(eq, nm)
     names = nm.state_names
     independent = [str(q) for q in eq.model.simulation.get("independent", ())]
-    speeds = [str(v) for v in eq.model.simulation.get("independent_speeds", ())]
-    fixed = set(independent) | (set(speeds) if speeds else {f"{q}_dot" for q in independent})
+    fixed = _independent_state_names(eq.model)
     if isinstance(initial, Mapping):
         fixed |= {getattr(k, "name", k) for k in initial}
         x0 = np.array(x0, float)
         for k, v in (model_initial or {}).items():  # the model file's values as guesses for the others
             if k in names and k not in fixed:
                 x0[names.index(k)] = v
-    elif initial is None and not independent:
-        fixed |= set(model_initial or ())
+    elif initial is None:
+        fixed = set(given_initial_names(eq.model))
     try:
         x0 = consistent_state(cm, x0, fixed, p)
         if constraints == "eliminate":

@@ -19,9 +19,9 @@ import numpy as np
 
 from ..errors import LagrangianError, ModelError
 from ._figures import matplotlib_module
-from ._geometry import Scene, check_drawable, scene_of
+from ._geometry import AXIS_LENGTH, Framing, Scene, check_drawable, clip_line, framing_of, ground_grid, scene_of
 
-__all__ = ["Animation", "animate", "FORMATS"]
+__all__ = ["Animation", "animate", "FORMATS", "AXIS_LENGTH"]
 
 #: Output formats of :meth:`Animation.save`, by file suffix.
 FORMATS = {".gif": "GIF (Pillow)", ".mp4": "MP4 (needs ffmpeg)", ".html": "HTML/JavaScript"}
@@ -36,8 +36,6 @@ _ROD = dict(color="0.25", lw=2.5, solid_capstyle="round", zorder=2)
 _SPRING = dict(color="C0", lw=1.4, zorder=3)
 _DAMPER = dict(color="C2", lw=1.4, zorder=3)
 _AXIS_COLORS = {"x": "tab:red", "y": "tab:green", "z": "tab:blue"}
-#: The length of a body's axes, as a fraction of the scene's size.
-AXIS_LENGTH = 0.2
 
 
 def format_of(path: str) -> str:
@@ -135,10 +133,12 @@ class Animation:
         ``"NAME axis x"`` (y, z), ``"NAME link"`` and, with a disk, ``"NAME disk"``).
     axis_length : float
         The length of the axes drawn for bodies in space.
+    framing : Framing
+        The box shown at each frame (``framing.follow``: whether it moves with the mechanism).
     """
 
     def __init__(self, traj, scene: Scene, *, fps: float = 25.0, speed: float = 1.0, trace: Sequence[str] = (),
-                 dpi: float = 80.0, figsize=None, title: str | None = None):
+                 dpi: float = 80.0, figsize=None, title: str | None = None, view: str = "auto"):
         Figure = matplotlib_module("matplotlib.figure").Figure
         FigureCanvasAgg = matplotlib_module("matplotlib.backends.backend_agg").FigureCanvasAgg
 
@@ -156,21 +156,27 @@ class Animation:
                              layout="constrained")
         FigureCanvasAgg(self.figure)
         self.artists: dict[str, object] = {}
-        self._build(title)
+        self._build(title, view)
         self.draw(0)
+        if self.framing.follow:  # one layout for every frame: the axes' tick labels change as they move
+            self.figure.canvas.draw()
+            self.figure.set_layout_engine("none")
 
     # ----------------------------------------------------------------- build
-    def _build(self, title):
+    def _build(self, title, view):
         scene, P = self.scene, self._all
-        lo, hi = P.reshape(-1, scene.dim).min(axis=0), P.reshape(-1, scene.dim).max(axis=0)
-        size = float(np.max(hi - lo)) or 1.0
-        self._size = size
-        self.axis_length = AXIS_LENGTH * max([size] + [2 * b.radius for b in scene.spatial if b.radius is not None])
         traj, idx = self.trajectory, self.frame_indices
+        whole = framing_of(P, [nd.mass for nd in scene.nodes], view)  # decided on every sample
+        size = whole.size
+        self._size = size
+        self.axis_length = scene.axis_length(size)
         self._spatial = scene.body_drawings(traj.t[idx], traj.q[idx], self.axis_length)
-        drawn = [P.reshape(-1, scene.dim)] + [part.reshape(-1, 3) for d in self._spatial
-                                               for part in (d.axes, d.disk) if part is not None]
-        lo, hi = np.min([p.min(axis=0) for p in drawn], axis=0), np.max([p.max(axis=0) for p in drawn], axis=0)
+        framing = Framing(whole.follow, whole.centre[idx], whole.half, size)
+        for d in self._spatial:
+            for part in (d.axes, d.disk):
+                if part is not None:
+                    framing = framing.including(part.reshape(len(idx), -1, 3))
+        self.framing = framing
         masses = [nd.mass for nd in scene.nodes if nd.mass > 0]
         mmax = max(masses) if masses else 1.0
         self._radius = {}
@@ -182,10 +188,7 @@ class Animation:
             from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the projection)
 
             ax = self.figure.add_subplot(projection="3d")
-            centre, half = (lo + hi) / 2, max(size, float(np.max(hi - lo))) / 2 + pad
-            ax.set_xlim(centre[0] - half, centre[0] + half)
-            ax.set_ylim(centre[1] - half, centre[1] + half)
-            ax.set_zlim(centre[2] - half, centre[2] + half)
+            self._half = max(size, 2 * float(np.max(framing.half))) / 2 + pad  # a cube
             ax.set_box_aspect((1, 1, 1))
             ax.set_xlabel("x")
             ax.set_ylabel("y")
@@ -193,23 +196,28 @@ class Animation:
             self.artists["time"] = ax.text2D(0.02, 0.95, "", transform=ax.transAxes)
         else:
             ax = self.figure.add_subplot()
+            self._half = framing.half + pad
             ax.set_aspect("equal")
-            ax.set_xlim(lo[0] - pad, hi[0] + pad)
-            ax.set_ylim(lo[1] - pad, hi[1] + pad)
             ax.set_xlabel("x")
             ax.set_ylabel("y")
             ax.grid(True, alpha=0.2)
             self.artists["time"] = ax.text(0.02, 0.95, "", transform=ax.transAxes, va="top")
         self.axes = ax
+        self._set_box(0)
         if title is not None:
             ax.set_title(title)
         empty = [[] for _ in range(scene.dim)]
-        # tracks and ground (static)
+        # tracks and ground (static, unless a 3D view follows: then clipped to the box at each frame)
         for k, (point, direction) in enumerate(scene.tracks):
+            if framing.follow and scene.dim == 3:
+                self.artists[f"track {k}"] = ax.plot(*empty, color="0.6", lw=1.2, zorder=1)[0]
+                continue
             s = (P.reshape(-1, scene.dim) - point) @ direction
             a = point + (s.min() - 0.15 * size) * direction
             b = point + (s.max() + 0.15 * size) * direction
             ax.plot(*np.array([a, b]).T, color="0.6", lw=1.2, zorder=1)
+        if scene.ground:
+            self.artists["ground"] = ax.plot(*empty, color="0.55", lw=0.8, zorder=0)[0]
         if scene.dim == 2:
             from matplotlib.patches import Rectangle
 
@@ -255,6 +263,19 @@ class Animation:
                 style = dict(marker="o", markersize=6, color="w", markeredgecolor="k", zorder=7)
             self.artists[nd.name] = ax.plot(*empty, linestyle="none", **style)[0]
 
+    def _set_box(self, k: int) -> None:
+        """The axes' limits at frame `k`: the framing's box, padded (a cube in 3D)."""
+        centre = self.framing.centre[k]
+        lo, hi = centre - self._half, centre + self._half
+        self.axes.set_xlim(lo[0], hi[0])
+        self.axes.set_ylim(lo[1], hi[1])
+        if self.scene.dim == 3:
+            self.axes.set_zlim(lo[2], hi[2])
+
+    def _box(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        centre = self.framing.centre[k]
+        return centre - self._half, centre + self._half
+
     # ------------------------------------------------------------------ draw
     def positions(self, k: int) -> dict[str, np.ndarray]:
         """Where each node is drawn in frame `k`: {name: position, shape (dim,)}."""
@@ -267,6 +288,9 @@ class Animation:
         idx = self.frame_indices[k]
         p = self._all[idx]
         changed = []
+        follow3 = self.framing.follow and scene.dim == 3  # Matplotlib's 3D axes do not clip: we do
+        if self.framing.follow:
+            self._set_box(k)
 
         def put(artist, points):
             points = np.asarray(points, dtype=float)
@@ -283,8 +307,18 @@ class Animation:
             put(self.artists[f"spring {name}"], _zigzag(p[i], p[j], width))
         for name, i, j in scene.dampers:
             put(self.artists[f"damper {name}"], _dashpot(p[i], p[j], width))
+        if scene.ground and (k == 0 or self.framing.follow):
+            put(self.artists["ground"], ground_grid(*self._box(k)))
+        if follow3:
+            for j, (point, direction) in enumerate(scene.tracks):
+                ends = clip_line(point, direction, *self._box(k))
+                put(self.artists[f"track {j}"], ends if ends is not None else np.empty((0, 3)))
         for name in self.trace:
-            put(self.artists[f"trace {name}"], self._all[: idx + 1, scene.index(name)])
+            path = self._all[: idx + 1, scene.index(name)]
+            if follow3:
+                lo, hi = self._box(k)
+                path = np.where(np.all((path >= lo) & (path <= hi), axis=1)[:, None], path, np.nan)
+            put(self.artists[f"trace {name}"], path)
         for b, i in enumerate(scene.bodies):
             if scene.dim == 2:
                 nd = scene.nodes[i]
@@ -313,9 +347,19 @@ class Animation:
         """Yield each frame as an RGBA image, ndarray of shape (height, width, 4), uint8.
 
         The static parts (axes, ground, tracks) are drawn once; each frame redraws only the moving
-        artists over that background (blitting).
+        artists over that background (blitting). When the view follows the mechanism, the axes
+        move, and each frame is drawn whole (in the layout of the first).
         """
         canvas = self.figure.canvas
+        if self.framing.follow:
+            try:
+                for k in range(len(self.times)):
+                    self.draw(k)
+                    canvas.draw()
+                    yield np.asarray(canvas.buffer_rgba()).copy()
+            finally:
+                self.draw(0)
+            return
         moving = sorted(self._moving(), key=lambda a: a.get_zorder())
         for a in moving:
             a.set_animated(True)
@@ -440,7 +484,7 @@ class Animation:
 
 
 def animate(traj, *, model=None, fps: float = 25.0, speed: float = 1.0, trace: Sequence[str] | str = (),
-            dpi: float = 80.0, figsize=None, title: str | None = None) -> Animation:
+            dpi: float = 80.0, figsize=None, title: str | None = None, view: str = "auto") -> Animation:
     """Animate a trajectory with its model's geometry.
 
     Parameters
@@ -458,6 +502,10 @@ def animate(traj, *, model=None, fps: float = 25.0, speed: float = 1.0, trace: S
     figsize : (float, float), optional
     title : str, optional
         Default: the model's name.
+    view : {"auto", "fixed", "follow"}
+        "fixed": one box holds the whole motion; "follow": the box moves with the mechanism's centre
+        of mass, sized to the mechanism; "auto" (default) follows when the motion reaches more than
+        FOLLOW_RATIO (3) times the mechanism's own size, such as a bicycle riding away.
 
     Returns
     -------
@@ -467,7 +515,8 @@ def animate(traj, *, model=None, fps: float = 25.0, speed: float = 1.0, trace: S
     Raises
     ------
     ModelError
-        The model has no geometry (only energies), a traced name is unknown, or fps/speed is not positive.
+        The model has no geometry (only energies), a traced name is unknown, fps/speed is not positive,
+        or `view` is not one of auto, fixed, follow.
     """
     model = model if model is not None else getattr(traj, "model", None)
     if model is None:
@@ -477,7 +526,7 @@ def animate(traj, *, model=None, fps: float = 25.0, speed: float = 1.0, trace: S
     check_drawable(model, trace)
     scene = scene_of(model, traj.parameters)
     return Animation(traj, scene, fps=fps, speed=speed, trace=trace, dpi=dpi, figsize=figsize,
-                     title=model.name if title is None else title)
+                     title=model.name if title is None else title, view=view)
 
 
 _PLAYER = """<div id="{uid}" class="lagrangian-animation" style="display:inline-block">

@@ -9,7 +9,8 @@ once (docs/plots.md repeats them):
 * **Rods** join two nodes whose distance never changes while at least one of them moves: a
   pendulum bob and its pivot, two bobs of a chain. The distance is compared at random
   configurations (q, t), not along the trajectory, so a system that happens to stay at rest
-  grows no rods.
+  grows no rods; with holonomic constraints, at random configurations that meet them (a
+  four-bar's coupler joins its two joints, which the loop keeps at its length).
 * **Hidden pivots**: the position of a particle or body with its terms that hold a trigonometric
   function of a coordinate removed is the point it turns about, e.g. (q1, L) for the pendulum
   at (q1 + L cos q2, L + L sin q2). When that point is not already a node and the element stays
@@ -27,6 +28,12 @@ once (docs/plots.md repeats them):
   each segment only where its length never changes, nonzero: a body centred on its frame's
   origin hangs from the parent's origin), and their shape if they have one:
   a disk is the circle of its radius about the centre, across its body axis.
+* **The ground**: a model with wheels rolls on the plane z = 0, which is drawn (a square grid).
+* **The framing** (:func:`framing_of`): a drawing shows one box for the whole motion, unless the
+  motion reaches more than :data:`FOLLOW_RATIO` times the mechanism's own size (the largest extent
+  of its nodes at one instant, fixed ones included): a bicycle riding away, a cart pushed far. Then
+  the box follows the mechanism's centre of mass (of its nodes' masses; their mean when massless),
+  sized to hold every node at every instant. A point mass alone has no size, and is never followed.
 """
 
 from __future__ import annotations
@@ -38,16 +45,24 @@ import numpy as np
 import sympy
 
 from ..errors import ModelError
+from ..model._constraints import HOLONOMIC
 from ..model._elements import Damper, Particle, Point, RigidBody, RigidBody3D, Spring
 from ..model._frames import WORLD, frame_pose
 
-__all__ = ["Scene", "Node", "SpatialBody", "BodyDrawing", "scene_of", "check_drawable", "drawable_names",
-           "DISK_POINTS"]
+__all__ = ["Scene", "Node", "SpatialBody", "BodyDrawing", "Framing", "scene_of", "check_drawable", "drawable_names",
+           "framing_of", "ground_grid", "grid_step", "clip_line", "DISK_POINTS", "FOLLOW_RATIO", "VIEWS",
+           "AXIS_LENGTH"]
 
 _TRIG = (sympy.sin, sympy.cos, sympy.tan)
 _SAMPLES = 7
 #: Points of the outline of a disk.
 DISK_POINTS = 48
+#: A drawing follows the mechanism when its motion reaches more than this many times its own size.
+FOLLOW_RATIO = 3.0
+#: The length of a body's axes, as a fraction of the drawing's size (or of its largest disk's diameter).
+AXIS_LENGTH = 0.2
+#: The framings a drawing may ask for: "auto" (follow when the motion reaches far), "fixed", "follow".
+VIEWS = ("auto", "fixed", "follow")
 
 
 @dataclass(frozen=True)
@@ -120,6 +135,8 @@ class Scene:
         Elements that could not be drawn, with the reason.
     spatial : tuple of SpatialBody
         The bodies in space (their centres are nodes too); :meth:`body_drawings` places them.
+    ground : bool
+        Whether the ground plane z = 0 is drawn (the model has wheels rolling on it).
     """
 
     dim: int
@@ -134,6 +151,7 @@ class Scene:
     _bodies: tuple[int, ...]
     spatial: tuple[SpatialBody, ...] = ()
     _poses: object = None
+    ground: bool = False
 
     def index(self, name: str) -> int:
         """Index of the node named `name`."""
@@ -174,10 +192,126 @@ class Scene:
             out.append(BodyDrawing(origin, R, axes, link, disk))
         return tuple(out)
 
+    def axis_length(self, size: float) -> float:
+        """The length of the axes drawn for bodies in space, in a drawing of the given `size`: a fifth
+        of it, or of the largest disk's diameter."""
+        return AXIS_LENGTH * max([size] + [2 * b.radius for b in self.spatial if b.radius is not None])
+
     @property
     def bodies(self) -> tuple[int, ...]:
         """Indices of the rigid-body nodes."""
         return self._bodies
+
+
+@dataclass(frozen=True, eq=False)
+class Framing:
+    """The box a drawing shows at each of its N instants (see :func:`framing_of`).
+
+    Attributes
+    ----------
+    follow : bool
+        Whether the box moves with the mechanism.
+    centre : ndarray, shape (N, dim)
+        The box's centre at each instant (one point, repeated, when it does not follow).
+    half : ndarray, shape (dim,)
+        The box's half-widths, without padding: what it frames is inside at every instant.
+    size : float
+        The drawing's scale for its details (the axes' length, the padding, a spring's width): the
+        nodes' reach over the whole motion or, when following, the mechanism's own size.
+    """
+
+    follow: bool
+    centre: np.ndarray
+    half: np.ndarray
+    size: float
+
+    def including(self, points) -> Framing:
+        """The framing widened to hold `points` too, shape (N, k, dim): what else is drawn at each instant."""
+        points = np.asarray(points, dtype=float)
+        if points.size == 0:
+            return self
+        if self.follow:
+            half = np.maximum(self.half, np.abs(points - self.centre[:, None, :]).max(axis=(0, 1)))
+            return Framing(True, self.centre, half, self.size)
+        lo = np.minimum(self.centre[0] - self.half, points.min(axis=(0, 1)))
+        hi = np.maximum(self.centre[0] + self.half, points.max(axis=(0, 1)))
+        return Framing(False, np.broadcast_to((lo + hi) / 2, self.centre.shape), (hi - lo) / 2, self.size)
+
+    def box(self, k: int, pad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """The corners (lo, hi) of the box at instant `k`, widened by `pad` on every side."""
+        return self.centre[k] - self.half - pad, self.centre[k] + self.half + pad
+
+
+def framing_of(positions, masses, view: str = "auto") -> Framing:
+    """How to frame nodes at `positions` (N, nodes, dim) with `masses` (nodes,): one box for the
+    whole motion ("fixed"), a box that follows the centre of mass ("follow"), or ("auto") follow when
+    the motion reaches more than FOLLOW_RATIO times the mechanism's own size. A mechanism without
+    size (a point mass alone) is never followed.
+
+    Raises
+    ------
+    ModelError
+        `view` is not one of VIEWS.
+    """
+    if view not in VIEWS:
+        raise ModelError(f"view {view!r}: choose one of {', '.join(VIEWS)} (auto follows a mechanism that "
+                         "travels far, such as a bicycle riding away; fixed shows the whole motion in one box)")
+    P = np.asarray(positions, dtype=float)
+    flat = P.reshape(-1, P.shape[-1])
+    lo, hi = flat.min(axis=0), flat.max(axis=0)
+    own = float(np.ptp(P, axis=1).max()) if P.size else 0.0
+    reach = float(np.max(hi - lo)) if P.size else 0.0
+    follow = own > 0 and (view == "follow" or (view == "auto" and reach > FOLLOW_RATIO * own))
+    if not follow:
+        centre = np.broadcast_to((lo + hi) / 2, (len(P), P.shape[-1]))
+        return Framing(False, centre, (hi - lo) / 2, reach or 1.0)
+    w = np.asarray(masses, dtype=float)
+    w = w / w.sum() if w.sum() > 0 else np.full(P.shape[1], 1.0 / P.shape[1])
+    centre = np.einsum("i,kid->kd", w, P)
+    return Framing(True, centre, np.abs(P - centre[:, None, :]).max(axis=(0, 1)), own)
+
+
+def ground_grid(lo, hi) -> np.ndarray:
+    """The lines of a square grid on the ground z = 0 inside the box [lo, hi] (3 components each),
+    one after the other, NaN rows between them; shape (k, 3), empty when the box misses the ground.
+    The spacing is :func:`grid_step` of the box's larger side."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    if not lo[2] <= 0 <= hi[2]:
+        return np.empty((0, 3))
+    step = grid_step(float(np.max(hi[:2] - lo[:2])))
+    rows = []
+    for axis in (0, 1):
+        other = 1 - axis
+        for c in np.arange(np.ceil(lo[axis] / step - 1e-9), np.floor(hi[axis] / step + 1e-9) + 1) * step:
+            a, b = np.zeros(3), np.zeros(3)
+            a[axis] = b[axis] = c
+            a[other], b[other] = lo[other], hi[other]
+            rows += [a, b, np.full(3, np.nan)]
+    return np.array(rows) if rows else np.empty((0, 3))
+
+
+def grid_step(side: float) -> float:
+    """The spacing of the ground's grid in a box of this side: 1, 2 or 5 times a power of ten, the
+    smallest such at least a sixth of the side."""
+    step = 10.0 ** np.floor(np.log10(side / 6))
+    return float(step * next(f for f in (1, 2, 5, 10) if f * step >= side / 6 * (1 - 1e-12)))
+
+
+def clip_line(point, direction, lo, hi) -> np.ndarray | None:
+    """The part of the line point + s direction inside the box [lo, hi], as its two ends (2, dim),
+    or None where the line misses the box."""
+    point, direction = np.asarray(point, dtype=float), np.asarray(direction, dtype=float)
+    s0, s1 = -np.inf, np.inf
+    for p, d, a, b in zip(point, direction, lo, hi):
+        if abs(d) < 1e-15:
+            if not a <= p <= b:
+                return None
+            continue
+        u, v = sorted(((a - p) / d, (b - p) / d))
+        s0, s1 = max(s0, u), min(s1, v)
+    if not s0 < s1:
+        return None
+    return np.array([point + s0 * direction, point + s1 * direction])
 
 
 def _times_and_coordinates(t, q) -> tuple[np.ndarray, np.ndarray]:
@@ -274,7 +408,33 @@ class _Builder:
         n = len(self.coords)
         self.sample_t = rng.uniform(0.3, 2.1, _SAMPLES)
         self.sample_q = rng.uniform(-2.0, 2.0, (_SAMPLES, n))
+        holonomic = [c.expression for c in model.constraints if c.kind == HOLONOMIC]
+        if holonomic:
+            self.sample_t, self.sample_q = self._assembled(holonomic, rng)
         self.samples: list[np.ndarray] = []  # (S, dim) per node
+
+    def _assembled(self, constraints, rng) -> tuple[np.ndarray, np.ndarray]:
+        """Samples (t, q) that meet the holonomic constraints: random configurations moved onto
+        g(q, t) = 0 by Gauss-Newton (least-norm steps); those that do not assemble are drawn again.
+        A mechanism that assembles nowhere keeps the random samples."""
+        g = [sympy.sympify(e).subs(self.subs) for e in constraints]
+        G = sympy.Matrix(g).jacobian(self.coords)
+        fg = sympy.lambdify([self.t, *self.coords], g, "numpy")
+        fG = sympy.lambdify([self.t, *self.coords], G, "numpy")
+        ts, qs = [], []
+        for _ in range(20 * _SAMPLES):
+            t, q = rng.uniform(0.3, 2.1), rng.uniform(-2.0, 2.0, len(self.coords))
+            for _ in range(50):
+                r = np.asarray(fg(t, *q), dtype=float)
+                if not np.all(np.isfinite(r)) or np.max(np.abs(r)) < 1e-13:
+                    break
+                q = q - np.linalg.lstsq(np.asarray(fG(t, *q), dtype=float), r, rcond=None)[0]
+            if np.all(np.isfinite(r)) and np.max(np.abs(np.asarray(fg(t, *q), dtype=float))) < 1e-12:
+                ts.append(t)
+                qs.append(q)
+                if len(ts) == _SAMPLES:
+                    return np.array(ts), np.array(qs)
+        return self.sample_t, self.sample_q
 
     def evaluate(self, position, t, q) -> np.ndarray:
         """Position at times t (N,) and coordinates q (N, n): shape (N, len(position))."""
@@ -445,7 +605,7 @@ def scene_of(model, params=None) -> Scene:
         return _columns(fpose(t, *q.T), t)
 
     return Scene(dim, tuple(nodes), tuple(rods), tuple(springs), tuple(dampers), tuple(tracks), tuple(undrawn),
-                 positions, angles, bodies, spatial, poses)
+                 positions, angles, bodies, spatial, poses, ground=dim == 3 and bool(model.wheels))
 
 
 def _spatial_bodies(model, b: _Builder, index_of) -> tuple[tuple[SpatialBody, ...], list]:
