@@ -154,6 +154,58 @@ def test_simulate_csv_is_the_csv_of_lagrangian_simulate(server, tmp_path):
     assert body.decode() == out.read_text()
 
 
+def test_simulate_draws_bodies_in_space_and_follows_a_rolling_disk(server):
+    """The page's canvas gets what `lagrangian animate` draws: each body's frame (origin, rotation)
+    and link at every frame, the axes' length, the ground under the wheel, and the framing that
+    follows the disk (its centre at each frame: the disk's centre of mass)."""
+    import numpy as np
+
+    from lagrangian.plot._geometry import grid_step, scene_of
+
+    status, data = server.post_json("/api/simulate", {"model": example_source("rolling-disk"), "t_end": 4.0,
+                                                      "dt": 0.05})
+    assert status == 200, data
+    g = data["geometry"]
+    traj = lg.simulate(lg.load("rolling-disk"), 4.0, dt=0.05)
+    scene = scene_of(lg.load("rolling-disk"))
+    ((disk, drawing),) = zip(scene.spatial, scene.body_drawings(traj.t, traj.q, g["axis_length"]))
+    (body,) = g["spatial"]
+    assert (body["name"], body["frame"], body["radius"], body["axis"]) == (disk.name, disk.frame, 0.3, 1)
+    np.testing.assert_allclose(body["origin"], drawing.origin, atol=2e-9)
+    np.testing.assert_allclose(np.reshape(body["rotation"], (-1, 3, 3)), drawing.rotation, atol=2e-9)
+    np.testing.assert_allclose(body["link"], drawing.link, atol=2e-9)
+    R = np.reshape(body["rotation"], (-1, 3, 3))
+    np.testing.assert_allclose(R @ np.swapaxes(R, 1, 2), np.broadcast_to(np.eye(3), R.shape), atol=1e-8)
+    assert g["axis_length"] == pytest.approx(0.2 * 0.6)  # a fifth of the disk's diameter
+    f = g["framing"]
+    assert f["follow"] and len(f["centre"]) == len(g["t"]) == 81
+    P = np.array(g["positions"])
+    i = [n["name"] for n in g["nodes"]].index("coin")
+    np.testing.assert_allclose(f["centre"], P[:, i], atol=1e-8)  # the only mass: the coin
+    assert g["ground"]["step"] == grid_step(2 * (max(f["half"][:2]) + 0.12 * f["size"]))
+    status, top = server.post_json("/api/simulate", {"model": example_source("heavy-top"), "t_end": 0.5})
+    assert status == 200 and not top["geometry"]["framing"]["follow"]
+    assert len(top["geometry"]["framing"]["centre"]) == 1 and top["geometry"]["ground"] is None
+
+
+def test_a_closed_loop_simulates_from_the_values_the_page_sends(server):
+    """The analysis says which initial values a simulation takes as given (the four-bar's crank
+    angle and speed; its other angles are guesses that the loop corrects), and sent so, the
+    trajectory is simulate's default one; sending every angle, as a page that knew nothing of the
+    constraints would, gets the library's message about the loop."""
+    status, a = server.post_json("/api/analysis", example_source("four-bar"))
+    assert status == 200 and a["given"] == ["th1", "th1_dot"]
+    body = {"model": example_source("four-bar"), "t_end": 1.0, "dt": 0.05, "initial": {"th1": 1.2, "th1_dot": 4.0}}
+    status, data = server.post_json("/api/simulate", body)
+    assert status == 200, data
+    traj = lg.simulate(lg.load("four-bar"), 1.0, dt=0.05)
+    for name in ("th1", "th2", "th3", "lambda_loop_x"):
+        assert data["columns"][name] == pytest.approx(traj[name].tolist(), abs=1e-12)
+    status, data = server.post_json("/api/simulate", dict(body, initial={"th1": 1.2, "th2": 0.2, "th3": 1.4}))
+    assert status == 400
+    assert data["errors"][0]["message"].startswith("the initial coordinates do not meet constraint 'loop_x'")
+
+
 def test_a_model_with_energies_only_simulates_and_says_why_it_is_not_drawn(server):
     status, data = server.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "initial": {"x": 1}})
     assert status == 200 and data["geometry"] is None

@@ -264,3 +264,59 @@ def test_an_unknown_example_says_so(server, browser):
     wait(browser, lambda: browser.find_elements(By.CSS_SELECTOR, "#errors li"))
     assert browser.find_element(By.CSS_SELECTOR, "#errors li").text.startswith(
         "there is no built-in example 'double-pendulm'. Did you mean 'double-pendulum'?")
+
+
+def colour_counts(driver, colours) -> list[int]:
+    """How many pixels of the mechanism's canvas are near each (r, g, b) colour."""
+    return js(driver, """const c = document.getElementById('mechanism'), d = c.getContext('2d')
+          .getImageData(0, 0, c.width, c.height).data;
+        return arguments[0].map(([r, g, b]) => { let n = 0;
+          for (let i = 0; i < d.length; i += 4)
+            if (Math.abs(d[i] - r) < 30 && Math.abs(d[i + 1] - g) < 30 && Math.abs(d[i + 2] - b) < 30 && d[i + 3] > 128) n++;
+          return n; });""", colours)
+
+
+ORANGE, RED, GREEN, BLUE, GROUND = (255, 127, 14), (214, 39, 40), (44, 160, 44), (31, 119, 180), (184, 188, 196)
+
+
+def test_a_body_in_space_is_drawn_and_the_view_follows_it(server, browser):
+    """The rolling disk: its rim (orange), its frame's axes (red, green, blue) and the ground's grid;
+    it rolls about 4 m away in 10 s, and the view follows it, so at the end it is as large as at
+    the start."""
+    browser.get(server.url + "?example=rolling-disk")
+    wait(browser, lambda: ready(browser))
+    assert js(browser, "return window.lagrangianPlayground.mechanism.geometry.framing.follow") is True
+    browser.find_element(By.ID, "play").click()  # pause
+    counts = []
+    for end in (False, True):
+        js(browser, "const s = document.getElementById('scrub'); s.value = arguments[0] ? s.max : '0';"
+                    "s.dispatchEvent(new Event('input'));", end)
+        counts.append(colour_counts(browser, [ORANGE, RED, GREEN, BLUE, GROUND]))
+    start, last = counts
+    assert min(start) > 20 and min(last) > 20, counts
+    assert 0.5 < last[0] / start[0] < 2, counts
+    browser.find_element(By.ID, "play").click()
+
+
+def test_a_closed_loop_simulates_with_the_dependent_values_completed(server, browser):
+    """The four-bar: the page sends the crank's angle and speed (the given values), the loop
+    completes the other angles, and their boxes show the completed values, in grey; moving the
+    crank's slider sends its new value and keeps the others completed."""
+    browser.get(server.url + "?example=four-bar")
+    wait(browser, lambda: ready(browser))
+    request = js(browser, "return window.lagrangianPlayground.state.lastRequest")
+    assert set(request["initial"]) == {"th1", "th1_dot"}
+    traj = lg.simulate(lg.load("four-bar"), 5.0)
+    shown = float(browser.find_element(By.ID, "value-th2").get_attribute("value"))
+    assert shown == pytest.approx(traj["th2"][0], rel=1e-5)
+    computed = js(browser, "return [...document.querySelectorAll('#sliders .slider.computed label')]"
+                           ".map((l) => l.textContent)")
+    assert "th2" in computed and "th3" in computed and "th1" not in computed and "th1_dot" not in computed
+    js(browser, "const box = document.getElementById('value-th1'); box.value = '0.9';"
+                "box.dispatchEvent(new Event('change'));")
+    wait(browser, lambda: ready(browser) and js(
+        browser, "return window.lagrangianPlayground.state.lastRequest.initial.th1") == 0.9)
+    assert set(js(browser, "return window.lagrangianPlayground.state.lastRequest.initial")) == {"th1", "th1_dot"}
+    moved = lg.simulate(lg.load("four-bar"), 5.0, initial={"th1": 0.9, "th1_dot": 4.0})
+    assert float(browser.find_element(By.ID, "value-th3").get_attribute("value")) == pytest.approx(
+        moved["th3"][0], rel=1e-5)

@@ -196,9 +196,11 @@ _SECTION = re.compile(r'<section id="([^"]+)">\n<h2>(.*?)</h2>\n(.*?)\n</section
 
 
 def analysis_task(body: bytes) -> Reply:
-    """The derivation report's sections as HTML (MathML), the model's [simulation] defaults, and
-    whether (or why not) the model can be drawn."""
+    """The derivation report's sections as HTML (MathML), the model's [simulation] defaults, the
+    initial values a simulation takes as given (``given``: the others are completed, 0 or from the
+    constraints), and whether (or why not) the model can be drawn."""
     from .. import derive, report
+    from ..numeric._simulate import given_initial_names
     from ..plot._geometry import check_drawable
 
     model = _load(_model_text(body))
@@ -218,6 +220,7 @@ def analysis_task(body: bytes) -> Reply:
         "inputs": [u.name for u in eqs.inputs],
         "parameters": {p.name: v for p, v in eqs.parameters.items()},
         "simulation": {k: v for k, v in model.simulation.items()},
+        "given": given_initial_names(model),
         "drawable": not_drawable is None,
         "not_drawable": not_drawable,
         "sections": sections,
@@ -401,10 +404,13 @@ def simulate_csv_task(body: bytes) -> Reply:
 
 def geometry(model, traj) -> dict:
     """What the page's canvas draws: the scene of :func:`lagrangian.plot._geometry.scene_of` (nodes,
-    rods, springs, dampers, tracks) and the node positions and body angles at each frame."""
+    rods, springs, dampers, tracks, the ground), the node positions and body angles at each frame,
+    the bodies in space (their frame's origin and rotation, by rows, and the link that carries them,
+    at each frame; the axes' length), and the framing (:func:`~lagrangian.plot._geometry.framing_of`:
+    its centre at each frame when it follows the mechanism, else one; its half-widths; its size)."""
     import numpy as np
 
-    from ..plot._geometry import scene_of
+    from ..plot._geometry import Framing, framing_of, grid_step, scene_of
 
     scene = scene_of(model, traj.parameters)
     step = max(1, math.ceil(len(traj.t) / MAX_FRAMES))
@@ -412,6 +418,14 @@ def geometry(model, traj) -> dict:
     t, q = traj.t[idx], traj.q[idx]
     positions = scene.positions(t, q)
     angles = scene.angles(t, q)
+    whole = framing_of(scene.positions(traj.t, traj.q), [n.mass for n in scene.nodes])
+    framing = Framing(whole.follow, whole.centre[idx], whole.half, whole.size)
+    axis_length = scene.axis_length(whole.size)
+    drawings = scene.body_drawings(t, q, axis_length)
+    for d in drawings:
+        for part in (d.axes, d.disk):
+            if part is not None:
+                framing = framing.including(part.reshape(len(idx), -1, 3))
 
     def rounded(a):
         return np.round(np.asarray(a, dtype=float), 9).tolist()
@@ -429,6 +443,14 @@ def geometry(model, traj) -> dict:
         "t": rounded(t),
         "positions": rounded(positions),
         "angles": rounded(angles),
+        "spatial": [{"name": b.name, "frame": b.frame, "node": b.node, "radius": b.radius, "axis": b.axis,
+                     "origin": rounded(d.origin), "rotation": rounded(d.rotation.reshape(len(idx), 9)),
+                     "link": rounded(d.link)} for b, d in zip(scene.spatial, drawings)],
+        "axis_length": axis_length,
+        "ground": {"step": grid_step(2 * float(np.max(framing.half[:2]) + 0.12 * framing.size))}
+        if scene.ground else None,
+        "framing": {"follow": framing.follow, "centre": rounded(framing.centre if framing.follow else framing.centre[:1]),
+                    "half": rounded(framing.half), "size": framing.size},
     }
 
 

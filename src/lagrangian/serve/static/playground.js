@@ -14,6 +14,8 @@ const state = {
   simulation: null,     // the last trajectory (JSON)
   lastRequest: null,    // the body of the last simulation request
   values: {},           // slider values by name, kept across edits
+  given: new Set(),     // the initial values sent: the model file's and those the user set; the
+                        // simulation completes the others (0, or from the constraints)
   checkSeq: 0, simSeq: 0, eqSeq: 0,
   playing: true, playStart: 0, playFrom: 0,
   busy: new Map(),      // what is running -> start time
@@ -154,9 +156,11 @@ function addSlider(box, name, value, kind) {
     `<input type="number" id="value-${name}" step="any" value="${value}" aria-label="${lgEscape(name)}">`;
   box.appendChild(row);
   const range = row.children[1], number = row.children[2];
+  if (kind !== "param") row.classList.toggle("computed", !state.given.has(name));
   const set = (v, from) => {
     if (!isFinite(v)) return;
     state.values[name] = v;
+    if (kind !== "param") { state.given.add(name); row.classList.remove("computed"); }
     if (from !== number) number.value = String(+v.toPrecision(6));
     if (from !== range) {
       if (v < Number(range.min)) range.min = String(v);
@@ -169,6 +173,17 @@ function addSlider(box, name, value, kind) {
   number.addEventListener("change", () => set(Number(number.value), number));
 }
 
+// An initial value the simulation completed (not given): shown, not sent.
+function showComputed(name, v) {
+  const range = $(`slider-${name}`), number = $(`value-${name}`);
+  if (!range || !isFinite(v)) return;
+  state.values[name] = v;
+  number.value = String(+v.toPrecision(6));
+  if (v < Number(range.min)) range.min = String(v);
+  if (v > Number(range.max)) range.max = String(v);
+  range.value = String(v);
+}
+
 function buildControls(a) {
   const box = $("sliders");
   const sim = a.simulation || {};
@@ -177,6 +192,7 @@ function buildControls(a) {
   box.dataset.key = key;
   box.innerHTML = "";
   state.values = {};
+  state.given = new Set(a.given);
   if (sim.t_end != null) $("t-end").value = sim.t_end;
   $("dt").value = sim.dt != null ? sim.dt : 0.01;
   const group = (text) => {
@@ -188,6 +204,10 @@ function buildControls(a) {
   const pbox = params.length ? group("Parameters") : null;
   for (const [name, value] of params) { state.values[name] = value; addSlider(pbox, name, value, "param"); }
   const ibox = group("Initial values");
+  const hint = document.createElement("p");
+  hint.className = "note";
+  hint.textContent = "Grey: not given, completed by the simulation (0, or from the constraints); move one to give it.";
+  ibox.appendChild(hint);
   const initial = sim.initial || {};
   for (const name of [...a.coordinates, ...a.velocities]) {
     const v = initial[name] || 0;
@@ -216,7 +236,7 @@ function simulationRequest() {
     model: state.goodText,
     t_end: Number($("t-end").value),
     dt: Number($("dt").value),
-    initial: pick([...a.coordinates, ...a.velocities]),
+    initial: pick([...a.coordinates, ...a.velocities].filter((n) => state.given.has(n))),
     params: pick(Object.keys(a.parameters)),
     inputs,
   };
@@ -263,6 +283,9 @@ async function simulate() {
   state.simulation = r.data;
   state.lastRequest = body;
   const s = r.data;
+  for (const name of [...state.analysis.coordinates, ...state.analysis.velocities]) {
+    if (!(name in body.initial) && s.columns[name]) showComputed(name, s.columns[name][0]);
+  }
   const drift = s.energy_drift != null && s.conservative ? `; ${s.energy_name} drift ${s.energy_drift.toExponential(2)}` : "";
   $("sim-info").textContent = `${s.columns.t.length} samples, t = 0 … ${s.columns.t[s.columns.t.length - 1]} s (${s.stats.method}, ${s.stats.backend}, ${s.stats.nfev} evaluations)${drift}`;
   $("sim-info").className = "note";
@@ -417,4 +440,4 @@ async function start() {
   check();
 }
 start();
-window.lagrangianPlayground = { state, editor };  // for the browser tests and the curious
+window.lagrangianPlayground = { state, editor, mechanism };  // for the browser tests and the curious
