@@ -24,7 +24,8 @@ SECONDS, FPS, DPI = 4.0, 8, 50
 
 
 def main() -> None:
-    names = [n for n in example_names() if "<n>" not in n] + ["pendulum-chain-3", "spring-mass-damper-chain-3"]
+    names = [n for n in example_names() if "<n>" not in n] + ["pendulum-chain-3", "spring-mass-damper-chain-3",
+                                                               "robot-arm-3"]
     lines = ["# Gallery", "",
              "Every built-in example, simulated from its model file's `[simulation]` settings for "
              f"{SECONDS:g} s and drawn from its own geometry by the command under it. "
