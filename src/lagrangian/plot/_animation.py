@@ -263,18 +263,17 @@ class Animation:
                 style = dict(marker="o", markersize=6, color="w", markeredgecolor="k", zorder=7)
             self.artists[nd.name] = ax.plot(*empty, linestyle="none", **style)[0]
 
-    def _set_box(self, k: int) -> None:
-        """The axes' limits at frame `k`: the framing's box, padded (a cube in 3D)."""
+    def _box(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """The corners of what frame `k` shows: the framing's box, padded (a cube in 3D)."""
         centre = self.framing.centre[k]
-        lo, hi = centre - self._half, centre + self._half
+        return centre - self._half, centre + self._half
+
+    def _set_box(self, k: int) -> None:
+        lo, hi = self._box(k)
         self.axes.set_xlim(lo[0], hi[0])
         self.axes.set_ylim(lo[1], hi[1])
         if self.scene.dim == 3:
             self.axes.set_zlim(lo[2], hi[2])
-
-    def _box(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        centre = self.framing.centre[k]
-        return centre - self._half, centre + self._half
 
     # ------------------------------------------------------------------ draw
     def positions(self, k: int) -> dict[str, np.ndarray]:

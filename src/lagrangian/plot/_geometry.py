@@ -237,10 +237,6 @@ class Framing:
         hi = np.maximum(self.centre[0] + self.half, points.max(axis=(0, 1)))
         return Framing(False, np.broadcast_to((lo + hi) / 2, self.centre.shape), (hi - lo) / 2, self.size)
 
-    def box(self, k: int, pad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-        """The corners (lo, hi) of the box at instant `k`, widened by `pad` on every side."""
-        return self.centre[k] - self.half - pad, self.centre[k] + self.half + pad
-
 
 def framing_of(positions, masses, view: str = "auto") -> Framing:
     """How to frame nodes at `positions` (N, nodes, dim) with `masses` (nodes,): one box for the
