@@ -255,10 +255,7 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
         solver = _solver(method)(rhs, 0.0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j, nstep = 1, 0
         while j < len(times):
-            message = solver.step()
-            if solver.status == "failed":
-                raise SimulationError(f"the integrator stopped at t = {solver.t:.6g}: {message}; try a smaller "
-                                      "rtol/atol or check the model's parameters", status=-1, time=float(solver.t))
+            _step(solver)
             nstep += 1
             dense = solver.dense_output()
             projected = cm.project(solver.t, solver.y, p)
@@ -304,6 +301,14 @@ def singular_constraint_message(cm: ConstrainedModel, t, x, p) -> str:
 
 
 # ------------------------------------------------------------------------------- elimination
+def _step(solver) -> None:
+    """One step of a SciPy solver; a SimulationError where it fails."""
+    message = solver.step()
+    if solver.status == "failed":
+        raise SimulationError(f"the integrator stopped at t = {solver.t:.6g}: {message}; try a smaller "
+                              "rtol/atol or check the model's parameters", status=-1, time=float(solver.t))
+
+
 def integrate_eliminated(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, method, independent):
     """(X at `times`, Lambda at `times`, stats): the ODE in the independent coordinates.
 
@@ -357,10 +362,7 @@ def integrate_eliminated(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, m
         solver = _solver(method)(rhs, 0.0, z0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j = 1
         while j < len(times):
-            message = solver.step()
-            if solver.status == "failed":
-                raise SimulationError(f"the integrator stopped at t = {solver.t:.6g}: {message}; try a smaller "
-                                      "rtol/atol or check the model's parameters", status=-1, time=float(solver.t))
+            _step(solver)
             nstep += 1
             dense = solver.dense_output()
             while j < len(times) and times[j] <= solver.t:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import LagrangianError, ModelError
 from ._figures import matplotlib_module
-from ._geometry import AXIS_LENGTH, Framing, Scene, check_drawable, clip_line, framing_of, ground_grid, scene_of
+from ._geometry import AXIS_LENGTH, Scene, check_drawable, clip_line, ground_grid, scene_of
 
 __all__ = ["Animation", "animate", "FORMATS", "AXIS_LENGTH"]
 
@@ -165,17 +165,9 @@ class Animation:
     # ----------------------------------------------------------------- build
     def _build(self, title, view):
         scene, P = self.scene, self._all
-        traj, idx = self.trajectory, self.frame_indices
-        whole = framing_of(P, [nd.mass for nd in scene.nodes], view)  # decided on every sample
-        size = whole.size
-        self._size = size
-        self.axis_length = scene.axis_length(size)
-        self._spatial = scene.body_drawings(traj.t[idx], traj.q[idx], self.axis_length)
-        framing = Framing(whole.follow, whole.centre[idx], whole.half, size)
-        for d in self._spatial:
-            for part in (d.axes, d.disk):
-                if part is not None:
-                    framing = framing.including(part.reshape(len(idx), -1, 3))
+        framing, self.axis_length, self._spatial = scene.framed(self.trajectory.t, self.trajectory.q,
+                                                                self.frame_indices, view)
+        size = self._size = framing.size
         self.framing = framing
         masses = [nd.mass for nd in scene.nodes if nd.mass > 0]
         mmax = max(masses) if masses else 1.0

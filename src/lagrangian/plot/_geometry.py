@@ -192,6 +192,21 @@ class Scene:
             out.append(BodyDrawing(origin, R, axes, link, disk))
         return tuple(out)
 
+    def framed(self, t, q, frames, view: str = "auto") -> tuple[Framing, float, tuple[BodyDrawing, ...]]:
+        """The framing of a drawing of the motion `t` (N,), `q` (N, n) shown at the samples `frames`
+        (indices), decided on every sample (:func:`framing_of`) and widened to hold the bodies in
+        space; the axes' length; and the bodies' drawings at those frames."""
+        t, q = _times_and_coordinates(t, q)
+        whole = framing_of(self.positions(t, q), [n.mass for n in self.nodes], view)
+        length = self.axis_length(whole.size)
+        drawings = self.body_drawings(t[frames], q[frames], length)
+        framing = Framing(whole.follow, whole.centre[frames], whole.half, whole.size)
+        for d in drawings:
+            for part in (d.axes, d.disk):
+                if part is not None:
+                    framing = framing.including(part.reshape(len(frames), -1, 3))
+        return framing, length, drawings
+
     def axis_length(self, size: float) -> float:
         """The length of the axes drawn for bodies in space, in a drawing of the given `size`: a fifth
         of it, or of the largest disk's diameter."""

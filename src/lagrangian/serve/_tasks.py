@@ -410,7 +410,7 @@ def geometry(model, traj) -> dict:
     its centre at each frame when it follows the mechanism, else one; its half-widths; its size)."""
     import numpy as np
 
-    from ..plot._geometry import Framing, framing_of, grid_step, scene_of
+    from ..plot._geometry import grid_step, scene_of
 
     scene = scene_of(model, traj.parameters)
     step = max(1, math.ceil(len(traj.t) / MAX_FRAMES))
@@ -418,14 +418,7 @@ def geometry(model, traj) -> dict:
     t, q = traj.t[idx], traj.q[idx]
     positions = scene.positions(t, q)
     angles = scene.angles(t, q)
-    whole = framing_of(scene.positions(traj.t, traj.q), [n.mass for n in scene.nodes])
-    framing = Framing(whole.follow, whole.centre[idx], whole.half, whole.size)
-    axis_length = scene.axis_length(whole.size)
-    drawings = scene.body_drawings(t, q, axis_length)
-    for d in drawings:
-        for part in (d.axes, d.disk):
-            if part is not None:
-                framing = framing.including(part.reshape(len(idx), -1, 3))
+    framing, axis_length, drawings = scene.framed(traj.t, traj.q, idx)
 
     def rounded(a):
         return np.round(np.asarray(a, dtype=float), 9).tolist()
