@@ -352,7 +352,7 @@ def test_model_file_frame_errors_all_at_once_with_their_lines(tmp_path):
     with pytest.raises(lg.ModelFileError) as info:
         lg.load(str(path))
     lines = str(info.value).splitlines()
-    assert lines[0].endswith("9 problems in " + str(path) + ":")
+    assert lines[0].endswith("10 problems in " + str(path) + ":")
     expected = [
         ':6 [frames[0].parent]: the frames a, b form a cycle of parents (a -> b -> a): every frame must hang, '
         'through its parents, from "world"',
@@ -361,8 +361,9 @@ def test_model_file_frame_errors_all_at_once_with_their_lines(tmp_path):
         ":15 [frames[3].rotation[0][0]]: 'w' is not an axis: use \"x\", \"y\", \"z\" or a list of 3 numbers such as "
         "[1, 1, 0]",
         ":18 [frames[4].matrix]: the matrix is not a rotation: its determinant is -1, not 1 (a reflection)",
-        ":25 [bodies[0].frame]: no frame is named 'ff' (did you mean 'f'?); the frames are world, e, f",
+        ":25 [bodies[0].frame]: no frame is named 'ff' (did you mean 'f'?); the frames are world, a, b, c, d, e, f",
         ":32 [bodies[1].position]: a body in space (it has a frame) takes its orientation from its frame",
+        ":31 [bodies[1].inertia]: the principal moments of inertia 1, 1, 5 break the triangle inequality",
         ":37 [bodies[2].inertia]: the inertia tensor is not positive definite (principal moments -1, 1, 2)",
         ":42 [particles[0].position]: a position in the frame 'f' has 3 components (x, y, z), got 2",
         ':44 [loads[0].torque]: the body \'z\' is in space: its torque is a list of 3 expressions, torque = '

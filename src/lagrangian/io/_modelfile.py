@@ -558,6 +558,7 @@ class _Reader:
         self.read_energy(data.get("energy"))
         self.read_forces(data.get("forces"))
         self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
+        self.provisional_frames: set[str] = set()  # frames added despite their problems (see build_frame)
         self.read_frames(data.get("frames"))
         self.read_elements(data)
         self.read_constraints(data.get("constraints"))
@@ -827,7 +828,7 @@ class _Reader:
 
         tables = self.element_tables("frames", value)
         named: dict[str, _Entry] = {}
-        self.frame_names = {t.table.get("name") for t in tables if isinstance(t.table.get("name"), str)}
+        self.frame_names = dict.fromkeys(t.table.get("name") for t in tables if isinstance(t.table.get("name"), str))
         for entry in tables:
             key = entry.key
             for name in entry.table:
@@ -856,26 +857,42 @@ class _Reader:
             pending = [e for e in pending if e not in progress]
             if progress:
                 continue
-            in_reported_cycle: set[str] = set()
-            for entry in pending:
-                parent = entry.table.get("parent", WORLD)
-                if not isinstance(parent, str):
-                    self.problem(f"{entry.key}.parent", f"expected a frame's name, got {_describe(parent)}; "
-                                                        "write parent = \"world\" or the name of a [[frames]] table")
-                elif parent not in named:
-                    self.problem(f"{entry.key}.parent", f"no frame is named '{parent}'"
-                                 f"{_did_you_mean(parent, [WORLD, *named])}; use \"world\" (the inertial frame) "
-                                 "or the name of a [[frames]] table")
-                elif _cycle(named, entry.name) and entry.name not in in_reported_cycle:
-                    loop = _cycle(named, entry.name)
-                    in_reported_cycle.update(loop)
-                    self.problem(f"{entry.key}.parent", f"the frames {', '.join(loop[:-1])} form a cycle of "
-                                 f"parents ({' -> '.join(loop)}): every frame must hang, through its parents, "
-                                 "from \"world\"")
+            self.report_parents(named, pending)
             break
+        # the frames below an unknown parent or in a cycle: built under "world" as well, so that their own keys
+        # and the elements placed in them are checked in this same run (the problems above keep the model out)
+        for entry in pending:
+            parent = entry.table.get("parent", WORLD)
+            self.build_frame(entry, parent=parent if parent in self.frame_keys else WORLD, provisional=True)
 
-    def build_frame(self, entry: _Entry) -> None:
+    def report_parents(self, named: Mapping[str, _Entry], pending: list[_Entry]) -> None:
+        """The problem of each frame whose parent is not a built frame: unknown, not a name, or a cycle."""
+        from ..model._frames import WORLD
+
+        in_reported_cycle: set[str] = set()
+        for entry in pending:
+            parent = entry.table.get("parent", WORLD)
+            if not isinstance(parent, str):
+                self.problem(f"{entry.key}.parent", f"expected a frame's name, got {_describe(parent)}; "
+                                                    "write parent = \"world\" or the name of a [[frames]] table")
+            elif parent not in named:
+                self.problem(f"{entry.key}.parent", f"no frame is named '{parent}'"
+                             f"{_did_you_mean(parent, [WORLD, *named])}; use \"world\" (the inertial frame) "
+                             "or the name of a [[frames]] table")
+            elif _cycle(named, entry.name) and entry.name not in in_reported_cycle:
+                loop = _cycle(named, entry.name)
+                in_reported_cycle.update(loop)
+                self.problem(f"{entry.key}.parent", f"the frames {', '.join(loop[:-1])} form a cycle of "
+                             f"parents ({' -> '.join(loop)}): every frame must hang, through its parents, "
+                             "from \"world\"")
+
+    def build_frame(self, entry: _Entry, parent: str | None = None, provisional: bool = False) -> None:
+        """Add the frame of `entry` (under `parent`, default its own). A frame with problems in its origin or
+        rotation is still added, provisionally (origin 0, the rotations that could be read), as is one built
+        under "world" in place of an unknown parent (`provisional`): the elements placed in it are then
+        checked in the same run, and the problems recorded keep the model from being returned."""
         key, table = entry.key, entry.table
+        before = len(self.problems)
         origin = self.vector(table["origin"], f"{key}.origin") if "origin" in table else (0, 0, 0)
         if origin is not None and len(origin) != 3:
             self.problem(f"{key}.origin", f"a frame's origin has 3 components (x, y, z), got {len(origin)}")
@@ -884,18 +901,22 @@ class _Reader:
         if "rotation" in table and "matrix" in table:
             self.problem(f"{key}.matrix", "give the rotation either as rotation = [[axis, angle], ...] or as "
                                           "matrix = [[...], [...], [...]], not both: remove one of them")
-            return
-        if "rotation" in table:
+        elif "rotation" in table:
             rotation = self.rotation_steps(table["rotation"], f"{key}.rotation")
         elif "matrix" in table:
             rotation = self.matrix3(table["matrix"], f"{key}.matrix", "rotation matrix")
-        if origin is None or (rotation is None and ("rotation" in table or "matrix" in table)):
-            return
+        if len(self.problems) > before:
+            provisional = True
+            origin = origin if origin is not None else (0, 0, 0)
+            rotation = rotation or None
         try:
-            self.model.add_frame(entry.name, parent=table.get("parent", "world"), origin=origin, rotation=rotation)
+            self.model.add_frame(entry.name, parent=table.get("parent", "world") if parent is None else parent,
+                                 origin=origin, rotation=rotation)
         except ModelError as exc:
             self.model_error(key, exc)
             return
+        if provisional:
+            self.provisional_frames.add(entry.name)
         self.frame_keys[entry.name] = key
         self.key_map[f"frame '{entry.name}'"] = (key, {"rotation": "matrix"})
 
@@ -905,30 +926,30 @@ class _Reader:
             self.problem(key, f"expected a list of [axis, angle] pairs, got {_describe(value)}; write {example}")
             return None
         steps = []
-        for i, step in enumerate(value):
+        for i, step in enumerate(value):  # every step checked: each bad one is a problem of its own
             k = f"{key}[{i}]"
             if not isinstance(step, list) or len(step) != 2:
                 self.problem(k, f"expected [axis, angle] such as [\"z\", \"phi\"], got {_describe(step)}")
-                return None
+                continue
             axis, angle = step
+            good = True
             if isinstance(axis, str):
                 if axis not in ("x", "y", "z"):
                     self.problem(f"{k}[0]", f"'{axis}' is not an axis: use \"x\", \"y\", \"z\" or a list of 3 "
                                             "numbers such as [1, 1, 0]")
-                    return None
+                    good = False
             elif isinstance(axis, list) and len(axis) == 3 and all(_is_number(a) for a in axis):
                 if not any(axis):
                     self.problem(f"{k}[0]", "the zero vector is not an axis; give its direction, e.g. [0, 0, 1]")
-                    return None
+                    good = False
             else:
                 self.problem(f"{k}[0]", f"expected an axis: \"x\", \"y\", \"z\" or a list of 3 numbers, got "
                                         f"{_describe(axis)}")
-                return None
+                good = False
             e = self.expr(angle, f"{k}[1]")
-            if e is None:
-                return None
-            steps.append((axis, e))
-        return steps
+            if good and e is not None:
+                steps.append((axis, e))
+        return steps if len(steps) == len(value) else steps or None
 
     def matrix3(self, value: object, key: str, what: str) -> list | None:
         if not (isinstance(value, list) and len(value) == 3
@@ -939,8 +960,10 @@ class _Reader:
         rows = [[self.expr(x, f"{key}[{i}][{j}]") for j, x in enumerate(r)] for i, r in enumerate(value)]
         return None if any(x is None for r in rows for x in r) else rows
 
-    def frame_of(self, entry: _Entry, name: str = "frame") -> str | None:
-        """The frame an element names (None after a problem, or when its frame had problems)."""
+    def frame_of(self, entry: _Entry, name: str = "frame", stand_in: bool = False) -> str | None:
+        """The frame an element names (None after a problem, or when its frame had problems). With `stand_in`,
+        an unknown frame is reported and "world" returned in its place, so that the element's other keys are
+        still checked in this run (the problem keeps the model from being returned)."""
         from ..model._frames import WORLD
 
         value = entry.table[name]
@@ -949,11 +972,13 @@ class _Reader:
         if isinstance(value, str) and self.model_has_frame_problem(value):
             entry.ok = False
             return None
-        known = [WORLD, *self.frame_keys]
+        known = [WORLD, *(f for f in self.frame_names if f.isidentifier() and f != WORLD)]  # problems or not
         self.problem(f"{entry.key}.{name}", (f"no frame is named '{value}'{_did_you_mean(value, known)}"
                                              if isinstance(value, str) else f"expected a frame's name, got "
                                              f"{_describe(value)}")
                      + f"; the frames are {', '.join(known)} (add a [[frames]] table with this name)")
+        if stand_in:
+            return WORLD
         entry.ok = False
         return None
 
@@ -1122,12 +1147,11 @@ class _Reader:
             if name in entry.table:
                 self.problem(f"{entry.key}.{name}", f"a body in space (it has a frame) takes its orientation from "
                                                     f"its frame and its centre from center = [...] in the frame's "
-                                                    f"axes: remove '{name}'")
-                entry.ok = False
+                                                    f"axes: remove '{name}'")  # the rest is still checked
         complete = self.check_keys(entry, keys=(_BODY3D_KEYS[0], _BODY3D_KEYS[1] + ("position", "angle")))
         mass = self.field(entry, "mass", "mass")
         inertia = self.inertia3(entry.table.get("inertia"), f"{entry.key}.inertia") if "inertia" in entry.table else None
-        frame = self.frame_of(entry) if "frame" in entry.table else None
+        frame = self.frame_of(entry, stand_in=True) if "frame" in entry.table else None
         center = (0, 0, 0)
         if "center" in entry.table:
             center = self.vector(entry.table["center"], f"{entry.key}.center", "centre of mass")
