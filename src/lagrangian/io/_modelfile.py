@@ -558,7 +558,6 @@ class _Reader:
         self.read_energy(data.get("energy"))
         self.read_forces(data.get("forces"))
         self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
-        self.provisional_frames: set[str] = set()  # frames added despite their problems (see build_frame)
         self.read_frames(data.get("frames"))
         self.read_elements(data)
         self.read_constraints(data.get("constraints"))
@@ -863,7 +862,7 @@ class _Reader:
         # and the elements placed in them are checked in this same run (the problems above keep the model out)
         for entry in pending:
             parent = entry.table.get("parent", WORLD)
-            self.build_frame(entry, parent=parent if parent in self.frame_keys else WORLD, provisional=True)
+            self.build_frame(entry, parent=parent if parent in self.frame_keys else WORLD)
 
     def report_parents(self, named: Mapping[str, _Entry], pending: list[_Entry]) -> None:
         """The problem of each frame whose parent is not a built frame: unknown, not a name, or a cycle."""
@@ -886,11 +885,11 @@ class _Reader:
                              f"parents ({' -> '.join(loop)}): every frame must hang, through its parents, "
                              "from \"world\"")
 
-    def build_frame(self, entry: _Entry, parent: str | None = None, provisional: bool = False) -> None:
+    def build_frame(self, entry: _Entry, parent: str | None = None) -> None:
         """Add the frame of `entry` (under `parent`, default its own). A frame with problems in its origin or
         rotation is still added, provisionally (origin 0, the rotations that could be read), as is one built
-        under "world" in place of an unknown parent (`provisional`): the elements placed in it are then
-        checked in the same run, and the problems recorded keep the model from being returned."""
+        under "world" in place of an unknown parent: the elements placed in it are then checked in the same
+        run, and the problems recorded keep the model from being returned."""
         key, table = entry.key, entry.table
         before = len(self.problems)
         origin = self.vector(table["origin"], f"{key}.origin") if "origin" in table else (0, 0, 0)
@@ -906,7 +905,6 @@ class _Reader:
         elif "matrix" in table:
             rotation = self.matrix3(table["matrix"], f"{key}.matrix", "rotation matrix")
         if len(self.problems) > before:
-            provisional = True
             origin = origin if origin is not None else (0, 0, 0)
             rotation = rotation or None
         try:
@@ -915,8 +913,6 @@ class _Reader:
         except ModelError as exc:
             self.model_error(key, exc)
             return
-        if provisional:
-            self.provisional_frames.add(entry.name)
         self.frame_keys[entry.name] = key
         self.key_map[f"frame '{entry.name}'"] = (key, {"rotation": "matrix"})
 
