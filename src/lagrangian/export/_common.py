@@ -3,11 +3,11 @@ parameter and start values, and the result object."""
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
+from .._codetext import module_identifier
 from ..equations import Equations, derive
 from ..errors import ModelError, Problem
 from ..model import Model
@@ -55,11 +55,9 @@ def _equations(system) -> Equations:
 
 
 def identifier(name: str) -> str:
-    """A C identifier from a model name: cart-pendulum -> cart_pendulum."""
-    ident = re.sub(r"\W", "_", name, flags=re.ASCII).strip("_") or "model"
-    if ident[0].isdigit():
-        ident = "m_" + ident
-    return ident
+    """A C identifier from a model name: cart-pendulum -> cart_pendulum (see
+    lagrangian._codetext.module_identifier: never a reserved name such as main, math or fmu)."""
+    return module_identifier(name, "c")
 
 
 def parameter_values(eq: Equations, params: Mapping | None) -> list[float]:

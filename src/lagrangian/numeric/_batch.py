@@ -331,7 +331,7 @@ def _run_on_dask(client, cm, n, lanes, chunks, X0, P, times, prog, rtol, atol, m
                  bar):
     from dask.distributed import as_completed
 
-    sources = ((cm.key, cm.source), (_lanes_key(cm, lanes), cm.lanes_source(lanes)) if lanes > 1 else None)
+    sources = (cm.source, cm.lanes_source(lanes) if lanes > 1 else None)
     futures = {}
     for a, b in chunks:
         fut = client.submit(run_chunk, sources, n, lanes, X0[a:b], times, _nonempty_rows(P[a:b]), prog.ops,
@@ -343,25 +343,15 @@ def _run_on_dask(client, cm, n, lanes, chunks, X0, P, times, prog, rtol, atol, m
         bar.update(b - a)
 
 
-def _lanes_key(cm, lanes: int) -> str:
-    from ._codegen import model_key
-
-    return model_key(cm.equations, f"numba-lanes{lanes}")
-
-
 def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nstack, rtol, atol, max_step):
     """One chunk of a batch, on a Dask worker: loads (or writes and compiles) the model's modules
-    from their sources ((key, source) of the main module and of the lanes module, or None), then
-    runs the parallel DOP853. Returns (X, INFO, STATS, STATUS)."""
-    from ._codegen import cache_dir, load_module, write_once
+    from their sources (that of the main module and that of the lanes module, or None), keyed by
+    the hash of the source itself, then runs the parallel DOP853. Returns (X, INFO, STATS, STATUS)."""
+    from ._codegen import cached_module
     from ._inputs import Programs
 
-    def module(key, source):
-        path = cache_dir() / f"lagrangian_{key}.py"
-        write_once(path, source)
-        return load_module(path, f"lagrangian_generated_{key}")
-
-    main, lane_module = module(*sources[0]), (module(*sources[1]) if sources[1] else None)
+    main = cached_module(sources[0])[2]
+    lane_module = cached_module(sources[1])[2] if sources[1] else None
     B = X0.shape[0]
     X = np.full((B, len(times), 2 * n), np.nan)
     INFO = np.zeros((B, 2 + 2 * n))

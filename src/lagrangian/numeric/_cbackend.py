@@ -18,7 +18,7 @@ import numpy as np
 
 from ..equations import Equations
 from ..errors import ModelError
-from ._codegen import C_DECLARATIONS, c_source, cache_dir, model_key, write_once
+from ._codegen import C_DECLARATIONS, c_source, cache_dir, source_key, store
 
 __all__ = ["compile_c", "c_compiler"]
 
@@ -29,6 +29,10 @@ def c_compiler() -> str | None:
         if name and shutil.which(name.split()[0]):
             return name
     return None
+
+
+#: The compiler's flags (part of the cache key).
+_FLAGS = ("-O2", "-shared", "-fPIC")
 
 
 def compile_c(equations: Equations):
@@ -43,18 +47,19 @@ def compile_c(equations: Equations):
         import cffi
     except ImportError:
         raise ModelError("backend 'c' needs cffi: pip install 'lagrangian[c]' (or use backend='numba')") from None
-    key = model_key(equations, "c")
+    cc = c_compiler()
+    if cc is None:
+        raise ModelError("backend 'c' needs a C compiler: install gcc (or set $CC), or use backend='numba'")
+    source = c_source(equations)
+    key = source_key(source, "c", cc, *_FLAGS)
     folder = cache_dir()
     src = folder / f"lagrangian_c_{key}.c"
     lib_path = folder / f"lagrangian_c_{key}.so"
-    if not lib_path.exists():
-        cc = c_compiler()
-        if cc is None:
-            raise ModelError("backend 'c' needs a C compiler: install gcc (or set $CC), or use backend='numba'")
-        write_once(src, c_source(equations))
+    store(src, source)
+    if not lib_path.exists():  # the library is stored only once the compiler built it
         fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".so", dir=folder)
         os.close(fd)
-        cmd = [*cc.split(), "-O2", "-shared", "-fPIC", "-o", tmp, str(src), "-lm"]
+        cmd = [*cc.split(), *_FLAGS, "-o", tmp, str(src), "-lm"]
         run = subprocess.run(cmd, capture_output=True, text=True)
         if run.returncode != 0:
             os.unlink(tmp)
@@ -63,7 +68,11 @@ def compile_c(equations: Equations):
         os.replace(tmp, lib_path)
     ffi = cffi.FFI()
     ffi.cdef(C_DECLARATIONS)
-    lib = ffi.dlopen(str(lib_path))
+    try:
+        lib = ffi.dlopen(str(lib_path))
+    except OSError:  # a broken entry is removed, never reused
+        lib_path.unlink(missing_ok=True)
+        raise
     values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
     cm = CompiledModel(equations, "c", equations.state_names, tuple(u.name for u in equations.inputs),
                        tuple(p.name for p in equations.parameters), values, str(src), key,

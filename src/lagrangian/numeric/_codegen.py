@@ -1,7 +1,9 @@
 """Code generation: the model's M, f, energy and Lagrangian parts as common-subexpression-
-eliminated Python (for numba) or C source, written to a cache directory under a name made from a
-hash of the equations' content, so that a second process finds the module (and numba its compiled
-machine code) and compiles nothing.
+eliminated Python (for numba) or C source, written to a cache directory under a name made from the
+hash of the exact generated source (see :func:`source_key`), so that a second process finds the
+module (and numba its compiled machine code) and compiles nothing, and two models whose code
+differs never share an entry. Names and free text enter the code only through
+lagrangian._codetext.
 
 The cache directory is ``$LAGRANGIAN_CACHE_DIR`` or ``~/.cache/lagrangian``.
 """
@@ -10,7 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
-import keyword
 import os
 import re
 import sys
@@ -19,14 +20,16 @@ from pathlib import Path
 
 import symengine as se
 
+from .._codetext import comment_text, local_name
 from ..equations import Equations
 from ._kernels import SINGULAR_RATIO as SINGULAR
 
-__all__ = ["cache_dir", "model_key", "numba_source", "c_source", "load_module", "Unsupported",
+__all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "numba_source", "c_source",
+           "load_module", "Unsupported",
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "20"
+GENERATOR_VERSION = "21"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",
@@ -60,12 +63,22 @@ def _names(equations: Equations):
             [p.name for p in equations.parameters])
 
 
-def model_key(equations: Equations, backend: str = "numba") -> str:
-    """A hash of everything the generated code depends on (not of the generated code itself, so
-    that finding a cached module costs no code generation)."""
+def source_key(source: str, *salt: str) -> str:
+    """The cache key of a generated module: the hash of its exact source, the generator's version
+    and `salt` (the compiler and its flags, numba's version). Two models whose generated code
+    differs in any character (a name in a comment included) never share an entry."""
+    h = hashlib.sha256()
+    h.update("|".join((GENERATOR_VERSION, *salt)).encode())
+    h.update(b"\0")
+    h.update(source.encode("utf-8"))
+    return h.hexdigest()[:32]
+
+
+def fingerprint(equations: Equations) -> str:
+    """A hash of the equations' content (the FMU's GUID is made from it)."""
     core = equations.core
     h = hashlib.sha256()
-    h.update(f"{GENERATOR_VERSION}|{backend}|{_names(equations)}".encode())
+    h.update(f"{GENERATOR_VERSION}|{_names(equations)}".encode())
     for e in (*core.M, *core.f, core.L, core.D, *core.Q, *core.p, *core.g, *core.w, *core.c):
         h.update(str(e).encode())
         h.update(b"|")
@@ -84,31 +97,30 @@ def _symbols(equations: Equations):
     return out
 
 
-def _local_name(name: str, taken: set) -> str:
-    base = name if (name.isidentifier() and not keyword.iskeyword(name) and name.isascii()) else "s"
-    cand = f"v_{base}"
-    k = 0
-    while cand in taken:
-        k += 1
-        cand = f"v_{base}_{k}"
-    taken.add(cand)
-    return cand
-
-
 class _Printer:
-    """Prints CSE'd SymEngine expressions with the model's symbols renamed to safe local names."""
+    """Prints CSE'd SymEngine expressions in the target language, the model's symbols as their
+    local names (``v_<name>``, from lagrangian._codetext.local_name).
+
+    The symbols are replaced by placeholders (``__lg_s<k>``) before printing, so that the printed
+    text holds no name of the user's: a token of it is a placeholder, a temporary or a function
+    or constant of the language (a parameter named ``E`` or ``pow`` cannot be read as Euler's
+    number or C's pow, and cannot meet SymEngine's CSE names ``x0``, ``x1``, ...)."""
 
     def __init__(self, equations: Equations, lang: str):
         self.lang = lang
-        taken: set = set()
-        self.locals = []  # (local name, accessor)
-        self.rename: dict[str, str] = {}
-        for sym, acc in _symbols(equations):
-            local = _local_name(sym.name, taken)
+        self.locals = []  # (local name, accessor, model name)
+        self.placeholders: dict = {}  # model symbol -> placeholder symbol
+        self.rename: dict[str, str] = {}  # placeholder name -> local name
+        for k, (sym, acc) in enumerate(_symbols(equations)):
+            local = local_name(sym.name)
             self.locals.append((local, acc, sym.name))
-            self.rename[sym.name] = local
-        self.clash = any(re.fullmatch(r"x\d+", n) for n in self.rename)  # SymEngine's CSE names
-        self.syms = {sym.name: sym for sym, _ in _symbols(equations)}
+            placeholder = se.Symbol(f"__lg_s{k}")
+            self.placeholders[sym] = placeholder
+            self.rename[placeholder.name] = local
+
+    def _hide(self, exprs: list) -> list:
+        """`exprs` with the model's symbols replaced by their placeholders."""
+        return [se.sympify(e).xreplace(self.placeholders) for e in exprs]
 
     def _translate(self, text: str, temps: dict[str, str]) -> str:
         def sub(m):
@@ -131,7 +143,7 @@ class _Printer:
         """:meth:`block` of `exprs` with their sin and cos computed first, a pair at a time by
         `sn{k}, cs{k} = _sincos(base k)` (see _split_trig); returns (statements, outputs, the
         number of bases). `lanes`: by the polynomial alone, each argument named b{k}."""
-        bases, exprs = _split_trig(exprs)
+        bases, exprs = _split_trig(self._hide(exprs))
         lines, names = [], {}
         for k, b in enumerate(bases):
             text = self._translate(self._str(b), {})
@@ -140,22 +152,17 @@ class _Printer:
             else:
                 lines.append(f"{indent}sn{k}, cs{k} = _sincos({text})")
             names.update({f"__lg_sn{k}": f"sn{k}", f"__lg_cs{k}": f"cs{k}"})
-        more, outputs = self.block(exprs, indent, names=names)
+        more, outputs = self.block(exprs, indent, names=names, hidden=True)
         return lines + more, outputs, len(bases)
 
-    def block(self, exprs: list, indent: str = "    ", first: int | None = None, names: dict | None = None):
+    def block(self, exprs: list, indent: str = "    ", first: int | None = None, names: dict | None = None,
+              hidden: bool = False):
         """(statements defining the common subexpressions, the output expressions); with `first`,
         (the statements the first `first` outputs need, the other statements, the outputs).
-        `names`: more symbols' names (those of :meth:`trig_block`)."""
-        safe = {}
-        if self.clash:  # rename model symbols that look like SymEngine's CSE symbols
-            safe = {self.syms[n]: se.Symbol(f"__lg_{n}") for n in self.syms if re.fullmatch(r"x\d+", n)}
-            exprs = [e.subs(safe) for e in exprs]
-            back = {f"__lg_{n}": self.rename[n] for n in self.syms if re.fullmatch(r"x\d+", n)}
-        reps, reduced = se.cse(exprs)
+        `names`: more symbols' names (those of :meth:`trig_block`); `hidden`: `exprs` hold
+        placeholders already."""
+        reps, reduced = se.cse(exprs if hidden else self._hide(exprs))
         temps: dict[str, str] = dict(names or {})
-        if safe:
-            temps.update(back)
         lines = []
         for k, (sym, expr) in enumerate(reps):
             name = f"c{k}"
@@ -179,7 +186,7 @@ class _Printer:
     def _str(self, e) -> str:
         if self.lang == "c":
             text = se.ccode(e)
-            if "NAN" in text or "INFINITY" in text:
+            if re.search(r"\b(NAN|INFINITY)\b", text):
                 raise Unsupported("a non-finite constant")
             return text
         return str(e)  # a name that is not the model's (I, oo, nan) is refused by _translate
@@ -196,7 +203,7 @@ class _Printer:
 
 def _header(equations: Equations) -> str:
     t, x, u, p = _names(equations)
-    return (f"Generated by lagrangian for the model '{equations.model.name}'. Do not edit.\n\n"
+    return (f"Generated by lagrangian for the model '{comment_text(equations.model.name)}'. Do not edit.\n\n"
             f"Arguments, in this order, of every function below:\n"
             f"    t : float, time\n"
             f"    x : float64[{len(x)}], the state [{', '.join(x)}]\n"
@@ -630,7 +637,7 @@ def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet
     _, _, _, pm, F = _model_parts(equations, "variational")
     pr = _Printer(equations, "c")
     loop = _C_SOLVE_LOOP.replace("@SINGULAR@", repr(SINGULAR)).replace("lg_solve_loop", f"{prefix}solve_loop")
-    head = ("/* " + _header(equations).replace("*/", "* /") + "*/\n#include <math.h>\n"
+    head = ("/* " + _header(equations) + "*/\n#include <math.h>\n"
             + (loop if n > UNROLL_MAX else "") + "\n")
 
     def unpack() -> list[str]:
@@ -701,14 +708,49 @@ def _stores(n: int, exprs, names: tuple[str, str], end: str = "") -> list[str]:
     return out
 
 
-def write_once(path: Path, text: str) -> None:
-    """Write atomically (another process may be reading the same cache)."""
-    if path.exists():
-        return
+def store(path: Path, text: str) -> None:
+    """Make the cache entry `path` hold exactly `text`: written when missing or different (a
+    truncated, broken or tampered entry is replaced, never reused), atomically (another process
+    may be reading the same cache), with the user's umask."""
+    try:
+        if path.read_bytes() == text.encode("utf-8"):
+            return
+    except OSError:
+        pass
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=path.suffix, dir=path.parent)
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def cached_module(source: str, prefix: str = "lagrangian"):
+    """(path, key, module): the Python module of `source`, stored in the cache under the hash of
+    its exact text (see :func:`source_key`) after it passed a check (it compiles), and imported.
+    A module that fails to import is removed from the cache, so that the next call builds it
+    again."""
+    import numba
+
+    compile(source, "<generated>", "exec")  # a syntax check; nothing runs
+    key = source_key(source, "numba", numba.__version__, sys.version)
+    path = cache_dir() / f"{prefix}_{key}.py"
+    store(path, source)
+    try:
+        module = load_module(path, f"{prefix}_generated_{key}")
+    except BaseException:
+        try:
+            path.unlink()
+        except OSError:
+            pass
+        raise
+    return path, key, module
 
 
 def load_module(path: Path, name: str):

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..equations import Equations
-from ._codegen import cache_dir, load_module, model_key, numba_source, write_once
+from ._codegen import cache_dir, cached_module, load_module, numba_source, store
 from ._inputs import constant_programs
 
 __all__ = ["CompiledModel", "compile_numba", "BACKENDS"]
@@ -43,7 +43,7 @@ class CompiledModel:
     path : str
         The generated module's file (in the cache directory).
     key : str
-        The hash of the equations' content that names the module.
+        The hash of the generated source that names the module.
     """
 
     equations: Equations = field(repr=False)
@@ -213,8 +213,14 @@ def kernels():
                 key = hashlib.sha256(own + f"|{numba.__version__}|{scipy.__version__}".encode()).hexdigest()[:24]
                 path = cache_dir() / f"lagrangian_kernels_{key}.py"
                 if not path.exists():
-                    write_once(path, _kernels.kernel_source())
-                _KERNELS = load_module(path, f"lagrangian_kernels_{key}")
+                    source = _kernels.kernel_source()
+                    compile(source, "<kernels>", "exec")  # a syntax check; nothing runs
+                    store(path, source)
+                try:
+                    _KERNELS = load_module(path, f"lagrangian_kernels_{key}")
+                except BaseException:  # a broken entry is removed, never reused
+                    path.unlink(missing_ok=True)
+                    raise
     return _KERNELS
 
 
@@ -222,11 +228,8 @@ _KERNELS = None
 
 
 def _module(equations: Equations, part: str):
-    key = model_key(equations, "numba-" + part)
-    path = cache_dir() / f"lagrangian_{key}.py"
-    if not path.exists():
-        write_once(path, numba_source(equations, part))
-    return path, key, load_module(path, f"lagrangian_generated_{key}")
+    """(path, key, module) of the numba module `part` of `equations` (see _codegen.cached_module)."""
+    return cached_module(numba_source(equations, part))
 
 
 def compile_numba(equations: Equations) -> "CompiledModel":
