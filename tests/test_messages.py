@@ -81,3 +81,42 @@ def test_the_issue_file_needs_one_run(tmp_path):
                                                     "bodies[0].frame"]
     assert "no frame is named 'rod_frame' (did you mean 'rodframe'?)" in str(info.value)
     assert "break the triangle inequality" in str(info.value)
+
+
+# ------------------------------------------------------------------ a request's every problem
+OSCILLATOR = ('name = "osc"\ncoordinates = ["x"]\ninputs = ["F"]\n[parameters]\nm = 1.0\nk = 4.0\n[energy]\n'
+              'T = "m*x_dot**2/2"\nV = "k*x**2/2"\n[forces]\nx = "F"\n')
+
+
+def _post_simulate(body) -> tuple[int, list]:
+    import json
+
+    from lagrangian.serve._tasks import run
+
+    reply = run("simulate", json.dumps(body).encode())
+    return reply.status, json.loads(reply.body)["errors"] if reply.status != 200 else []
+
+
+def test_a_simulation_request_reports_its_fields_and_the_names_the_model_lacks_at_once():
+    # before: only t_end was reported, and the unknown coordinate y only after t_end was fixed
+    status, errors = _post_simulate({"model": OSCILLATOR, "t_end": -1, "initial": {"y": 1, "x_dot": "pi"},
+                                     "params": {"kk": 2}, "inputs": {"G": "1"}})
+    assert status == 400
+    assert [(e["key"], e["message"]) for e in errors] == [
+        (None, "t_end: expected a positive number, got -1.0"),
+        ("initial.y", "'y' is not a coordinate or velocity; the choices are x, x_dot"),
+        ("params.kk", "'kk' is not a parameter of the model (did you mean 'k'?); the choices are m, k"),
+        ("inputs.G", "'G' is not an input of the model; the choices are F")]
+
+
+def test_a_bad_request_with_a_bad_model_reports_both():
+    status, errors = _post_simulate({"model": OSCILLATOR.replace('V = "k*x**2/2"', 'V = "kk*x**2/2"'),
+                                     "t_end": -1})
+    assert status == 400
+    assert errors[0]["message"] == "t_end: expected a positive number, got -1.0"
+    assert errors[1]["key"] == "energy.V" and "unknown name 'kk' (did you mean 'k'?)" in errors[1]["message"]
+
+
+def test_a_good_request_still_simulates():
+    status, errors = _post_simulate({"model": OSCILLATOR, "t_end": 0.5, "initial": {"x": 1}, "inputs": {"F": "0"}})
+    assert status == 200 and errors == []

@@ -245,7 +245,8 @@ def test_every_problem_of_a_request_is_reported_at_once(server):
     assert status == 400
     assert [e["message"].split(":")[0] for e in data["errors"]] == [
         "unknown field 't_ned' (did you mean 't_end'?); the fields are model, t_end, initial, inputs, params, dt, rtol, "
-        "atol, method", "t_end", "dt", "initial.x", "initial.x_dot", "inputs.F", "method"], data
+        "atol, method", "t_end", "dt", "initial.x", "initial.x_dot", "inputs.F", "method",
+        "'F' is not an input of the model; the choices are none"], data
     assert data["errors"][5]["message"].startswith("inputs.F: expected an expression of t, the coordinates and "
                                                    "velocities (a string such as")
     status, data = server.post_json("/api/fmu", {"model": OSCILLATOR, "params": {"m": "heavy", "k": None},

@@ -319,9 +319,12 @@ def _equilibria_html(eqs, shown, notes) -> str:
     return "\n".join(out)
 
 
-def simulate_request(body: bytes) -> tuple[dict, dict]:
-    """(the request object, the keyword arguments of ``simulate``) of a simulation request."""
-    problems: list[str] = []
+def simulate_request(body: bytes, problems: list[str] | None = None) -> tuple[dict, dict]:
+    """(the request object, the keyword arguments of ``simulate``) of a simulation request. The
+    problems of its fields are raised together, or added to `problems` when it is given (the
+    caller then checks the model too, and raises every problem at once)."""
+    given = problems
+    problems = [] if given is None else given
     obj = _json_object(body, SIMULATE_FIELDS, problems)
     kwargs = {}
     for key in ("t_end", "dt", "rtol", "atol"):
@@ -347,15 +350,44 @@ def simulate_request(body: bytes) -> tuple[dict, dict]:
             problems.append(f"method: expected a name such as \"DOP853\", got {json.dumps(obj['method'])}")
         else:
             kwargs["method"] = obj["method"]
-    if problems:
+    if problems and given is None:
         raise BadRequest(*problems)
     return obj, kwargs
+
+
+def _request_problems(obj: dict, problems: list[str]) -> ModelError:
+    """Every problem of a simulation request at once: those of its fields, then those of its model
+    text, or, when the model loads, the names in initial, params and inputs that it does not have
+    (with simulate's messages)."""
+    from ..numeric._simulate import _named_values
+
+    found = [Problem(message) for message in problems]
+    if isinstance(obj.get("model"), str):
+        try:
+            model = _load(obj["model"])
+        except BadRequest as exc:
+            found += [Problem(message) for message in exc.messages]
+        except ModelError as exc:
+            found += exc.problems
+        else:
+            coordinates = tuple(c.name for c in model.coordinates)
+            choices = {"initial": (coordinates + tuple(f"{c}_dot" for c in coordinates), "a coordinate or velocity"),
+                       "params": (tuple(p.name for p in model.parameters), "a parameter of the model"),
+                       "inputs": (tuple(u.name for u in model.inputs), "an input of the model")}
+            for key, (names, what) in choices.items():
+                raw = obj.get(key)
+                given = {str(name): 0.0 for name in raw} if isinstance(raw, dict) else {}  # values: checked above
+                _named_values(given, names, what, key, found)
+    return ModelError(found)
 
 
 def _simulate(body: bytes):
     from .. import derive, simulate
 
-    obj, kwargs = simulate_request(body)
+    problems: list[str] = []
+    obj, kwargs = simulate_request(body, problems)
+    if problems:
+        raise _request_problems(obj, problems)
     model = _load(obj["model"])
     defaults = model.simulation
     t_end = kwargs.get("t_end", defaults.get("t_end"))
