@@ -9,7 +9,7 @@ import re
 import pytest
 import sympy
 
-from lagrangian.errors import ExpressionError, UnknownNameError
+from lagrangian.errors import ExpressionError, ModelError, UnknownNameError
 from lagrangian.io import _expr
 from lagrangian.io._expr import (
     ALLOWED_FUNCTIONS,
@@ -448,9 +448,29 @@ def test_huge_numbers_are_refused(text):
 
 def test_large_but_reasonable_numbers_and_symbolic_powers():
     assert parse("2**1000") == sympy.Integer(2)**1000
+    assert parse("x**1000") == x**1000
+    assert parse("(x + 1)**-1000") == (x + 1)**-1000
+
+
+@pytest.mark.parametrize("text, pattern", [
+    ("x**100000", r"exponent too large: 100000 \(in absolute value\); the limit on the exponent of a power of "
+                  r"a variable is 1,000; to raise it, set the environment variable LAGRANGIAN_MAX_EXPONENT"),
+    ("(x + 1)**-1001", r"exponent too large: -1001"),
+    ("1**(10**1000)", r"number too large: this power is beyond the largest floating-point number"),
+    ("2**1100", r"number too large: this power is beyond the largest floating-point number \(about 1.8e308\)"),
+])
+def test_powers_past_the_doubles_or_the_degree_limit(text, pattern):
+    with pytest.raises(ExpressionError, match=pattern):
+        parse(text)
+
+
+def test_the_degree_limit_is_raised_by_its_environment_variable(monkeypatch):
+    monkeypatch.setenv("LAGRANGIAN_MAX_EXPONENT", "200000")
     assert parse("x**100000") == x**100000
-    assert parse("(x + 1)**100000") == (x + 1)**100000
-    assert parse("1**(10**1000)") == 1
+    monkeypatch.setenv("LAGRANGIAN_MAX_EXPONENT", "lots")
+    with pytest.raises(ModelError, match=r"the environment variable LAGRANGIAN_MAX_EXPONENT='lots' must "
+                                                     r"be a whole number >= 1"):
+        parse("x**2")
 
 
 @pytest.mark.parametrize("text, pattern", [

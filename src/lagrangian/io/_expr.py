@@ -61,19 +61,24 @@ An expression has at most :data:`MAX_LENGTH` characters and at most :data:`MAX_D
 levels of nested parentheses, function calls and powers. A number may not have more
 than :data:`MAX_LITERAL_DIGITS` digits, and no computation may create a number with
 more than :data:`MAX_BITS` binary digits (``10**10**10`` is an error), so that parsing
-always finishes quickly.
+always finishes quickly. Every constant part is evaluated in floating point first: one that no
+double holds (``exp(exp(exp(100)))``, ``10**400``) or that has no real value (``sqrt(-1)``,
+``acos(2)``) is an error, and so is a power of a variable with an exponent larger than
+``lagrangian._limits.MAX_EXPONENT`` (1000 unless ``LAGRANGIAN_MAX_EXPONENT`` says otherwise).
 """
 
 from __future__ import annotations
 
 import difflib
 import keyword
+import math
 import re
 from dataclasses import dataclass
 from typing import Callable, Mapping, NoReturn, Union
 
 import sympy
 
+from lagrangian._limits import MAX_EXPONENT
 from lagrangian.errors import ExpressionError, UnknownNameError
 
 __all__ = [
@@ -925,6 +930,120 @@ class _Evaluator:
         return result, total
 
 
+_FLOAT_FUNCTIONS: dict[str, Callable[..., float]] = {
+    "sin": math.sin, "cos": math.cos, "tan": math.tan, "asin": math.asin, "acos": math.acos,
+    "atan": math.atan, "atan2": math.atan2, "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh,
+    "exp": math.exp, "log": math.log, "sqrt": math.sqrt, "abs": abs,
+    "sign": lambda x: float((x > 0) - (x < 0)), "min": min, "max": max,
+    "clip": lambda x, lo, hi: min(max(x, lo), hi),
+}
+
+
+class _Constants:
+    """The floating-point value of every constant part of an expression (None where it depends on
+    a name), computed in doubles, so that a constant no double holds (``exp(exp(exp(100)))``,
+    ``10**400``) or without a real value (``sqrt(-1)``, ``acos(2)``) is refused before any
+    symbolic work on it, and so is a power of a variable with an exponent past
+    :data:`lagrangian._limits.MAX_EXPONENT`. Every subexpression is visited, constant or not."""
+
+    def __init__(self, text: str, names: Mapping[str, sympy.Basic]):
+        self.text = text
+        self.names = names
+        self.max_exponent = MAX_EXPONENT.value
+
+    def fail(self, reason: str, position: int | None) -> NoReturn:
+        _fail(self.text, reason, position)
+
+    def too_large(self, position: int | None, what: str = "this constant") -> NoReturn:
+        self.fail(f"number too large: {what} is beyond the largest floating-point number (about 1.8e308), "
+                  "so no simulation can compute it; use smaller numbers", position)
+
+    def finite(self, value, position: int | None, what: str = "this constant") -> float:
+        if isinstance(value, complex):
+            self.fail(f"not a real number: {what} has no real value; check the signs and the "
+                      "functions' domains", position)
+        if not math.isfinite(value):
+            self.too_large(position, what)
+        return value
+
+    def value(self, node: _Node) -> float | None:
+        if isinstance(node, _Num):
+            try:
+                return int(node.value.p) / int(node.value.q)
+            except OverflowError:
+                self.too_large(None, f"the number {str(node.value)[:20]}...")
+        if isinstance(node, _Name):
+            value = self.names.get(node.name, _CONSTANTS.get(node.name))
+            if isinstance(value, sympy.Rational):
+                try:
+                    return int(value.p) / int(value.q)
+                except OverflowError:
+                    self.too_large(node.pos, f"'{node.name}'")
+            return math.pi if value is sympy.pi else None
+        if isinstance(node, _Neg):
+            v = self.value(node.operand)
+            return None if v is None else -v
+        if isinstance(node, _Sum):
+            values = [(negated, self.value(term)) for negated, term in node.terms]
+            if any(v is None for _, v in values):
+                return None
+            return self.finite(math.fsum(-v if negated else v for negated, v in values), None)
+        if isinstance(node, _Product):
+            return self.product(node)
+        if isinstance(node, _Pow):
+            return self.power(node)
+        if isinstance(node, _Call):
+            return self.call(node)
+        operands = node.operands if isinstance(node, (_Compare, _Logic)) else (node.operand,)
+        for operand in operands:
+            self.value(operand)
+        return None
+
+    def product(self, node: _Product) -> float | None:
+        result: float | None = 1.0
+        for divided, factor, position in node.factors:
+            v = self.value(factor)
+            if v is None or result is None:
+                result = None
+                continue
+            try:
+                result = result / v if divided else result * v
+            except ZeroDivisionError:
+                self.too_large(position, "this quotient")
+            self.finite(result, position, "this product")
+        return result
+
+    def power(self, node: _Pow) -> float | None:
+        base, exponent = self.value(node.base), self.value(node.exponent)
+        if exponent is not None and base is None and abs(exponent) > self.max_exponent:
+            self.fail(f"exponent too large: {exponent:g} (in absolute value); {MAX_EXPONENT.how_to_raise()}",
+                      node.pos)
+        if base is None or exponent is None:
+            return None
+        try:
+            result = base ** exponent
+        except OverflowError:
+            self.too_large(node.pos, "this power")
+        except ZeroDivisionError:
+            self.fail("division by zero: 0 raised to a negative power", node.pos)
+        return self.finite(result, node.pos, "this power")
+
+    def call(self, node: _Call) -> float | None:
+        args = [self.value(a) for a in node.args]
+        function = _FLOAT_FUNCTIONS.get(node.function)
+        if function is None or any(a is None for a in args):
+            return None
+        what = f"{node.function}({', '.join(f'{a:g}' for a in args)})"
+        try:
+            result = function(*args)
+        except OverflowError:
+            self.too_large(node.pos, what)
+        except ValueError:
+            self.fail(f"not a real number: {what} has no real value (its argument is outside the "
+                      f"domain of {node.function}); check the argument", node.pos)
+        return self.finite(result, node.pos, what)
+
+
 # ---------------------------------------------------------------------------
 # Public API
 # ---------------------------------------------------------------------------
@@ -986,6 +1105,7 @@ def parse_expression(text: str, names: Mapping[str, sympy.Basic], *,
                 unknown.append((name, position, close[0] if close else None))
             raise UnknownNameError(text, unknown)
         result, _bits = _Evaluator(text, names).build(tree)
+        _Constants(text, names).value(tree)
     except RecursionError:  # pragma: no cover - the depth limit comes first
         _fail(text, "expression nested too deeply: simplify it or split it into "
                     "parameters", None)
