@@ -16,8 +16,8 @@ from urllib.parse import urlparse
 
 
 class Server:
-    def __init__(self, *args: str, workers: int = 2, time_limit: float = 60.0, cwd=None):
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
+    def __init__(self, *args: str, workers: int = 2, time_limit: float = 60.0, cwd=None, env=None):
+        env = dict(os.environ, PYTHONUNBUFFERED="1", **(env or {}))
         self.argv = [sys.executable, "-m", "lagrangian", "serve", "--port", "0", "--no-browser",
                      "--workers", str(workers), "--time-limit", str(time_limit), *args]
         self.process = subprocess.Popen(self.argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -63,6 +63,12 @@ class Server:
         assert headers.get("Content-Type", "").startswith("application/json"), (status, headers, data[:300])
         return status, json.loads(data)
 
+    def status(self) -> dict:
+        """GET /api/status: the worker lanes now."""
+        status, _, data = self.request("GET", "/api/status")
+        assert status == 200, data
+        return json.loads(data)
+
     def worker_pids(self) -> list[int]:
         """The pids of the server's worker processes (its children running multiprocessing's spawn)."""
         out = []
@@ -90,6 +96,15 @@ class Server:
             self.process.kill()
             out, err = self.process.communicate()
         return self.process.returncode, out, err
+
+
+def alive(pid: int) -> bool:
+    """The process exists and is not a zombie (dead, waiting to be reaped)."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
 
 
 def wait_until(predicate, timeout: float, step: float = 0.1):

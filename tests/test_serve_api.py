@@ -13,6 +13,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -21,7 +22,7 @@ from lagrangian.examples import example_descriptions, example_source
 from lagrangian.io import loads_model
 from lagrangian.errors import ModelFileError
 
-from serve_support import Server, wait_until
+from serve_support import Server, alive, wait_until
 
 OSCILLATOR = 'name = "osc"\ncoordinates = ["x"]\n\n[parameters]\nm = 1.0\nk = 4.0\n\n[energy]\nT = "m*x_dot**2/2"\nV = "k*x**2/2"\n'
 #: docs/model-files.md's file with three mistakes
@@ -93,6 +94,125 @@ def test_a_foreign_host_header_is_refused(server):
                                             f"'evil.example'; open http://127.0.0.1:{server.port}/ (or start it with "
                                             "--host to serve other addresses)")  # this server's port, not the Host's
     assert server.post_json("/api/derive", OSCILLATOR, headers={"Host": f"localhost:{server.port}"})[0] == 200
+
+
+# ------------------------------------------------------------------ requests of other web pages
+def _refusal(server, why, own=None):
+    own = own or f"http://127.0.0.1:{server.port}"
+    return (f"cross-site request refused: {why}, not from this server's own page at {own}; the playground's API "
+            f"answers its own page and scripts only. Open the playground at {own}/ (a script sends its requests "
+            "without an Origin header)")
+
+
+def _no_cors(headers):
+    assert not [k for k in headers if k.lower().startswith("access-control-")], headers
+
+
+@pytest.mark.parametrize("origin, why", [
+    ("http://evil.example", "it comes from the web page at 'http://evil.example' (its Origin header)"),
+    ("null", "it comes from a page with an opaque origin (Origin: null: a sandboxed frame, a local file or a redirect)"),
+    ("http://localhost:{port}", "it comes from the web page at 'http://localhost:{port}' (its Origin header)"),
+    ("http://127.0.0.1:{other}", "it comes from the web page at 'http://127.0.0.1:{other}' (its Origin header)"),
+    ("https://127.0.0.1:{port}", "it comes from the web page at 'https://127.0.0.1:{port}' (its Origin header)"),
+    ("http://127.0.0.1:{port}/x", "it comes from the web page at 'http://127.0.0.1:{port}/x' (its Origin header)"),
+])
+def test_a_request_from_another_web_page_is_refused_before_any_work(server, origin, why):
+    """A page elsewhere (another site, a sandboxed frame, another port of this machine, the other
+    loopback name) gets 403 for any API request, JSON or not, and no CORS permission."""
+    values = {"port": server.port, "other": server.port + 1}
+    origin, why = origin.format(**values), why.format(**values)
+    for method, path, body, headers in [
+            ("POST", "/api/simulate", {"model": OSCILLATOR, "t_end": 1}, {"Content-Type": "application/json"}),
+            ("POST", "/api/derive", OSCILLATOR, {"Content-Type": "text/plain"}),  # a "simple" request
+            ("GET", "/api/examples", None, {})]:
+        status, got, data = server.request(method, path, body, headers={"Origin": origin, **headers})
+        assert status == 403 and json.loads(data)["errors"][0]["message"] == _refusal(server, why), (path, data)
+        _no_cors(got)
+
+
+def test_the_page_s_own_origin_is_served_by_the_name_it_was_opened_with(server):
+    """The page's own requests (Origin = http://HOST:PORT as the browser addressed the server, any
+    loopback name) are answered, JSON bodies for every endpoint: {"model": TEXT} where the text is taken."""
+    raw = server.request("POST", "/api/derive", OSCILLATOR)[2]
+    for host in ("127.0.0.1", "localhost", "[::1]"):
+        own = {"Host": f"{host}:{server.port}", "Origin": f"http://{host}:{server.port}",
+               "Content-Type": "application/json; charset=utf-8"}
+        status, headers, body = server.request("POST", "/api/derive", {"model": OSCILLATOR}, headers=own)
+        assert status == 200 and body == raw, body[:300]  # the bytes of the text sent as it is
+        _no_cors(headers)
+    own = {"Origin": f"http://127.0.0.1:{server.port}", "Content-Type": "application/json"}
+    status, data = server.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "dt": 0.5}, headers=own)
+    assert status == 200 and data["columns"]["t"] == [0.0, 0.5, 1.0]
+    status, headers, body = server.request("POST", "/api/report?format=md", {"model": example_source("mck")},
+                                           headers=own)
+    assert status == 200 and body.decode() == lg.report("mck").render("md")
+    status, data = server.post_json("/api/analysis", {"model": OSCILLATOR}, headers=own)
+    assert status == 200 and data["coordinates"] == ["x"]
+    status, data = server.post_json("/api/derive", OSCILLATOR, headers=own)  # declared JSON, sent as text
+    assert status == 400 and data["errors"][0]["message"] == (
+        "the request body is not valid JSON (Expecting value at line 1, column 1): send an object such as "
+        "{\"model\": \"coordinates = [\\\"x\\\"] ...\"} (or send the model file's text itself with another "
+        "Content-Type, such as text/plain)")
+    status, data = server.post_json("/api/derive", {"text": OSCILLATOR}, headers=own)
+    assert status == 400 and [e["message"] for e in data["errors"]] == [
+        "unknown field 'text'; the fields are model",
+        "the field 'model' is missing: give the model-file text, {\"model\": \"coordinates = [\\\"x\\\"] ...\"}"]
+
+
+@pytest.mark.parametrize("content_type, said", [("text/plain", "not 'text/plain'"),
+                                                ("application/x-www-form-urlencoded",
+                                                 "not 'application/x-www-form-urlencoded'"),
+                                                (None, "but it declares none")])
+def test_a_post_from_a_page_must_be_json(server, content_type, said):
+    """From a page (Origin present, its own), a body that is not application/json is refused with 415:
+    the forms a page elsewhere could send without a preflight never reach a worker."""
+    headers = {"Origin": f"http://127.0.0.1:{server.port}"}
+    if content_type:
+        headers["Content-Type"] = content_type
+    status, got, data = server.request("POST", "/api/simulate", {"model": OSCILLATOR, "t_end": 1}, headers=headers)
+    assert status == 415 and json.loads(data)["errors"][0]["message"] == (
+        f"a request from a web page must send its body as Content-Type: application/json, {said}: the playground's "
+        "page does so ({\"model\": \"...\"} for the model text); a script can leave out the Origin header and send "
+        "the model text as it is")
+    _no_cors(got)
+
+
+def test_scripts_without_an_origin_send_the_model_text_as_they_like(server):
+    """curl --data-binary (form-urlencoded), text/plain, or no content type: as documented."""
+    raw = server.request("POST", "/api/derive", OSCILLATOR)[2]
+    for content_type in ("text/plain", "application/x-www-form-urlencoded", "application/toml"):
+        status, headers, body = server.request("POST", "/api/derive", OSCILLATOR, headers={"Content-Type": content_type})
+        assert status == 200 and body == raw
+        _no_cors(headers)
+    status, data = server.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "dt": 0.5},
+                                    headers={"Content-Type": "application/x-www-form-urlencoded"})
+    assert status == 200 and data["columns"]["t"] == [0.0, 0.5, 1.0]
+
+
+def test_a_preflight_gets_no_permission(server):
+    status, headers, data = server.request("OPTIONS", "/api/simulate", headers={
+        "Origin": "http://evil.example", "Access-Control-Request-Method": "POST",
+        "Access-Control-Request-Headers": "content-type"})
+    assert status == 403 and json.loads(data)["errors"][0]["message"] == _refusal(
+        server, "it comes from the web page at 'http://evil.example' (its Origin header)")
+    _no_cors(headers)
+    status, headers, data = server.request("OPTIONS", "/api/simulate")
+    assert status == 405 and json.loads(data)["errors"][0]["message"] == "OPTIONS is not allowed on /api/simulate"
+    _no_cors(headers)
+
+
+def test_a_browser_request_marked_cross_site_is_refused_without_an_origin(server):
+    status, headers, data = server.request("POST", "/api/derive", OSCILLATOR, headers={"Sec-Fetch-Site": "cross-site"})
+    assert status == 403 and json.loads(data)["errors"][0]["message"] == _refusal(
+        server, "the browser says it comes from another site (Sec-Fetch-Site: cross-site)")
+    assert server.request("POST", "/api/derive", OSCILLATOR, headers={"Sec-Fetch-Site": "same-origin"})[0] == 200
+
+
+def test_the_page_itself_may_be_linked_from_anywhere(server):
+    """A link on a lecture's slides opens the page (it computes nothing); its API calls are its own."""
+    status, headers, body = server.request("GET", "/?example=mck", headers={"Sec-Fetch-Site": "cross-site"})
+    assert status == 200 and b'"name": "mck"' in body
+    _no_cors(headers)
 
 
 def test_unknown_endpoints_and_methods_answer_json(server):
@@ -379,7 +499,8 @@ def test_the_page_opens_with_an_example_and_ships_its_assets(server):
 def test_info_says_the_limits(server):
     status, headers, body = server.request("GET", "/api/info")
     assert json.loads(body) == {"version": lg.__version__, "workers": 2, "time_limit_s": 60.0,
-                                "max_body_bytes": 1048576, "max_rows": 100000, "max_frames": 4000, "model": None}
+                                "memory_limit_mib": 2048, "long_workers": 1, "max_body_bytes": 1048576,
+                                "max_rows": 100000, "max_frames": 4000, "model": None}
 
 
 # ------------------------------------------------------------------ robustness
@@ -430,6 +551,93 @@ def test_a_runaway_request_is_stopped_at_the_time_limit_and_a_crash_is_survived(
         code, out, err = s.stop()
     assert code == 0 and "Traceback" not in err
     assert wait_until(lambda: not s.worker_pids(), 10)
+
+
+def test_a_request_past_the_memory_limit_is_a_422_and_the_server_goes_on():
+    """The worker's data segment is capped (RLIMIT_DATA) at its footprint plus --memory-limit: a
+    simulation whose output (99,901 rows of 41 columns, about 470 MB as JSON) does not fit in 256 MiB
+    is refused with a message, its worker replaced, and the next request answered."""
+    s = Server("--memory-limit", "256", workers=1, time_limit=120)
+    try:
+        assert json.loads(s.request("GET", "/api/info")[2])["memory_limit_mib"] == 256
+        before = wait_until(s.worker_pids, 10)
+        status, data = s.post_json("/api/simulate", {"model": example_source("spring-mass-damper-chain-20"),
+                                                     "t_end": 99.9, "dt": 0.001})
+        assert status == 422, data
+        assert data["errors"][0]["message"] == (
+            "the simulation needed more memory than the limit of 256 MiB per request and was stopped: make the "
+            "model or the simulation smaller (fewer output rows: a larger dt or a shorter t_end), or start the "
+            "server with a larger --memory-limit")
+        assert s.status()["replaced"] == 1
+        status, data = s.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "dt": 0.5})
+        assert status == 200 and data["columns"]["t"] == [0.0, 0.5, 1.0]
+        assert s.worker_pids() != before
+    finally:
+        code, out, err = s.stop()
+    assert code == 0 and "Traceback" not in err, err
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the processes in /proc")
+def test_a_time_out_ends_the_compiler_and_removes_the_request_s_temporary_files(tmp_path):
+    """/api/fmu runs the C compiler ($CC: here a stand-in that writes into its temporary folder, starts
+    a child and waits); when the request's time is up, the worker, the compiler and its child are
+    killed and the request's temporary folder (TMPDIR of the worker and the compiler) is removed."""
+    temp, marks = tmp_path / "tmp", tmp_path / "marks"
+    temp.mkdir()
+    marks.mkdir()
+    cc = tmp_path / "slow-cc"
+    cc.write_text(f'#!/bin/sh\necho $$ > "{marks}/cc.pid"\nmktemp -d "$TMPDIR/cc-XXXXXX" > "{marks}/cc.tmp"\n'
+                  f'sleep 600 &\necho $! > "{marks}/child.pid"\nwait\n')
+    cc.chmod(0o755)
+    s = Server(workers=1, time_limit=3, env={"CC": str(cc), "TMPDIR": str(temp)})
+    try:
+        status, data = s.post_json("/api/fmu", {"model": OSCILLATOR})
+        assert status == 422 and data["errors"][0]["message"].startswith(
+            "the FMU export took longer than the limit of 3 s per request and was stopped")
+        pids = [int((marks / f"{name}.pid").read_text()) for name in ("cc", "child")]
+        made = Path((marks / "cc.tmp").read_text().strip())
+        assert made.parent.parent == temp and made.parent.name.startswith("lagrangian-request-")
+        assert wait_until(lambda: not any(alive(p) for p in pids), 10), pids  # no compiler left running
+        assert list(temp.iterdir()) == []  # the request's folder, the compiler's files in it, removed
+        assert s.post_json("/api/derive", OSCILLATOR)[0] == 200
+        assert list(temp.iterdir()) == []  # every request's folder goes when it ends
+    finally:
+        code, out, err = s.stop()
+    assert code == 0 and "Traceback" not in err, err
+
+
+def test_slow_requests_leave_a_worker_to_short_ones():
+    """Two workers: simulations take at most one, so that with two slow simulations in flight (one
+    running, one waiting: the server's /api/status says so) a derivation is answered at once."""
+    s = Server(workers=2, time_limit=600)
+    slow = {"model": example_source("double-pendulum"), "t_end": 5000, "dt": 1, "method": "RK45", "rtol": 1e-12,
+            "atol": 1e-12}
+    results = []
+
+    def send():
+        try:
+            results.append(s.post_json("/api/simulate", slow)[0])
+        except OSError as exc:  # the server stopped under it, at the end of the test
+            results.append(type(exc).__name__)
+
+    threads = [threading.Thread(target=send) for _ in range(2)]
+    try:
+        assert s.status() == {"workers": 2, "long_limit": 1, "running": {"short": 0, "long": 0},
+                              "waiting": {"short": 0, "long": 0}, "replaced": 0}
+        for t in threads:
+            t.start()
+        busy = {"short": 0, "long": 1}, {"short": 0, "long": 1}
+        assert wait_until(lambda: (s.status()["running"], s.status()["waiting"]) == busy, 60), s.status()
+        for _ in range(3):
+            status, headers, body = s.request("POST", "/api/derive", OSCILLATOR)
+            assert status == 200 and json.loads(body)["coordinates"] == ["x"]
+        state = s.status()
+        assert (state["running"], state["waiting"]) == busy and not results  # both simulations still in flight
+    finally:
+        code, out, err = s.stop()
+        for t in threads:
+            t.join(60)
+    assert code == 0 and "Traceback" not in err, err
 
 
 # ------------------------------------------------------------------ the command
@@ -486,6 +694,8 @@ def test_serve_reads_a_model_file_anew_at_each_visit(tmp_path):
     (["--port", "70000"], "lagrangian serve: error: --port 70000: expected a port number from 1 to 65535"),
     (["--workers", "0"], "lagrangian serve: error: --workers 0: expected at least 1"),
     (["--time-limit", "0"], "lagrangian serve: error: --time-limit 0: expected a positive number of seconds"),
+    (["--memory-limit", "0"], "lagrangian serve: error: --memory-limit 0: expected a positive number of MiB "
+                              "(default 2048)"),
 ])
 def test_serve_errors(argv, message, tmp_path):
     run = subprocess.run([sys.executable, "-m", "lagrangian", "serve", "--no-browser", *argv], capture_output=True,

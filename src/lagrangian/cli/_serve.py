@@ -8,7 +8,7 @@ from ._common import MODEL_HELP
 
 
 def register(sub, fmt) -> None:
-    from ..serve import DEFAULT_PORT, DEFAULT_TIME_LIMIT
+    from ..serve import DEFAULT_MEMORY_LIMIT, DEFAULT_PORT, DEFAULT_TIME_LIMIT
 
     s = sub.add_parser("serve", help="start the browser playground: write a model, see its equations, motion "
                        "and analysis", formatter_class=fmt,
@@ -29,9 +29,14 @@ def register(sub, fmt) -> None:
                         "0.0.0.0, serves the network and prints a warning)")
     s.add_argument("--no-browser", action="store_true", help="do not open the page in a browser")
     s.add_argument("--workers", type=int, help="worker processes for derivations and simulations "
-                   "(default: one per core, 1 to 4)")
+                   "(default: one per core, 2 to 4); simulations, equilibria, reports and FMUs take all but one, "
+                   "so that derivations never wait behind them")
     s.add_argument("--time-limit", type=float, default=DEFAULT_TIME_LIMIT, metavar="SECONDS",
-                   help=f"the most seconds of work one request may take (default {DEFAULT_TIME_LIMIT:g})")
+                   help=f"the most seconds of work one request may take (default {DEFAULT_TIME_LIMIT:g}); past it "
+                        "its worker is stopped, with the processes it started (the C compiler)")
+    s.add_argument("--memory-limit", type=int, default=DEFAULT_MEMORY_LIMIT, metavar="MIB",
+                   help=f"the most memory one request may take in its worker, in MiB (default {DEFAULT_MEMORY_LIMIT}; "
+                        "on Linux)")
     s.set_defaults(handler=_cmd_serve)
 
 
@@ -39,5 +44,5 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     from ..serve import run
 
     run(args.model, host=args.host, port=args.port, open_browser=not args.no_browser, workers=args.workers,
-        time_limit=args.time_limit)
+        time_limit=args.time_limit, memory_limit=args.memory_limit)
     return 0

@@ -5,7 +5,9 @@ editor, the derived equations and their analysis rendered as MathML, a simulatio
 the animation of the mechanism and plots of the states and the energy; and the HTTP API the page
 uses (see :mod:`lagrangian.serve._app` and docs/conventions.md). Everything it needs ships in the
 package: no network. The derivations and simulations run in worker processes
-(:mod:`lagrangian.serve._workers`), each request with a time limit.
+(:mod:`lagrangian.serve._workers`), each request with a time limit and a memory limit, slow
+requests leaving one worker to the short ones. The API answers the page itself and scripts, never
+another web page (see docs/playground.md, Security).
 """
 
 from __future__ import annotations
@@ -19,10 +21,12 @@ from typing import Callable
 
 from ..errors import ModelError
 
-__all__ = ["run", "DEFAULT_PORT", "DEFAULT_TIME_LIMIT"]
+__all__ = ["run", "DEFAULT_PORT", "DEFAULT_TIME_LIMIT", "DEFAULT_MEMORY_LIMIT"]
 
 DEFAULT_PORT = 8765
 DEFAULT_TIME_LIMIT = 60.0
+#: MiB of memory one request may take in its worker (beyond the worker's own footprint).
+DEFAULT_MEMORY_LIMIT = 2048
 
 
 def _is_loopback(host: str) -> bool:
@@ -53,7 +57,7 @@ def check_model(model: str | None) -> None:
 
 def run(model: str | None = None, *, host: str = "127.0.0.1", port: int = DEFAULT_PORT, open_browser: bool = True,
         workers: int | None = None, time_limit: float = DEFAULT_TIME_LIMIT,
-        announce: Callable[[str], None] | None = None) -> None:
+        memory_limit: int = DEFAULT_MEMORY_LIMIT, announce: Callable[[str], None] | None = None) -> None:
     """Serve the playground until Ctrl-C (SIGINT) or SIGTERM.
 
     Parameters
@@ -69,9 +73,14 @@ def run(model: str | None = None, *, host: str = "127.0.0.1", port: int = DEFAUL
     open_browser : bool
         Open the page in the default web browser.
     workers : int, optional
-        Worker processes (default: one per core, 1 to 4).
+        Worker processes (default: one per core, 2 to 4). Slow requests (simulations, equilibria,
+        reports, FMUs) take at most all but one of them: derivations and analyses find one free.
     time_limit : float
-        Seconds of work allowed to one request.
+        Seconds of work allowed to one request (then its worker is killed, with the processes it
+        started, and replaced).
+    memory_limit : int
+        MiB of memory allowed to one request, beyond its worker's footprint when idle (Linux:
+        the worker's RLIMIT_DATA); past it the request gets an error and the worker is replaced.
     announce : callable, optional
         Receives the lines to show the user (default: print to stdout).
 
@@ -90,6 +99,9 @@ def run(model: str | None = None, *, host: str = "127.0.0.1", port: int = DEFAUL
         raise ModelError(f"--port {port}: expected a port number from 1 to 65535 (or 0 for a free one)")
     if not time_limit > 0:
         raise ModelError(f"--time-limit {time_limit:g}: expected a positive number of seconds")
+    if not memory_limit > 0:
+        raise ModelError(f"--memory-limit {memory_limit}: expected a positive number of MiB (default "
+                         f"{DEFAULT_MEMORY_LIMIT})")
     workers = default_workers() if workers is None else workers
     if workers < 1:
         raise ModelError(f"--workers {workers}: expected at least 1")
@@ -108,16 +120,16 @@ def run(model: str | None = None, *, host: str = "127.0.0.1", port: int = DEFAUL
         say(f"lagrangian serve: warning: serving on {host}, reachable from other machines: anyone who can reach "
             f"this address can use the playground and its workers; use the default --host 127.0.0.1 to serve "
             "this machine only")
-    asyncio.run(_serve(sockets, url, model, workers, time_limit, loopback, open_browser, say))
+    asyncio.run(_serve(sockets, url, model, workers, time_limit, memory_limit, loopback, open_browser, say))
 
 
-async def _serve(sockets, url, model, workers, time_limit, loopback, open_browser, say) -> None:
+async def _serve(sockets, url, model, workers, time_limit, memory_limit, loopback, open_browser, say) -> None:
     import tornado.httpserver
 
     from ._app import DRAIN_LIMIT, Settings, make_app
     from ._workers import WorkerPool
 
-    pool = WorkerPool(workers, time_limit=time_limit)
+    pool = WorkerPool(workers, time_limit=time_limit, memory_limit=memory_limit * 1024 * 1024)
     pool.start()
     app = make_app(Settings(pool, model=model, check_host=loopback))
     server = tornado.httpserver.HTTPServer(app, max_body_size=DRAIN_LIMIT, idle_connection_timeout=60,

@@ -6,6 +6,7 @@ Routes (the API is documented in docs/conventions.md):
 ``GET /``                the page; ``?example=NAME`` opens it with that built-in example
 ``GET /static/...``      the page's scripts and style sheet (shipped in the package)
 ``GET /api/info``        the server's version, limits and what it offers
+``GET /api/status``      the worker lanes now: requests running and waiting in each
 ``GET /api/examples``    ``{name: description}`` of the built-in examples
 ``GET /api/examples/N``  ``{"name", "text"}``: the model file of example N
 ``POST /api/derive``     model text -> the JSON of ``lagrangian derive --json``
@@ -18,8 +19,18 @@ Routes (the API is documented in docs/conventions.md):
 =======================  =================================================================
 
 Errors of the API are JSON, ``{"errors": [{"line", "key", "message"}, ...]}``: 400 for a bad
-request or model, 403 for a foreign Host header, 404, 405, 413 for a body over the size limit,
-422 for a computation that fails or runs past the time limit, 503 when overloaded.
+request or model, 403 for a foreign Host header or a request from another web page (an ``Origin``
+other than the server's own, or ``Sec-Fetch-Site`` saying another site), 404, 405, 413 for a body
+over the size limit, 415 for a POST from a web page that is not ``application/json``, 422 for a
+computation that fails or runs past the time or memory limit, 503 when overloaded.
+
+The API serves the playground's own page and scripts only: no response carries a CORS permission
+(``Access-Control-Allow-*``), so a browser lets no other page read an answer; a request that
+another page makes anyway is refused before any work, by its ``Origin`` (browsers send it with
+every POST and every cross-site request) and, since such a page can send only "simple" requests
+without asking first, by the rule that a POST from a page carries ``Content-Type:
+application/json`` (which a browser sends across sites only after a preflight, which gets no
+permission). Scripts send no ``Origin``: they may send the model text with any content type.
 """
 
 from __future__ import annotations
@@ -28,6 +39,7 @@ import html
 import json
 import logging
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import tornado.web
 
@@ -45,6 +57,8 @@ MAX_BODY = 1024 * 1024
 #: sends its whole body before reading the answer gets the answer, not a broken connection.
 DRAIN_LIMIT = 16 * MAX_BODY
 LOOPBACK = ("127.0.0.1", "localhost", "::1", "[::1]")
+#: The values of a browser's Sec-Fetch-Site header for a request of the page itself (or typed by the user).
+OWN_SITE = ("same-origin", "none")
 
 
 class Settings:
@@ -60,9 +74,15 @@ class Settings:
 
 class _Base(tornado.web.RequestHandler):
     settings_: Settings
+    #: An endpoint of the API: answers the server's own page and scripts only (see check_origin).
+    api = True
 
     def initialize(self, settings: Settings):
         self.settings_ = settings
+
+    def prepare(self):
+        if self.check_host() and self.api:
+            self.check_origin()
 
     def set_default_headers(self):
         self.set_header("X-Content-Type-Options", "nosniff")
@@ -81,6 +101,44 @@ class _Base(tornado.web.RequestHandler):
                                       f"'{host}'; open http://127.0.0.1:{self._port()}/ "
                                       "(or start it with --host to serve other addresses)"]))
         return False
+
+    def check_origin(self) -> bool:
+        """Refuse a request that a web page other than the playground's own made (403): its Origin
+        header, when it has one, must be this server's origin as the browser sees it
+        (http://HOST:PORT, HOST as in the request's Host header, PORT this server's); without one,
+        a Sec-Fetch-Site header must not say another site. Scripts send neither."""
+        origin = self.request.headers.get("Origin")
+        own = self.own_origin()
+        if origin is None:
+            site = self.request.headers.get("Sec-Fetch-Site", "none").strip().lower()
+            if site in OWN_SITE:
+                return True
+            why = f"the browser says it comes from another site (Sec-Fetch-Site: {site})"
+        elif self._same_origin(origin, own):
+            return True
+        elif origin.strip().lower() == "null":
+            why = ("it comes from a page with an opaque origin (Origin: null: a sandboxed frame, a local file or "
+                   "a redirect)")
+        else:
+            why = f"it comes from the web page at {origin[:200]!r} (its Origin header)"
+        self.reply(errors_reply(403, [
+            f"cross-site request refused: {why}, not from this server's own page at {own}; the playground's API "
+            f"answers its own page and scripts only. Open the playground at {own}/ (a script sends its requests "
+            "without an Origin header)"]))
+        return False
+
+    def own_origin(self) -> str:
+        """This server's origin as the request addressed it: http://HOST:PORT."""
+        host = self.request.host_name
+        return f"{self.request.protocol}://{host}:{self._port()}"
+
+    def _same_origin(self, origin: str, own: str) -> bool:
+        try:
+            theirs, ours = urlsplit(origin.strip()), urlsplit(own)
+            return ((theirs.scheme.lower(), theirs.hostname, theirs.port or 80, theirs.path, theirs.query)
+                    == (ours.scheme, ours.hostname, ours.port, "", ""))
+        except ValueError:  # not a URL, or a port out of range
+            return False
 
     def _port(self) -> str:
         """The port this server listens on (that of the connection's own end, not the Host header's)."""
@@ -117,9 +175,16 @@ class _Api(_Base):
         self._chunks: list[bytes] = []
         self._size = 0
         self._too_large = False
-        if not self.check_host():
+        super().prepare()
+        if self._finished or self.request.method != "POST":
             return
-        if self.request.method != "POST":
+        if "Origin" in self.request.headers and not self.json_body:
+            declared = self.request.headers.get("Content-Type", "").split(";")[0].strip()
+            said = f"not {declared[:100]!r}" if declared else "but it declares none"
+            self.reply(errors_reply(415, [
+                f"a request from a web page must send its body as Content-Type: application/json, {said}: the "
+                "playground's page does so ({\"model\": \"...\"} for the model text); a script can leave out the "
+                "Origin header and send the model text as it is"]))
             return
         length = self.request.headers.get("Content-Length")
         if length is not None and length.isdigit() and int(length) > DRAIN_LIMIT:
@@ -143,6 +208,15 @@ class _Api(_Base):
     def args(self) -> tuple:
         return ()
 
+    @property
+    def json_body(self) -> bool:
+        """The body is declared JSON (``Content-Type: application/json``, parameters aside)."""
+        return self.request.headers.get("Content-Type", "").split(";")[0].strip().lower() == "application/json"
+
+    def task_options(self) -> dict:
+        """The keyword arguments of the task (the text tasks: whether the body is JSON)."""
+        return {}
+
     async def post(self):
         if self._too_large:
             self._refuse_size(self._size)
@@ -151,16 +225,24 @@ class _Api(_Base):
         if not body.strip():
             self.reply(errors_reply(400, [self.empty_message]))
             return
-        self.reply(await self.settings_.pool.run(self.task, body, *self.args(), what=self.what))
+        self.reply(await self.settings_.pool.run(self.task, body, *self.args(), what=self.what,
+                                                 options=self.task_options()))
 
     empty_message = "the request body is empty: send the model file's text"
 
 
-class DeriveHandler(_Api):
+class _TextApi(_Api):
+    """An endpoint whose body is the model file's text, or ``{"model": TEXT}`` as JSON."""
+
+    def task_options(self) -> dict:
+        return {"json_body": self.json_body}
+
+
+class DeriveHandler(_TextApi):
     task, what = "derive", "derivation"
 
 
-class AnalysisHandler(_Api):
+class AnalysisHandler(_TextApi):
     task, what = "analysis", "analysis"
 
 
@@ -191,7 +273,7 @@ class FmuHandler(_Api):
     empty_message = 'the request body is empty: send a JSON object {"model": "...", "params": {...}}'
 
 
-class ReportHandler(_Api):
+class ReportHandler(_TextApi):
     task, what = "report", "report"
 
     def args(self):
@@ -200,22 +282,27 @@ class ReportHandler(_Api):
 
 class InfoHandler(_Base):
     def get(self):
-        if not self.check_host():
-            return
         from .. import __version__
         from ._tasks import MAX_FRAMES, MAX_ROWS
 
         pool = self.settings_.pool
+        memory = None if pool.memory_limit is None else pool.memory_limit // (1024 * 1024)
         self.reply(Reply(200, json.dumps({
             "version": __version__, "workers": pool.size, "time_limit_s": pool.time_limit,
+            "memory_limit_mib": memory, "long_workers": pool.long_limit,
             "max_body_bytes": self.settings_.max_body, "max_rows": MAX_ROWS, "max_frames": MAX_FRAMES,
             "model": self.settings_.model}).encode()))
 
 
+class StatusHandler(_Base):
+    """The worker lanes now (:meth:`WorkerPool.state`)."""
+
+    def get(self):
+        self.reply(Reply(200, json.dumps(self.settings_.pool.state()).encode()))
+
+
 class ExamplesHandler(_Base):
     def get(self, name=None):
-        if not self.check_host():
-            return
         from ..examples import example_descriptions, example_source
 
         if name is None:
@@ -244,10 +331,9 @@ class PageHandler(_Base):
     default example. A MODEL file is read anew at each visit, so a reload shows its latest text."""
 
     DEFAULT = "cart-pendulum"
+    api = False  # the page may be linked from anywhere (a lecture's slides); it computes nothing
 
     def get(self):
-        if not self.check_host():
-            return
         from ..examples import example_source
 
         example = self.get_query_argument("example", None)
@@ -308,6 +394,7 @@ def make_app(settings: Settings) -> tornado.web.Application:
     return tornado.web.Application([
         (r"/", PageHandler, s),
         (r"/api/info", InfoHandler, s),
+        (r"/api/status", StatusHandler, s),
         (r"/api/examples", ExamplesHandler, s),
         (r"/api/examples/([A-Za-z0-9_<>-]+)", ExamplesHandler, s),
         (r"/api/derive", DeriveHandler, s),

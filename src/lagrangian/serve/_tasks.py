@@ -98,15 +98,17 @@ def _model_text(payload) -> str:
     return payload
 
 
-def _json_object(body: bytes, fields: dict[str, str], problems: list[str] | None = None) -> dict:
+def _json_object(body: bytes, fields: dict[str, str], problems: list[str] | None = None, *,
+                 example: str = '{"model": "...", "t_end": 5}') -> dict:
     """The request body as a JSON object with only known fields, and a string `model`. The
     problems of its fields are raised together, or added to `problems` when it is given (the
-    caller checks the values too and raises every problem at once)."""
+    caller checks the values too and raises every problem at once). `example` is the object
+    the message of a body that is not JSON shows."""
     try:
         obj = json.loads(_model_text(body))
     except json.JSONDecodeError as exc:
         raise BadRequest(f"the request body is not valid JSON ({exc.msg} at line {exc.lineno}, column "
-                         f"{exc.colno}): send an object such as {{\"model\": \"...\", \"t_end\": 5}}") from None
+                         f"{exc.colno}): send an object such as {example}") from None
     if not isinstance(obj, dict):
         raise BadRequest(f"the request body must be a JSON object with the fields {', '.join(fields)}; "
                          f"got {type(obj).__name__}")
@@ -172,6 +174,20 @@ def _checked(problems: list[str], read, *args, **kwargs):
         return None
 
 
+#: The fields of a request whose body is the model file's text, when it is sent as JSON.
+TEXT_FIELDS = {"model": SIMULATE_FIELDS["model"]}
+
+
+def _request_text(body: bytes, json_body: bool) -> str:
+    """The model text of a derive, analysis or report request: the body itself, or with
+    ``Content-Type: application/json`` (what the page sends) the field ``model`` of a JSON object."""
+    if not json_body:
+        return _model_text(body)
+    example = ('{"model": "coordinates = [\\"x\\"] ..."} (or send the model file\'s text itself with another '
+               "Content-Type, such as text/plain)")
+    return _json_object(body, TEXT_FIELDS, example=example)["model"]
+
+
 def _load(text: str):
     from ..examples import example_source
     from ..io import loads_model
@@ -184,18 +200,18 @@ def _load(text: str):
 
 
 # ------------------------------------------------------------------ the tasks
-def derive_task(body: bytes) -> Reply:
+def derive_task(body: bytes, *, json_body: bool = False) -> Reply:
     """The JSON of ``lagrangian derive --json`` for the model text in `body`."""
     from .. import derive
 
-    eqs = derive(_load(_model_text(body)))
+    eqs = derive(_load(_request_text(body, json_body)))
     return Reply(200, (eqs.to_json() + "\n").encode())
 
 
 _SECTION = re.compile(r'<section id="([^"]+)">\n<h2>(.*?)</h2>\n(.*?)\n</section>', re.S)
 
 
-def analysis_task(body: bytes) -> Reply:
+def analysis_task(body: bytes, *, json_body: bool = False) -> Reply:
     """The derivation report's sections as HTML (MathML), the model's [simulation] defaults, the
     initial values a simulation takes as given (``given``: the others are completed, 0 or from the
     constraints), and whether (or why not) the model can be drawn."""
@@ -203,7 +219,7 @@ def analysis_task(body: bytes) -> Reply:
     from ..numeric._simulate import given_initial_names
     from ..plot._geometry import check_drawable
 
-    model = _load(_model_text(body))
+    model = _load(_request_text(body, json_body))
     eqs = derive(model)
     page = report(eqs, equilibria=False).to_html()
     sections = [{"key": k, "title": html.unescape(title), "html": inner} for k, title, inner in _SECTION.findall(page)]
@@ -479,13 +495,13 @@ def geometry(model, traj) -> dict:
     }
 
 
-def report_task(body: bytes, fmt: str = "html") -> Reply:
+def report_task(body: bytes, fmt: str = "html", *, json_body: bool = False) -> Reply:
     """The derivation report (``lagrangian report``) as HTML, Markdown or LaTeX, as a download."""
     from .. import derive, report
 
     if fmt not in REPORT_FORMATS:
         raise BadRequest(f"format '{fmt}': choose html, md or tex")
-    model = _load(_model_text(body))
+    model = _load(_request_text(body, json_body))
     text = report(derive(model)).render(fmt)
     return Reply(200, text.encode(), REPORT_FORMATS[fmt],
                  {"Content-Disposition": f'attachment; filename="{_file_name(model.name)}.{fmt}"'})
@@ -533,12 +549,14 @@ TASKS = {"derive": derive_task, "analysis": analysis_task, "equilibria": equilib
          "simulate": simulate_task, "simulate_csv": simulate_csv_task, "report": report_task, "fmu": fmu_task}
 
 
-def run(kind: str, body: bytes, *args) -> Reply:
-    """Run the task `kind`; bad input and failed computations become error replies, never exceptions."""
+def run(kind: str, body: bytes, *args, **options) -> Reply:
+    """Run the task `kind`; bad input and failed computations become error replies, never exceptions,
+    except MemoryError (past the worker's memory cap), which the worker answers by handing over to a
+    fresh process."""
     from ..errors import SimulationError, SingularMassMatrixError
 
     try:
-        return TASKS[kind](body, *args)
+        return TASKS[kind](body, *args, **options)
     except BadRequest as exc:
         return errors_reply(400, exc.messages)
     except ModelError as exc:
@@ -551,6 +569,8 @@ def run(kind: str, body: bytes, *args) -> Reply:
         return errors_reply(422, [str(exc)])
     except RecursionError:
         return errors_reply(422, ["the model's expressions are nested too deeply to handle: simplify them"])
+    except MemoryError:
+        raise
     except Exception as exc:  # a fault of ours: say so, with the traceback's last line for the bug report
         last = traceback.format_exception_only(type(exc), exc)[-1].strip()
         return errors_reply(500, [f"internal error while running {kind}: {last}; please report it with the model"])

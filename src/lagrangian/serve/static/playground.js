@@ -41,12 +41,14 @@ function showStatus(failure) {
 setInterval(() => { if (state.busy.size) showStatus(); }, 500);
 
 // ------------------------------------------------------------------ API
+// Every body is JSON (the server refuses other content types from a page): a request object, or
+// the model text as {"model": text} where the endpoint takes the text (json false).
 async function api(path, body, json) {
   let response;
   try {
     response = await fetch(path, {
-      method: "POST", body: json ? JSON.stringify(body) : body,
-      headers: { "Content-Type": json ? "application/json" : "text/plain; charset=utf-8" },
+      method: "POST", body: JSON.stringify(json ? body : { model: body }),
+      headers: { "Content-Type": "application/json" },
     });
   } catch (err) {
     return { status: 0, data: { errors: [{ line: null, message: `The server does not answer (${err.message}): is lagrangian serve still running?` }] } };
