@@ -5,8 +5,8 @@ a request past a bound is refused before the work starts, with the bound and how
 
 | limit | default | environment variable | bounds |
 |---|---|---|---|
-| ``max_rows`` | 1,000,000 | ``LAGRANGIAN_MAX_ROWS`` | output rows of a simulation (``t_end / dt + 1``, or ``len(t_eval)``) |
-| ``max_steps`` | 100,000,000 | ``LAGRANGIAN_MAX_STEPS`` | fixed steps (``t_end / step``) and input samples (``t_end / sample_time``) |
+| ``max_rows`` | 1,000,000 | ``LAGRANGIAN_MAX_ROWS`` | output rows of a simulation (``t_end / dt + 1``, or ``len(t_eval)``) and its input samples (``t_end / sample_time + 1``) |
+| ``max_steps`` | 100,000,000 | ``LAGRANGIAN_MAX_STEPS`` | fixed steps of the variational integrator (``t_end / step``) |
 | ``max_terms`` | 100,000 | ``LAGRANGIAN_MAX_TERMS`` | terms of the expansion of T, V, D, Q and each constraint, counted on the tree |
 | ``max_exponent`` | 1,000 | ``LAGRANGIAN_MAX_EXPONENT`` | the exponent of a power of a variable (``x**1000``) |
 | ``max_coordinates`` | 100 | ``LAGRANGIAN_MAX_COORDINATES`` | coordinates of a model |
@@ -65,8 +65,8 @@ class Limit:
                 f"{self.variable} (e.g. {self.variable}={self.value * 10})")
 
 
-MAX_ROWS = Limit("max_rows", 1_000_000, "output rows of a simulation")
-MAX_STEPS = Limit("max_steps", 100_000_000, "fixed integration steps and input samples of a simulation")
+MAX_ROWS = Limit("max_rows", 1_000_000, "output rows and input samples of a simulation")
+MAX_STEPS = Limit("max_steps", 100_000_000, "fixed steps of a simulation")
 MAX_TERMS = Limit("max_terms", 100_000, "terms of the expansion of an energy, dissipation function, generalized "
                                        "force or constraint")
 MAX_EXPONENT = Limit("max_exponent", 1_000, "the exponent of a power of a variable")

@@ -121,6 +121,7 @@ import difflib
 import math
 import os
 import re
+import sys
 import tomllib
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -547,6 +548,17 @@ class _Reader:
             data = tomllib.loads(self.text)
         except tomllib.TOMLDecodeError as exc:
             self.toml_error(exc)
+        except RecursionError:
+            self.problems.append(Problem(
+                "invalid TOML: arrays or tables nested too deeply for the reader (hundreds of levels of [ ] or "
+                "{ }); a model file needs at most a few levels: a list of lists such as rotation = "
+                '[["z", "phi"]] is the deepest', line=_deepest_line(self.text)))
+        except ValueError as exc:  # tomllib's int() of an integer with more digits than Python converts
+            self.problems.append(Problem(
+                f"invalid TOML: an integer too long to read ({exc}); a model's numbers are floating-point "
+                "numbers, at most about 1.8e308: write it with an exponent, such as 1.5e20",
+                line=_longest_digits_line(self.text)))
+        if self.problems:
             self.raise_if_problems()
             raise AssertionError("unreachable")  # pragma: no cover
         for key in data:
@@ -705,10 +717,13 @@ class _Reader:
                 fix = f"; write a number such as {name} = 1.5"
             self.problem(key, f"expected a number, got {_describe(value)}{fix}")
             return None
-        number = float(value)  # type: ignore[arg-type]
+        try:
+            number = float(value)  # type: ignore[arg-type]
+        except OverflowError:  # an integer beyond the doubles
+            number = math.inf
         if not math.isfinite(number):
-            self.problem(key, f"expected a finite number, got {value!r}; write a number such as "
-                              f"{name} = 1.5")
+            self.problem(key, f"expected a finite number, got {_shown_number(value)}; write a number such as "
+                              f"{name} = 1.5 (at most about 1.8e308)")
             return None
         if minimum is not None and (number <= minimum if strict else number < minimum):
             bound = f"greater than {minimum:g}" if strict else f"at least {minimum:g}"
@@ -726,8 +741,9 @@ class _Reader:
                               f"got {_describe(value)}")
             return None
         if not isinstance(value, str):
-            if not math.isfinite(value):
-                self.problem(key, f"expected a finite number, got {value!r}")
+            if not math.isfinite(value) or (isinstance(value, int) and abs(value) > _LARGEST_FLOAT):
+                self.problem(key, f"expected a finite number, got {_shown_number(value)}; the largest a "
+                                  "simulation can compute is about 1.8e308")
                 return None
             if isinstance(value, int):
                 return sympy.Integer(value)
@@ -849,7 +865,7 @@ class _Reader:
         built: set[str] = {WORLD}
         pending = list(named.values())
         while pending:
-            progress = [e for e in pending if e.table.get("parent", WORLD) in built]
+            progress = [e for e in pending if _parent_name(e.table) in built]
             for entry in progress:
                 self.build_frame(entry)
                 built.add(entry.name)
@@ -861,7 +877,7 @@ class _Reader:
         # the frames below an unknown parent or in a cycle: built under "world" as well, so that their own keys
         # and the elements placed in them are checked in this same run (the problems above keep the model out)
         for entry in pending:
-            parent = entry.table.get("parent", WORLD)
+            parent = _parent_name(entry.table)
             self.build_frame(entry, parent=parent if parent in self.frame_keys else WORLD)
 
     def report_parents(self, named: Mapping[str, _Entry], pending: list[_Entry]) -> None:
@@ -1689,3 +1705,42 @@ def _cycle(frames: Mapping[str, _Entry], start: str) -> list[str] | None:
         seen.append(name)
         name = frames[name].table.get("parent", "world")
     return None
+
+
+_LARGEST_FLOAT = int(sys.float_info.max)
+
+
+def _parent_name(table: Mapping[str, Any]) -> str | None:
+    """A frame table's parent, "world" by default; None when it is not a name (reported elsewhere)."""
+    from ..model._frames import WORLD
+
+    parent = table.get("parent", WORLD)
+    return parent if isinstance(parent, str) else None
+
+
+def _deepest_line(text: str) -> int | None:
+    """The line where the nesting of [ and { (outside strings, roughly) is deepest: where a file nested too deeply
+    for the TOML reader goes wrong."""
+    depth, deepest, line, where = 0, 0, 1, None
+    for ch in text:
+        if ch == "\n":
+            line += 1
+        elif ch in "[{":
+            depth += 1
+            if depth > deepest:
+                deepest, where = depth, line
+        elif ch in "]}":
+            depth = max(0, depth - 1)
+    return where
+
+
+def _longest_digits_line(text: str) -> int | None:
+    """The line of the longest run of digits: where an integer too long to read is."""
+    best = max(re.finditer(r"[0-9_]+", text), key=lambda m: len(m.group()), default=None)
+    return None if best is None else text.count("\n", 0, best.start()) + 1
+
+
+def _shown_number(value: object) -> str:
+    """A number as a message shows it: an integer too long to read as its count of digits."""
+    text = repr(value)
+    return text if len(text) < 30 else f"an integer of {len(str(abs(value)))} digits"  # type: ignore[arg-type]

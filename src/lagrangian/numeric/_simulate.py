@@ -13,6 +13,7 @@ import numpy as np
 import sympy
 
 from ..equations import Equations, derive, singularities
+from .._limits import MAX_ROWS, MAX_STEPS, number_problem
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError
 from ..model import Model
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations
@@ -28,6 +29,9 @@ METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA", "variational")
 COMPILED_METHODS = ("DOP853", "variational")
 #: Event threshold on the inertia measure of M (see inertia_measure): closer to singular than this stops the simulation.
 _EVENT_RATIO = 1e-9
+#: An integrator whose step size collapsed where M has kept less of its inertia at the start than this
+#: (see _inertia_kept) stopped at a singular M, not for want of a stiff method.
+_KEPT_INERTIA = 1e-6
 
 
 def output_times(t_end: float, dt: float) -> np.ndarray:
@@ -63,6 +67,29 @@ def requested_times(t_end: float, dt: float, t_eval=None) -> np.ndarray:
         raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
                          f"got {t_eval!r}")
     return times
+
+
+def _work_problems(t_end, dt, t_eval, step, method) -> list[Problem]:
+    """The bounds on the work a simulation may be asked for (lagrangian._limits): its output rows
+    (t_end / dt + 1, or len(t_eval)) and the fixed steps of method "variational" (t_end / step)."""
+    if number_problem(t_end, "t_end", positive=True) or number_problem(dt, "dt", positive=True):
+        return []  # reported already
+    if t_eval is not None:
+        rows = np.size(t_eval)
+        fix = "give fewer times in t_eval"
+    else:
+        rows = t_end / dt + 1
+        fix = f"raise dt (--dt {t_end / (MAX_ROWS.value - 1):.3g} or more) or give the times wanted as t_eval"
+    out = []
+    if rows > MAX_ROWS.value:
+        out.append(Problem(f"t_end = {t_end:g} with dt = {dt:g} asks for {rows:.4g} output rows, too many to keep: "
+                           f"{fix}; {MAX_ROWS.how_to_raise()}", key="t_eval" if t_eval is not None else "dt"))
+    if method == "variational":
+        fixed = min(dt, 1e-3) if step is None else step
+        if isinstance(fixed, numbers.Real) and fixed > 0 and t_end / fixed > MAX_STEPS.value:
+            out.append(Problem(f"t_end = {t_end:g} in fixed steps of {fixed:g} is {t_end / fixed:.4g} steps: use a "
+                               f"larger step (--step) or a shorter t_end; {MAX_STEPS.how_to_raise()}", key="step"))
+    return out
 
 
 def _as_numeric(system):
@@ -255,6 +282,13 @@ def sample_times(sample_time, input_names: tuple[str, ...], t_end: float, proble
             periods[input_names.index(name)] = float(value)
     if problems or not np.any(periods > 0) or t_end is None:
         return None
+    for i in np.flatnonzero(periods > 0):
+        if t_end / periods[i] + 1 > MAX_ROWS.value:
+            problems.append(Problem(f"sample time {float(periods[i])!r} s over t_end = {t_end:g} s makes "
+                                    f"{t_end / periods[i] + 1:.3g} samples of input '{input_names[i]}': use a "
+                                    f"longer sample time or a shorter t_end; {MAX_ROWS.how_to_raise()}",
+                                    key="sample_time"))
+            return None
     instants = {i: output_times(float(t_end), periods[i]) for i in range(m) if periods[i] > 0}
     samples = np.unique(np.concatenate(list(instants.values())))
     which = np.zeros((len(samples), max(1, m)), np.int64)
@@ -371,10 +405,11 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         problems.append(Problem(f"dt must be a positive number, got {dt!r}", key="dt"))
     rtol = defaults.get("rtol", 1e-9) if rtol is None else rtol
     atol = defaults.get("atol", 1e-9) if atol is None else atol
-    if not isinstance(rtol, numbers.Real) or not rtol > 0:
-        problems.append(Problem(f"rtol must be a positive number, got {rtol!r}", key="rtol"))
-    if not isinstance(atol, numbers.Real) or not atol > 0:
-        problems.append(Problem(f"atol must be a positive number, got {atol!r} (with atol = 0 a state component "
+    rtol_problem = number_problem(rtol, "rtol", positive=True, maximum=1.0, example="rtol=1e-9 (--rtol 1e-9)")
+    if rtol_problem:
+        problems.append(Problem(rtol_problem, key="rtol"))
+    if number_problem(atol, "atol", positive=True):
+        problems.append(Problem(number_problem(atol, "atol", positive=True) + " (with atol = 0 a state component "
                                 "that passes through zero cannot be controlled)", key="atol"))
     method = {m.upper(): m for m in METHODS}.get(str(method).upper(), method)
     if method not in METHODS:
@@ -419,6 +454,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     if event_exprs and method != "DOP853":
         problems.append(Problem(f"events are watched by the compiled DOP853 only, not by method '{method}'",
                                 key="events"))
+    problems += _work_problems(t_end, dt, t_eval, step, method)
     if problems:
         raise ModelError(problems)
 
@@ -484,7 +520,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
             sol = _solve_sampled(solve_ivp, rhs, near_singular, u_of, held, history, sampling, x0, times,
                                  method=method, rtol=rtol, atol=atol, max_step=max_step)
     except _Singular as s:
-        raise _singular_error(nm, s.t, s.x, s.ratio) from None
+        raise _singular_error(nm, s.t, s.x, s.ratio, p) from None
     except _NotFinite as s:
         raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {float(s.t):.6g} in the state "
                               f"{_state_text(nm, s.x)}: check the model's parameters and expressions "
@@ -492,34 +528,47 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
                               time=float(s.t)) from None
     finally:
         bar.close()
-    if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_at, p) < 1e-6):
-        if sol.status == 1 and len(sol.t_events[0]):
-            te, xe = sol.t_events[0][0], sol.y_events[0][0]
-        else:
+    def trajectory(t, x, failure=None) -> Trajectory:
+        U = np.array([u_of(ti, xi) for ti, xi in zip(t, x)]).reshape(len(t), m)
+        if sampling is not None:
+            U[:, hold] = held_inputs(sampling, history, t)[:, hold]
+        energy = name = None
+        if not eq.explicit_time:
+            energy = np.array([nm.energy(ti, xi, ui, p) for ti, xi, ui in zip(t, x, U)])
+            name = "energy" if _is_natural(eq) else "jacobi_integral"
+        stats = {"backend": "scipy", "method": method, "nfev": nfev}
+        if sampling is not None:
+            stats["samples"] = int(np.searchsorted(sampling.samples, t[-1], side="right"))
+        return Trajectory(t, x, nm.state_names, U, nm.input_names, energy, name,
+                          eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message,
+                          stats=stats, model=eq.model, failure=failure)
+
+    try:
+        if sol.status == -1 and last[0] is not None:  # where the step size collapsed: M lost its inertia?
+            kept = _inertia_kept(nm, x0, last[0], last[1], p)
+            if kept < _KEPT_INERTIA:
+                raise _singular_error(nm, last[0], last[1], last[2], p, kept=kept)
+        if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_at, p) < 1e-6):
+            if sol.status == 1 and len(sol.t_events[0]):
+                te, xe = sol.t_events[0][0], sol.y_events[0][0]
+            else:
+                te, xe = _last_state(sol)
+            raise _singular_error(nm, te, xe, nm.singular_ratio(te, xe, u_at(te, xe), p), p)
+        if sol.status != 0:
             te, xe = _last_state(sol)
-        raise _singular_error(nm, te, xe, nm.singular_ratio(te, xe, u_at(te, xe), p))
-    if sol.status != 0:
-        te, xe = _last_state(sol)
-        raise SimulationError(f"the integrator stopped at t = {te:.6g}: {sol.message} "
-                              f"(state {_state_text(nm, xe)}); try a smaller rtol/atol, a stiff method "
-                              "such as method='Radau', or check the model's parameters",
-                              status=sol.status, time=te)
+            raise SimulationError(f"the integrator stopped at t = {te:.6g}: {sol.message} "
+                                  f"(state {_state_text(nm, xe)}); try a smaller rtol/atol, a stiff method "
+                                  "such as method='Radau', or check the model's parameters",
+                                  status=sol.status, time=te)
+    except (SimulationError, SingularMassMatrixError) as exc:
+        reached = _finite_rows(sol.y.T)  # the output times reached: solve_ivp's t_eval points before the failure
+        if reached:
+            exc.partial = trajectory(sol.t[:reached], sol.y.T[:reached], failure=str(exc))
+        raise
     if not np.all(np.isfinite(sol.y)):
         raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
                               "and initial state", status=-1)
-    U = np.array([u_of(t, x) for t, x in zip(sol.t, sol.y.T)]).reshape(len(sol.t), m)
-    if sampling is not None:
-        U[:, hold] = held_inputs(sampling, history, sol.t)[:, hold]
-    energy = name = None
-    if not eq.explicit_time:
-        energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(sol.t, sol.y.T, U)])
-        name = "energy" if _is_natural(eq) else "jacobi_integral"
-    stats = {"backend": "scipy", "method": method, "nfev": nfev}
-    if sampling is not None:
-        stats["samples"] = int(np.searchsorted(sampling.samples, sol.t[-1], side="right"))
-    return Trajectory(sol.t, sol.y.T, nm.state_names, U, nm.input_names, energy, name,
-                      eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message,
-                      stats=stats, model=eq.model)
+    return trajectory(sol.t, sol.y.T)
 
 
 def _solve_sampled(solve_ivp, rhs, near_singular, u_of, held, history, sampling, x0, times, **options):
@@ -599,11 +648,36 @@ def _state_text(nm: NumericModel, x) -> str:
     return ", ".join(f"{k} = {v:.6g}" for k, v in zip(nm.state_names, x))
 
 
-def _singular_error(nm: NumericModel, t, x, ratio) -> SingularMassMatrixError:
-    report = singularities(nm.equations)
+def _inertia_kept(nm, x0, t, x, p) -> float:
+    """The least inertia M(t, x) has kept of the start's: the smallest eigenvalue of
+    D0^-1/2 M(t, x) D0^-1/2, D0 the diagonal of M at the start (1 for a diagonal M that has not
+    changed; 0 where a velocity's inertia has vanished, as T = x**2*x_dot**2/2 does at x = 0, which
+    the scale-free inertia measure of a diagonal M cannot see). 1 where it cannot be told."""
+    u = np.zeros(len(nm.input_names))  # T, hence M, never depends on the inputs (Model.check)
+    with np.errstate(all="ignore"):
+        d0 = np.diag(nm.mass_matrix(0.0, np.asarray(x0, float), u, p))
+        M = nm.mass_matrix(float(t), np.asarray(x, float), u, p)
+    if not (np.all(d0 > 0) and np.all(np.isfinite(d0)) and np.all(np.isfinite(M))):
+        return 1.0
+    s = 1.0 / np.sqrt(d0)
+    return float(np.linalg.eigvalsh(M * s[:, None] * s[None, :]).min())
+
+
+def _singular_error(nm: NumericModel, t, x, ratio, p, kept: float | None = None) -> SingularMassMatrixError:
+    """The error of a run that reached a singular M: where, and the diagnosis of M with the parameter
+    values `p` it ran with. `kept`: the inertia left of the start's (_inertia_kept), when that is how
+    it was found (the integrator's step size collapsed there)."""
+    report = singularities(nm.equations, parameters=dict(zip(nm.parameter_names, map(float, p))))
     diagnosis = report.text()
+    if not report.singular:  # no real zero of det M for these values: say why it is singular here all the same
+        diagnosis = "\n".join(diagnosis.splitlines()[:-1] + [
+            "det M has no real zero for these parameter values, yet M is singular to working precision in this "
+            "state: a mass or inertia negligible next to the others, or a motion that runs away to where M has no "
+            "inertia left; check the parameter values and the initial state."])
     state = dict(zip(nm.state_names, map(float, x)))
-    msg = (f"the mass matrix became singular at t = {float(t):.6g} (inertia measure of M = {ratio:.3g}) "
+    how = (f"its least inertia is {kept:.3g} of that at the start" if kept is not None
+           else f"inertia measure of M = {ratio:.3g}")
+    msg = (f"the mass matrix became singular at t = {float(t):.6g} ({how}) "
            f"in the state {_state_text(nm, x)}: q_ddot cannot be solved for there, so the simulation stops.\n"
            f"{diagnosis}")
     return SingularMassMatrixError(msg, time=float(t), state=state, diagnosis=diagnosis)
@@ -677,9 +751,8 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
 
 def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, atol, max_step, dt,
                        step, event_exprs=None, stop_on=(), progress=None, sampling=None) -> Trajectory:
-    from ._fast import inputs_and_energy, run_dop853, run_variational
+    from ._fast import run_dop853, run_variational
     from ._inputs import programs
-    from ._kernels import STATUS
 
     eq = cm.equations
     prog = _input_programs(eq, u_exprs)
@@ -695,30 +768,15 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
             terminal = [int(name in stop_on) for name in event_exprs]
         raw = run_dop853(cm, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal,
                          progress=progress, sampling=sampling)
-    if raw.status in (1, 2):
-        raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure)
-    if raw.status == 3:
-        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the state "
-                              f"{_state_text(cm, raw.stop_x)}: check the model's parameters and expressions "
-                              "(a division by zero, a log or sqrt of a negative number)", status=-1,
-                              time=raw.stop_t)
-    if raw.status == -3:
-        raise SimulationError(f"the variational integrator stopped at t = {raw.stop_t:.6g}: its implicit midpoint "
-                              f"step did not converge (state {_state_text(cm, raw.stop_x)}); try a smaller step",
-                              status=-1, time=raw.stop_t)
-    if raw.status == 5:
-        raise SimulationError(f"the inputs switch at every step near t = {raw.stop_t:.6g} (the last steps shorter than "
-                              f"{raw.stop_measure:.2g} s, state {_state_text(cm, raw.stop_x)}): the motion slides on a "
-                              "switching surface of the law (a sliding mode, which only infinitely fast switching "
-                              "follows); smooth the switch with a boundary layer, e.g. clip(s/0.01, -1, 1) instead of "
-                              "sign(s), or sample the law (sample_time=...)", status=5, time=raw.stop_t)
-    if raw.status not in (0, 4):
-        if raw.stop_measure < 1e-6:
-            raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure)
-        raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
-                              f"(state {_state_text(cm, raw.stop_x)}); try a smaller rtol/atol, a stiff method "
-                              "such as method='Radau', or check the model's parameters",
-                              status=raw.status, time=raw.stop_t)
+    try:
+        _raise_failure(cm, raw, p, x0)
+    except (SimulationError, SingularMassMatrixError) as exc:
+        reached = _finite_rows(raw.x[:len(raw.t)])
+        if reached:
+            exc.partial = _compiled_trajectory(cm, method, times[:reached], raw, p, prog, sampling,
+                                               {"backend": cm.backend, "method": method, "nfev": raw.nfev},
+                                               failure=str(exc))
+        raise
     stats = {"backend": cm.backend, "method": method, "nfev": raw.nfev, "nstep": raw.nstep,
              "nreject": raw.nreject}
     if prog.nswitch:
@@ -740,21 +798,72 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
     if not np.all(np.isfinite(raw.x)):
         raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
                               "and initial state", status=-1)
+    return _compiled_trajectory(cm, method, times, raw, p, prog, sampling, stats, found)
+
+
+def _compiled_trajectory(cm: CompiledModel, method, times, raw, p, prog, sampling, stats, events=None,
+                         failure: str | None = None) -> Trajectory:
+    """The Trajectory of a compiled run's output rows at `times` (all of them, or those before a
+    failure, whose message is `failure`)."""
+    from ._fast import inputs_and_energy
+    from ._kernels import STATUS
+
+    eq = cm.equations
     held = None
     if sampling is not None:
         U0 = np.zeros((len(times), len(cm.input_names)))
         U0[:] = held_inputs(sampling, raw.held[:, :len(cm.input_names)], times)
         held = (sampling.hold, U0)
         stats["samples"] = int(np.searchsorted(sampling.samples, times[-1], side="right"))
-    U, energy = inputs_and_energy(cm, times, raw.x, p, prog, held)
+    U, energy = inputs_and_energy(cm, times, raw.x[:len(times)], p, prog, held)
     name = None
     if eq.explicit_time:
         energy = None
     else:
         name = "energy" if _is_natural(eq) else "jacobi_integral"
-    return Trajectory(times, raw.x, cm.state_names, U, cm.input_names, energy, name, eq.is_conservative,
+    return Trajectory(times, raw.x[:len(times)], cm.state_names, U, cm.input_names, energy, name, eq.is_conservative,
                       dict(zip(cm.parameter_names, map(float, p))), raw.nfev, STATUS[raw.status], stats=stats,
-                      model=eq.model, events=found)
+                      model=eq.model, events=events or {}, failure=failure)
+
+
+def _finite_rows(x: np.ndarray) -> int:
+    """How many rows of `x`, from the first, are finite: the rows a failed run may keep."""
+    bad = ~np.all(np.isfinite(x), axis=1)
+    return int(np.argmax(bad)) if bad.any() else len(x)
+
+
+def _raise_failure(cm: CompiledModel, raw, p, x0) -> None:
+    """The error of a compiled run that stopped before its end (nothing for a complete run or an
+    event's stop)."""
+    from ._kernels import STATUS
+
+    if raw.status in (1, 2):
+        raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure, p)
+    if raw.status == 3:
+        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the state "
+                              f"{_state_text(cm, raw.stop_x)}: check the model's parameters and expressions "
+                              "(a division by zero, a log or sqrt of a negative number)", status=-1,
+                              time=raw.stop_t)
+    if raw.status == -3:
+        raise SimulationError(f"the variational integrator stopped at t = {raw.stop_t:.6g}: its implicit midpoint "
+                              f"step did not converge (state {_state_text(cm, raw.stop_x)}); try a smaller step",
+                              status=-1, time=raw.stop_t)
+    if raw.status == 5:
+        raise SimulationError(f"the inputs switch at every step near t = {raw.stop_t:.6g} (the last steps shorter than "
+                              f"{raw.stop_measure:.2g} s, state {_state_text(cm, raw.stop_x)}): the motion slides on a "
+                              "switching surface of the law (a sliding mode, which only infinitely fast switching "
+                              "follows); smooth the switch with a boundary layer, e.g. clip(s/0.01, -1, 1) instead of "
+                              "sign(s), or sample the law (sample_time=...)", status=5, time=raw.stop_t)
+    if raw.status not in (0, 4):
+        if raw.stop_measure < 1e-6:
+            raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure, p)
+        kept = _inertia_kept(cm, x0, raw.stop_t, raw.stop_x, p)
+        if raw.status == -1 and kept < _KEPT_INERTIA:  # the step size collapsed where M lost its inertia
+            raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure, p, kept=kept)
+        raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
+                              f"(state {_state_text(cm, raw.stop_x)}); try a smaller rtol/atol, a stiff method "
+                              "such as method='Radau', or check the model's parameters",
+                              status=raw.status, time=raw.stop_t)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -883,7 +992,7 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
                      project=_address(fast.project_c), nwork=work_size(cm.n, cm.m))
     if raw.status in (1, 2) or (raw.status not in (0, 4) and raw.stop_measure < 1e-6 and raw.status != 3):
         cm.solve(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)  # ConstraintSingular at a dead point
-        raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure)
+        raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure, p)
     if raw.status == 3:
         raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the state "
                               f"{_state_text(fast, raw.stop_x)}: check the model's parameters and expressions",
