@@ -19,6 +19,7 @@ __all__ = [
     "UnknownNameError",
     "SingularMassMatrixError",
     "SimulationError",
+    "OutputFileError",
 ]
 
 
@@ -137,20 +138,42 @@ class SingularMassMatrixError(LagrangianError, ArithmeticError):
     diagnosis : str
         Where det M vanishes, the velocity combination with no inertia, the likely
         cause and a fix.
+    partial : Trajectory or None
+        In a simulation, the output rows computed before it stopped (marked as partial:
+        ``partial.failure`` holds this message); None when there are none.
     """
 
     def __init__(self, message: str, *, time: float | None = None,
-                 state: dict[str, float] | None = None, diagnosis: str = ""):
+                 state: dict[str, float] | None = None, diagnosis: str = "", partial=None):
         self.time = time
         self.state = state
         self.diagnosis = diagnosis
+        self.partial = partial
         super().__init__(message)
 
 
 class SimulationError(LagrangianError, RuntimeError):
-    """The integrator failed. `status` is the integrator's status code, `time` where it stopped."""
+    """The integrator failed. `status` is the integrator's status code, `time` where it stopped,
+    `partial` the Trajectory of the output rows computed before the failure (marked as partial:
+    ``partial.failure`` holds this message), or None when there are none."""
 
-    def __init__(self, message: str, *, status: int | None = None, time: float | None = None):
+    def __init__(self, message: str, *, status: int | None = None, time: float | None = None, partial=None):
         self.status = status
         self.time = time
+        self.partial = partial
+        super().__init__(message)
+
+
+class OutputFileError(LagrangianError, ValueError):
+    """An output cannot be written where it was asked, or writing it there would lose a file of the
+    user's (a file an export did not write, a symbolic link, a folder, a device).
+
+    Attributes
+    ----------
+    path : str
+        The path given.
+    """
+
+    def __init__(self, message: str, *, path: str):
+        self.path = path
         super().__init__(message)

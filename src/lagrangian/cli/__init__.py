@@ -12,7 +12,8 @@ import os
 import sys
 from typing import Sequence
 
-from ..errors import ExpressionError, LagrangianError, ModelError, SimulationError, SingularMassMatrixError
+from ..errors import (ExpressionError, LagrangianError, ModelError, OutputFileError, SimulationError,
+                      SingularMassMatrixError)
 
 __all__ = ["main"]
 
@@ -59,7 +60,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (SingularMassMatrixError, SimulationError) as exc:
         print(f"lagrangian {args.command}: error: {exc}", file=sys.stderr)
         return 1
-    except (ModelError, ExpressionError) as exc:
+    except (ModelError, ExpressionError, OutputFileError) as exc:
         print(f"lagrangian {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except LagrangianError as exc:

@@ -208,7 +208,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         ext = os.path.splitext(args.plot)[1].lower()
         if ext not in (".png", ".pdf", ".svg"):
             raise ModelError(f"--plot {args.plot}: expected a file ending in .png, .pdf or .svg")
-        check_writable(args.plot, "diagram.png")
+        check_writable(args.plot, "diagram.png", option="--plot")
     eqs = _load(args)
     result = continuation(eqs, swept[0], np.linspace(args.start, args.stop, args.steps + 1),
                           params=_numbers(fixed, "param"), inputs=_numbers(args.input, "input"))
@@ -217,7 +217,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
         matplotlib.use("Agg")
         fig = result.plot(args.coordinate)
-        fig.savefig(args.plot, dpi=120, bbox_inches="tight")
+        from ..io._files import replacing
+
+        with replacing(args.plot) as tmp:  # atomically, with the user's umask
+            fig.savefig(tmp, dpi=120, bbox_inches="tight", format=os.path.splitext(args.plot)[1][1:].lower())
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
     else:

@@ -4,12 +4,11 @@ simulation options that `simulate` and `animate` share."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from typing import Sequence
 
 from ..errors import ExpressionError, ModelError
+from ..io._files import check_output, write_atomically, write_output  # noqa: F401  (the writers of every command)
 
 MODEL_HELP = "a model file (.toml) or a built-in example name (see `lagrangian examples`)"
 
@@ -61,32 +60,10 @@ def number(text: str, where: str) -> float:
     return float(value)
 
 
-def check_writable(path: str, example: str = "out.csv") -> None:
-    """Fail before a long computation, not after it, when the output cannot be written."""
-    folder = os.path.dirname(os.path.abspath(path))
-    if os.path.isdir(path):
-        raise ModelError(f"--output {path}: it is a directory; give a file name such as {os.path.join(path, example)}")
-    if not os.path.isdir(folder):
-        raise ModelError(f"--output {path}: the folder {folder} does not exist; create it or choose another path")
-    if not os.access(folder, os.W_OK):
-        raise ModelError(f"--output {path}: the folder {folder} is not writable; choose another path")
-
-
-def write_atomically(path: str, data: str | bytes) -> None:
-    """Write to a temporary file beside `path`, then rename: an existing file is replaced only by a
-    complete new one."""
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".lagrangian-", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb" if isinstance(data, bytes) else "w", **({} if isinstance(data, bytes) else {"newline": ""})) as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
+def check_writable(path: str, example: str = "out.csv", option: str = "--output") -> None:
+    """Fail before a long computation, not after it, when the output cannot be written (see
+    lagrangian.io._files.check_output: a stream such as a FIFO or /dev/null passes)."""
+    check_output(path, option, example)
 
 
 def add_simulation_options(s: argparse.ArgumentParser) -> None:

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from ..errors import ModelError
+from ..io._files import is_stdout
 from ._common import (MODEL_HELP, add_simulation_options, check_writable, events_csv, events_summary, run_simulation,
-                      write_atomically)
+                      write_output)
 
 
 def register(sub, fmt) -> None:
@@ -76,25 +78,68 @@ def _cmd_derive(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    from ..errors import SimulationError, SingularMassMatrixError
+
     if args.events_output is not None and not args.event:
         raise ModelError("--events-output needs at least one --event NAME=EXPR, for example --event \"upright=cos(q2)\"")
-    for path in (args.output, args.events_output):
-        if path not in ("-", None):
-            check_writable(path)
-    _, _, traj = run_simulation(args, equations_to=sys.stderr if args.output == "-" else sys.stdout)
-    notes = sys.stderr if args.output == "-" else sys.stdout
-    if args.output == "-":
-        sys.stdout.write(traj.to_csv())
-    else:
-        write_atomically(args.output, traj.to_csv())
+    for option, path in (("--output", args.output), ("--events-output", args.events_output)):
+        if path is not None:
+            check_writable(path, option=option)
+    to_stdout = is_stdout(args.output)
+    notes = sys.stderr if to_stdout else sys.stdout
+    try:
+        _, _, traj = run_simulation(args, equations_to=notes)
+    except (SimulationError, SingularMassMatrixError) as exc:
+        if exc.partial is None:
+            raise
+        exc.args = (f"{exc}\n{_keep_partial(args.output, exc.partial)}",)
+        raise
+    write_output(args.output, traj.to_csv(), "--output")
+    if not to_stdout:
         drift = traj.energy_drift
         extra = f"; {traj.energy_name} drift {drift:.2e}" if drift is not None and traj.conservative else ""
         print(f"wrote {len(traj.t)} rows (t = 0 .. {traj.t[-1]:g}) to {args.output}{extra}")
     if args.events_output is not None:
-        write_atomically(args.events_output, events_csv(traj))
+        write_output(args.events_output, events_csv(traj), "--events-output")
     for line in events_summary(traj) if args.event else ():
         print(line, file=notes)
     return 0
+
+
+def partial_path(output: str) -> str:
+    """Where the rows of a failed run go when --output is a file: beside it, out.csv -> out.partial.csv,
+    so that the file named keeps its earlier, complete contents."""
+    stem, suffix = os.path.splitext(output)
+    return f"{stem}.partial{suffix or '.csv'}"
+
+
+def _keep_partial(output: str, partial) -> str:
+    """Write the rows of a failed run (a Trajectory marked partial) where they belong, and say where:
+    a stream (stdout, a FIFO, /dev/null) receives them directly; a file keeps its contents, and the rows
+    go to its partial sibling (partial_path), replacing only an earlier partial output there."""
+    from ..io._files import is_stream, write_atomically
+
+    rows = f"The {len(partial.t)} rows computed up to t = {partial.t[-1]:g}"
+    if is_stream(output):
+        write_output(output, partial.to_csv(), "--output")
+        where = "stdout" if is_stdout(output) else output
+        return f"{rows} were written to {where}, marked as partial in the CSV's first line ('# partial: ...')."
+    path = partial_path(output)
+    if os.path.lexists(path) and not _is_partial_output(path):
+        return (f"{rows} were not written: {path}, where they would go, exists and is not a partial output of "
+                "lagrangian (its first line is not '# partial: ...'); move it away to keep them next time.")
+    kept = "keeps its earlier contents" if os.path.lexists(output) else "was not created"
+    write_atomically(path, partial.to_csv())
+    return (f"{rows} were written to {path}, marked as partial in the CSV's first line ('# partial: ...'); "
+            f"{output} {kept} (it receives complete runs only).")
+
+
+def _is_partial_output(path: str) -> bool:
+    """Whether `path` is a regular file (not a link) whose first line is the '# partial:' mark."""
+    if os.path.islink(path) or not os.path.isfile(path):
+        return False
+    with open(path, "rb") as fh:
+        return fh.read(11) == b"# partial: "
 
 
 def _cmd_check(args: argparse.Namespace) -> int:

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 from ..errors import ModelError
-from ._common import MODEL_HELP, check_writable, write_atomically
+from ._common import MODEL_HELP, check_writable, write_output
 
 _FORMATS = ("html", "md", "tex")
 
@@ -50,17 +49,15 @@ def _format(args: argparse.Namespace) -> str:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from .. import derive, load
+    from ..io._files import is_stdout
     from ..reporting import report
 
     fmt = _format(args)
-    if args.output != "-":
-        check_writable(args.output, example=f"report.{fmt}")
+    check_writable(args.output, example=f"report.{fmt}")
     model = load(args.model)
     rep = report(derive(model), title=args.title, equilibria=not args.no_equilibria)
     text = rep.render(fmt)
-    if args.output == "-":
-        sys.stdout.write(text)
-    else:
-        write_atomically(args.output, text)
+    write_output(args.output, text)
+    if not is_stdout(args.output):
         print(f"wrote the report of {model.name} ({len(rep.sections)} sections, {fmt}) to {args.output}")
     return 0

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
-import tempfile
 
 from ..errors import ModelError
 from ._common import MODEL_HELP, add_simulation_options, check_writable, run_simulation
@@ -56,20 +54,7 @@ def _cmd_animate(args: argparse.Namespace) -> int:
     check_drawable(load(args.model), args.trace)  # before the simulation, not after it
     _, _, traj = run_simulation(args)
     anim = animate(traj, fps=args.fps, speed=args.speed, trace=args.trace, dpi=args.dpi, view=args.view)
-    folder = os.path.dirname(os.path.abspath(args.output))
-    suffix = os.path.splitext(args.output)[1]
-    fd, tmp = tempfile.mkstemp(prefix=".lagrangian-", suffix=suffix, dir=folder)
-    os.close(fd)
-    try:
-        anim.save(tmp)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; an output file follows the umask
-        os.replace(tmp, args.output)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    anim.save(args.output)  # atomically, with the user's umask
     print(f"wrote {len(anim)} frames (t = {anim.times[0]:g} .. {anim.times[-1]:g} s, {args.fps:g} fps) "
           f"to {args.output}")
     return 0

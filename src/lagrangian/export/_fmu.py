@@ -20,6 +20,7 @@ from typing import Mapping
 from xml.sax.saxutils import quoteattr
 
 from ..equations import Equations
+from ..io._files import check_replaceable, replacing
 from ._c import c_files, cannot_write
 from ._common import (ExportResult, energy_name, equations_of, identifier, output_file, parameter_values,
                       start_state)
@@ -173,7 +174,7 @@ def _build(sources: dict[str, str], ident: str, suffix: str, folder: Path) -> tu
 
 
 def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping | None = None,
-               binary: bool = True) -> ExportResult:
+               binary: bool = True, force: bool = False) -> ExportResult:
     """Write the model as an FMI 2.0 FMU (Model Exchange and Co-Simulation in one archive).
 
     Variables: the states (coordinates and velocities, by their names) as outputs with the
@@ -205,6 +206,10 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     binary : bool
         Build the binary for this platform with the machine's C compiler (default). Without a
         compiler, or with False, the FMU has its sources only (and ``warnings`` says so).
+    force : bool
+        Replace a file that lagrangian did not write, or a symbolic link (the link itself, never
+        its target); without it they are refused (:class:`~lagrangian.errors.OutputFileError`)
+        before anything is built. The archive is written atomically.
 
     Returns
     -------
@@ -215,6 +220,7 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
 
     eq = equations_of(system)
     path = output_file(path, ".fmu", "--fmu", "an FMU's file name")
+    check_replaceable((path, "--fmu"), force=force)
     ident = identifier(eq.model.name)
     pvalues = parameter_values(eq, params)
     x0 = start_state(eq, initial, params)
@@ -260,12 +266,7 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
                             "build it; export without --no-binary for one built here")
         description = _model_description(eq, ident, guid, variables, [f"{ident}.c", "fmu.c"])
         try:
-            fd, tmp_zip = tempfile.mkstemp(prefix=".lagrangian-", suffix=".fmu", dir=path.parent)
-        except OSError as exc:
-            raise cannot_write("--fmu", path, exc) from None
-        os.close(fd)
-        try:
-            with zipfile.ZipFile(tmp_zip, "w", zipfile.ZIP_DEFLATED) as z:
+            with replacing(path) as tmp_zip, zipfile.ZipFile(tmp_zip, "w", zipfile.ZIP_DEFLATED) as z:
                 z.writestr("modelDescription.xml", description)
                 for name, text in sources.items():
                     z.writestr(f"sources/{name}", text)
@@ -273,11 +274,8 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
                     z.write(library, f"binaries/{built}/{library.name}")
                 z.write(_HERE / "fmi2" / "LICENSE.txt", "documentation/licenses/fmi2-headers-LICENSE.txt")
                 z.writestr("documentation/index.html", _documentation(eq, variables))
-            os.replace(tmp_zip, path)
-        except BaseException:
-            if os.path.exists(tmp_zip):
-                os.unlink(tmp_zip)
-            raise
+        except OSError as exc:
+            raise cannot_write("--fmu", path, exc) from None
     return ExportResult((os.fspath(path),), built, tuple(warnings))
 
 

@@ -23,6 +23,7 @@ from sympy.printing.str import StrPrinter
 
 from ..equations import Equations
 from ..errors import ModelError
+from ..io._files import check_replaceable, write_atomically
 from ._c import cannot_write
 from ._common import ExportResult, energy_name, equations_of, output_file, parameter_values, start_state
 
@@ -224,7 +225,8 @@ def _string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
 
 
-def export_modelica(system, path, *, params: Mapping | None = None, initial: Mapping | None = None) -> ExportResult:
+def export_modelica(system, path, *, params: Mapping | None = None, initial: Mapping | None = None,
+                    force: bool = False) -> ExportResult:
     """Write the model as a self-contained Modelica model (one ``model`` class, no library).
 
     The class is named after the model in CamelCase (cart-pendulum: ``CartPendulum``); its
@@ -241,6 +243,10 @@ def export_modelica(system, path, *, params: Mapping | None = None, initial: Map
         The .mo file to write.
     params, initial : mapping of str to float, optional
         Parameter values and initial state values that replace the model's.
+    force : bool
+        Replace a file that lagrangian did not write, or a symbolic link (the link itself, never
+        its target); without it they are refused (:class:`~lagrangian.errors.OutputFileError`).
+        The file is written atomically.
 
     Returns
     -------
@@ -249,9 +255,9 @@ def export_modelica(system, path, *, params: Mapping | None = None, initial: Map
     eq = equations_of(system)
     path = output_file(path, ".mo", "--modelica", "a Modelica file's name")
     text = modelica_source(eq, params, initial)
+    check_replaceable((path, "--modelica"), force=force)
     try:
-        with open(path, "w", newline="\n") as fh:
-            fh.write(text)
+        write_atomically(path, text)
     except OSError as exc:
         raise cannot_write("--modelica", path, exc) from None
     return ExportResult((os.fspath(path),))

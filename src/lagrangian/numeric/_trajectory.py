@@ -59,6 +59,10 @@ class Trajectory:
         `multiplier_names` order); None without constraints. ``stats["constraint_drift"]``
         holds the largest |g| ("position") and |G q_dot + b| ("velocity") at the outputs.
     multiplier_names : tuple of str
+    failure : str or None
+        None for a complete run. For the rows a failed simulation computed before it stopped
+        (``SimulationError.partial``, ``SingularMassMatrixError.partial``): the error's message;
+        the CSV then starts with a comment line ``# partial: ...``.
     """
 
     t: np.ndarray
@@ -77,6 +81,7 @@ class Trajectory:
     model: object = field(default=None, repr=False)
     multipliers: np.ndarray | None = None
     multiplier_names: tuple[str, ...] = ()
+    failure: str | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "t", _frozen(self.t))
@@ -165,9 +170,23 @@ class Trajectory:
             parts.append(self.multipliers)
         return np.hstack(parts)
 
+    @property
+    def partial(self) -> bool:
+        """Whether these are only the rows computed before a simulation failed (see `failure`)."""
+        return self.failure is not None
+
     def to_csv(self, path: str | os.PathLike | None = None) -> str | None:
-        """Write the columns as CSV (header first) to `path`; return the text when `path` is None."""
+        """Write the columns as CSV (header first) to `path`; return the text when `path` is None.
+
+        The rows of a failed run (`partial`) are preceded by one comment line, ``# partial: `` and
+        the first line of the failure's message (read such a file with ``pandas.read_csv(path,
+        comment="#")``). A regular file is replaced atomically (a temporary file beside it, then a
+        rename; created with the user's umask); a FIFO or a character device is written as a
+        stream; a symbolic link to a file is refused (:class:`~lagrangian.errors.OutputFileError`)."""
         buf = io.StringIO()
+        if self.failure is not None:
+            first = self.failure.splitlines()[0] if self.failure.strip() else "the simulation failed"
+            buf.write(f"# partial: {first}\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(self.columns)
         for row in self.table():
@@ -175,8 +194,9 @@ class Trajectory:
         text = buf.getvalue()
         if path is None:
             return text
-        with open(path, "w", newline="") as fh:
-            fh.write(text)
+        from ..io._files import write_output
+
+        write_output(path, text, "Trajectory.to_csv")
         return None
 
     # ------------------------------------------------------------ plotting

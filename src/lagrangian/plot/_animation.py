@@ -400,17 +400,33 @@ class Animation:
         return self.to_html()
 
     def save(self, path: str | os.PathLike, *, dpi: float | None = None) -> None:
-        """Write the animation: ``.gif`` (Pillow), ``.mp4`` (needs ffmpeg) or ``.html`` (a standalone page).
+        """Write the animation: ``.gif`` (Pillow), ``.mp4`` (needs ffmpeg) or ``.html`` (a standalone page),
+        atomically (a temporary file beside `path`, created with the user's umask, then renamed to it);
+        a symbolic link to a file at `path` is refused, and a FIFO or a device (/dev/null) is written to
+        directly.
 
         Raises
         ------
         ValueError
             Another suffix, or .mp4 without ffmpeg.
+        OutputFileError
+            `path` is a folder, a link, or in a folder that does not exist.
         """
+        from ..io._files import check_output, is_stream, replacing
+
         path = os.fspath(path)
         suffix = format_of(path)
+        check_output(path, "Animation.save", "out.gif")
         if dpi is not None:
             self.figure.set_dpi(dpi)
+        if is_stream(path):
+            self._write(path, suffix, path)
+            return
+        with replacing(path) as tmp:
+            self._write(tmp, suffix, path)
+
+    def _write(self, path: str, suffix: str, shown: str) -> None:
+        """Write the file `path` (a temporary one) for the user's `shown` (named in errors)."""
         if suffix == ".html":
             title = getattr(self.trajectory.model, "name", "animation")
             page = (f"<!DOCTYPE html>\n<html>\n<head><meta charset=\"utf-8\"><title>{title}</title></head>\n"
@@ -428,9 +444,9 @@ class Animation:
             images[0].save(path, format="GIF", save_all=True, append_images=images[1:], loop=0,
                            duration=int(round(1000.0 / self.fps)), optimize=False)
         else:
-            self._save_mp4(path)
+            self._save_mp4(path, shown)
 
-    def _save_mp4(self, path: str) -> None:
+    def _save_mp4(self, path: str, shown: str | None = None) -> None:
         """Pipe the blitted frames (raw RGBA) to ffmpeg, which encodes them as H.264 in an MP4 file."""
         import subprocess
 
@@ -458,7 +474,9 @@ class Animation:
             message = proc.stderr.read().decode(errors="replace").strip()
         if proc.returncode != 0:
             last = message.splitlines()[-1] if message else f"exit status {proc.returncode}"
-            raise LagrangianError(f"ffmpeg could not write '{path}': {last}")
+            if shown is not None:
+                last = last.replace(path, shown)
+            raise LagrangianError(f"ffmpeg could not write '{shown or path}': {last}")
 
     def save_frame(self, path: str | os.PathLike, k: int = 0, *, dpi: float | None = None) -> None:
         """Write frame `k` as a still image (PNG, SVG, PDF... by suffix)."""

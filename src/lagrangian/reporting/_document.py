@@ -199,9 +199,9 @@ class Report:
         """Write the report; the format follows the suffix: ``.html``, ``.md`` or ``.tex``."""
         fmt = format_of(path)
         text = self.render(fmt)
-        from ..cli._common import write_atomically
+        from ..io._files import write_output
 
-        write_atomically(os.fspath(path), text)
+        write_output(os.fspath(path), text, "Report.save")
 
     def __repr__(self) -> str:
         return f"<Report of {self.model_name!r}: {len(self.sections)} sections>"
