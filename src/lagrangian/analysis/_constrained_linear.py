@@ -79,7 +79,7 @@ def linearize_constrained(equations: Equations, at: dict, given: set, setting):
     from ..numeric._compiled import compile_equations
     from ..numeric._constrained import ConstraintSingular, consistent_state, constrained_model, \
         singular_constraint_message
-    from ._linearize import LinearModel, _clean, read_only
+    from ._linearize import LinearModel, _clean, read_only, split_velocity_terms
     from ._setting import derivatives
 
     n = equations.n
@@ -127,6 +127,7 @@ def linearize_constrained(equations: Equations, at: dict, given: set, setting):
     B = np.zeros((2 * r, B0.shape[1]))
     if B0.size:
         B[r:] = np.linalg.solve(Mr, B0)
+    C, G = split_velocity_terms(Dr, d.damping(x[:n], x[n:], t, u, p), T)
     coords = tuple(names[i] for i in ind)
     state = coords + tuple(f"{c}_dot" for c in coords)
     point = {s: 0.0 for s in state}
@@ -134,7 +135,7 @@ def linearize_constrained(equations: Equations, at: dict, given: set, setting):
     return LinearModel(
         equations=equations, coordinate_names=coords, state_names=state, input_names=tuple(setting.inputs),
         operating_point=MappingProxyType(point), input_values=setting.inputs, parameter_values=setting.parameters,
-        t=setting.t, M=read_only(Mr), C=read_only((Dr + Dr.T) / 2), G=read_only((Dr - Dr.T) / 2), K=read_only(Kr),
+        t=setting.t, M=read_only(Mr), C=read_only(C), G=read_only(G), K=read_only(Kr),
         input_matrix=read_only(B0), A=read_only(_clean(A)), B=read_only(_clean(B)), accelerations=read_only(np.zeros(r)),
         family=(), constrained=MappingProxyType({
             "dependent": {names[i]: float(x[i]) for i in dep},
@@ -225,7 +226,8 @@ def linearize_steady(equations: Equations, at: dict, given: set, setting):
     from ..numeric._compiled import compile_equations
     from ..numeric._constrained import ConstraintSingular, consistent_state, constrained_model, \
         singular_constraint_message
-    from ._linearize import LinearModel, _clean, read_only
+    from ._linearize import LinearModel, _clean, read_only, split_velocity_terms
+    from ._setting import derivatives
 
     n = equations.n
     names = equations.state_names
@@ -322,13 +324,14 @@ def linearize_steady(equations: Equations, at: dict, given: set, setting):
     # cyclic in the linearization, so their drift is not instability
     family = tuple(coords[i] for k, i in enumerate(ind_v) if np.max(np.abs(np.delete(Ar[:, k], k)), initial=0.0)
                    <= 1e-11 * scale)
+    C, G = split_velocity_terms(Dr, derivatives(equations).damping(q0, v0, t, u, p), T)
     state = tuple(coords[i] for i in ind_v) + tuple(f"{coords[i]}_dot" for i in ind_v)
     point = {s: float(x[names.index(s)]) + 0.0 for s in state}
     return LinearModel(
         equations=equations, coordinate_names=tuple(coords[i] for i in ind_v), state_names=state,
         input_names=tuple(setting.inputs), operating_point=MappingProxyType(point), input_values=setting.inputs,
-        parameter_values=setting.parameters, t=setting.t, M=read_only(Mr), C=read_only((Dr + Dr.T) / 2),
-        G=read_only((Dr - Dr.T) / 2), K=read_only(Kr), input_matrix=read_only(B0), A=read_only(_clean(Ar)),
+        parameter_values=setting.parameters, t=setting.t, M=read_only(Mr), C=read_only(C),
+        G=read_only(G), K=read_only(Kr), input_matrix=read_only(B0), A=read_only(_clean(Ar)),
         B=read_only(_clean(Br)), accelerations=read_only(np.zeros(r)), family=family, constrained=MappingProxyType({
             "dependent": {names[i]: float(x[i]) + 0.0 for i in dep_q},
             "multipliers": {mu.name: float(v) + 0.0 for mu, v in zip(equations.multipliers, _clean(lam))},

@@ -227,8 +227,11 @@ def found_points(problem: StationaryProblem, setting: Setting, *, starts, seed) 
         points.append(RootSet(np.zeros(size), np.zeros((size, 0)),
                               {v.name: sympy.Integer(0) for v in problem.variables},
                               parameter_conditions(problem), {}))
-    points = group_roots(ctx, points)
-    points.sort(key=lambda r: tuple(np.round(r.q, 9)))
+    distinct: list[RootSet] = []
+    for r in group_roots(ctx, points):  # polishing may bring two to one point: kept once, the exact first
+        if not any(same_point(r.q, other.q, problem.angles) for other in distinct):
+            distinct.append(r)
+    points = sorted(distinct, key=lambda r: tuple(np.round(r.q, 9)))
     return points, ctx
 
 
@@ -248,7 +251,7 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
         The time, for equations that contain t (they must not, at rest).
     exact : bool
         Try SymPy first (for up to 3 unknowns, 4 with constraints counting the multipliers, within a
-        time limit of a few seconds).
+        budget of work counted in calls, never a clock: the same answer on every machine).
     starts : int
         Number of starting points of the numerical search (default 24 + 24 per unknown coordinate;
         the multipliers of a constrained model follow from each start).

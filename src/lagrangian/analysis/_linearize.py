@@ -84,7 +84,7 @@ def classify(A: np.ndarray, K: np.ndarray, C: np.ndarray, G: np.ndarray,
     Kr = K[np.ix_(keep, keep)]
     ld = None
     if energy and Kr.size and np.allclose(Kr, Kr.T, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(Kr).max())):
-        Cs = (C + C.T) / 2
+        Cs = (C + G + (C + G).T) / 2  # the velocity terms' power: damping and any other symmetric part
         c_ok = not Cs.size or np.linalg.eigvalsh(Cs).min() >= -1e-9 * max(1.0, np.abs(Cs).max())
         kmin = np.linalg.eigvalsh((Kr + Kr.T) / 2).min()
         ld = bool(c_ok and kmin > 1e-9 * max(1.0, np.abs(Kr).max()))
@@ -278,11 +278,13 @@ class LinearModel:
             return [f"  {name} ="] + [f"    {r}" for r in rows]
 
         at = ", ".join(f"{k} = {v:.6g}" for k, v in self.operating_point.items())
+        q, x, u = vector_names(self.equations).values()
         lines = [f"Linearization of {self.equations.model.name} at {at}"
                  + (f", inputs {', '.join(f'{k} = {v:g}' for k, v in self.input_values.items())}"
                     if self.input_values else ""),
-                 "  M dq'' + (C + G) dq' + K dq = B0 du;  x' = A x + B u, x = ["
-                 + ", ".join(self.state_names) + "]"]
+                 f"  M d{q}'' + (C + G) d{q}' + K d{q} = B0 d{u};  {x}' = A {x} + B {u}, {x} = ["
+                 + ", ".join(self.state_names) + "]"
+                 + (f", {u} = [{', '.join(self.input_names)}]" if self.input_names else "")]
         if self.constrained:
             dependent = ", ".join(f"{k} = {v:.6g}" for k, v in self.constrained["dependent"].items())
             lines.insert(1, "  in the independent coordinates (constraints eliminated at the point"
@@ -293,8 +295,11 @@ class LinearModel:
                 lines.insert(2, "  about the steady motion with " + ", ".join(f"{k} = {v:.6g}" for k, v in moving.items())
                              + (f"; ignorable (left out: nothing depends on them): "
                                 f"{', '.join(self.constrained['ignorable'])}" if self.constrained.get("ignorable") else ""))
+        labels = {"M": "M", "C": "C (damping)", "K": "K",
+                  "G": "G (gyroscopic, Coriolis" + (", and the constraint forces' velocity terms)"
+                                                    if self.constrained else ")")}
         for name in ("M", "C", "G", "K"):
-            lines += mat(name, getattr(self, name))
+            lines += mat(labels[name], getattr(self, name))
         lines += mat("B0", self.input_matrix) + mat("A", self.A) + mat("B", self.B)
         lines.append("  eigenvalues: " + ", ".join(_complex_text(z) for z in self.eigenvalues))
         lines.append(f"  {self.stability}" + (" (Lagrange-Dirichlet: K positive definite)"
@@ -306,15 +311,40 @@ class LinearModel:
             return sympy.latex(sympy.Matrix(np.atleast_2d(a)).applyfunc(lambda x: sympy.Float(x, 6))) if a.size else "0"
 
         at = ", ".join(f"{_latex_name(k)} = {v:.6g}" for k, v in self.operating_point.items())
+        q, x, u = (_latex_name(v) for v in vector_names(self.equations).values())
         return ("$$\\begin{aligned}&\\text{at } " + at + "\\\\ "
-                f"&M\\,\\delta\\ddot q + (C + G)\\,\\delta\\dot q + K\\,\\delta q = B_0\\,\\delta u,\\quad "
+                f"&M\\,\\delta\\ddot {q} + (C + G)\\,\\delta\\dot {q} + K\\,\\delta {q} = B_0\\,\\delta {u},\\quad "
                 f"M = {mat(self.M)},\\ C = {mat(self.C)},\\ G = {mat(self.G)},\\ K = {mat(self.K)}\\\\ "
-                f"&\\dot x = A x + B u,\\quad A = {mat(self.A)},\\ B = {mat(self.B)}"
+                f"&\\dot {x} = A {x} + B {u},\\quad A = {mat(self.A)},\\ B = {mat(self.B)}"
                 "\\end{aligned}$$")
 
     def __repr__(self) -> str:
         at = ", ".join(f"{k}={v:.4g}" for k, v in self.operating_point.items())
         return f"<LinearModel of {self.equations.model.name!r} at {at}: {self.stability}>"
+
+
+#: The printed names of the vectors (the coordinates, the state, the inputs), each with the
+#: letters used in its place when the model names a symbol so (a coordinate named x).
+_VECTOR_NAMES = {"q": ("q", "r", "s"), "x": ("x", "z", "X", "xi"), "u": ("u", "w", "U", "v")}
+
+
+def vector_names(equations: Equations) -> dict[str, str]:
+    """{"q": ..., "x": ..., "u": ...}: the letters that stand for the vector of coordinates, the state
+    and the inputs in printed linearizations, each the first of its candidates that no coordinate,
+    velocity, input or parameter of the model (nor t, nor another vector) is named: a model whose
+    coordinates are x and y has the state z = [x, x_dot, y, y_dot], not x = [x, ...]."""
+    taken = {"t", *(c.name for c in equations.coordinates), *(v.name for v in equations.velocities),
+             *(u.name for u in equations.inputs), *(p.name for p in equations.parameters)}
+    out = {}
+    for vector, candidates in _VECTOR_NAMES.items():
+        name = next((c for c in candidates if c not in taken), None)
+        k = 1
+        while name is None:  # every candidate taken: number the first (x1, x2, ...)
+            name = f"{candidates[0]}{k}" if f"{candidates[0]}{k}" not in taken else None
+            k += 1
+        taken.add(name)
+        out[vector] = name
+    return out
 
 
 def _complex_text(z: complex) -> str:
@@ -423,7 +453,7 @@ def linearize_at(equations: Equations, point: Mapping[str, float], setting: Sett
     K = parts["Maq"] - parts["fq"]
     B0 = parts["fu"]
     D, K, B0 = _clean(D), _clean(K), _clean(B0)
-    C, G = (D + D.T) / 2, (D - D.T) / 2
+    C, G = split_velocity_terms(D, d.damping(q, qd, setting.t, u, p))
     A = np.zeros((2 * n, 2 * n))
     A[:n, n:] = np.eye(n)
     A[n:, :n] = -np.linalg.solve(M, K)
@@ -443,6 +473,18 @@ def linearize_at(equations: Equations, point: Mapping[str, float], setting: Sett
         M=read_only(M), C=read_only(C), G=read_only(G), K=read_only(K), input_matrix=read_only(B0),
         A=read_only(A), B=read_only(B), accelerations=read_only(qdd), family=cyclic_coordinates(equations),
         _exact_point=MappingProxyType(dict(exact or {})))
+
+
+def split_velocity_terms(D: np.ndarray, damping: np.ndarray, basis: np.ndarray | None = None):
+    """(C, G) with C + G = D (the coefficient of dq' in the linearized equations): C the damping,
+    that of the forces that take power from the motion (d2D/dq_dot2 - dQ/dq_dot, symmetric), in
+    the coordinates of `basis` (dq_dot = basis dz_dot) when given; G the rest: gyroscopic and
+    Coriolis terms (skew-symmetric at rest), and, with constraints, the velocity terms the
+    constraint forces bring into the minimal coordinates (a rolling coin's, which do no work and
+    are not skew-symmetric). A conservative system has C = 0."""
+    C = damping if basis is None else basis.T @ damping @ basis
+    C = _clean((C + C.T) / 2)
+    return C, _clean(D - C)
 
 
 def _clean(a: np.ndarray) -> np.ndarray:
@@ -513,8 +555,9 @@ def _symbolic(lin: LinearModel) -> SymbolicLinearization:
     K = matrix(n, n, lambda i, j: at(Ma[i].diff(q[j]).subs(a) - core.f[i].diff(q[j])))
     D = matrix(n, n, lambda i, j: at(-core.f[i].diff(qd[j])))
     B0 = matrix(n, len(us), lambda i, j: at(core.f[i].diff(us[j])))
-    C = sympy.simplify((D + D.T) / 2)
-    G = sympy.simplify((D - D.T) / 2)
+    Q = list(core.Q) or [se.Integer(0)] * n
+    C = matrix(n, n, lambda i, j: at(core.D.diff(qd[i]).diff(qd[j]) - (Q[i].diff(qd[j]) + Q[j].diff(qd[i])) / 2))
+    G = sympy.simplify(D - C)
     A = sympy.zeros(2 * n, 2 * n)
     A[:n, n:] = sympy.eye(n)
     A[n:, :n] = sympy.simplify(-M.LUsolve(K))

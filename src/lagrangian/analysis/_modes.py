@@ -197,7 +197,8 @@ def _damping(lin: LinearModel, shapes: np.ndarray, kinds: list[str]) -> tuple[np
         assigned[j].append(lam[keep[c]])
     zeta = np.full(n, math.nan)
     wd = np.full(n, math.nan)
-    undamped = not np.any(lin.C)  # no dissipation at all: the real parts are round-off (5e-17)
+    V = np.asarray(lin.C) + np.asarray(lin.G)
+    undamped = not np.any(V + V.T)  # velocity terms that neither take nor give power: real parts are round-off
     for j, values in assigned.items():
         if len(values) == 1 and abs(values[0].imag) > 1e-9 * scale:
             z = values[0]

@@ -187,10 +187,13 @@ def solve_from(problem: StationaryProblem, setting: Setting, start: np.ndarray,
         return None
     out = np.array(start, dtype=float)
     out[idx] = sol.x
-    if not is_root(ctx, out):
+    # checked where it is reported, angles wrapped: an angle that ran away to 1e17 turns is a root
+    # of the floating-point residual only (th1 + th2 rounded to the spacing of the doubles there)
+    wrapped = wrap_angles(out, problem.angles) if np.all(np.isfinite(out)) else out
+    if not is_root(ctx, wrapped):
         _note_runaway(ctx, start, out)
         return None
-    return wrap_angles(out, problem.angles)
+    return wrapped
 
 
 def _note_runaway(ctx: Search, start: np.ndarray, end: np.ndarray) -> None:

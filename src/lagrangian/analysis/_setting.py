@@ -154,6 +154,7 @@ class Derivatives:
         self._core = core
         self._static_parts = None
         self._momenta = None
+        self._damping = None
 
     def momenta(self, q, qd, t, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(p, dp/dq, M) with p = dL/dq_dot, the generalized momenta: shapes (n,), (n, n), (n, n)
@@ -166,6 +167,26 @@ class Derivatives:
                                         + [core.M[i, j] for i in range(n) for j in range(n)], cse=True, real=True)
         out = np.asarray(self._momenta(self._argv(q, qd, t, u, p)), dtype=float).ravel()
         return out[:n], out[n:n + n * n].reshape(n, n), out[n + n * n:].reshape(n, n)
+
+    def damping(self, q, qd, t, u, p) -> np.ndarray:
+        """The damping matrix at the state, shape (n, n): the symmetric part of
+        d2D/dq_dot2 - dQ/dq_dot, the velocity-dependent forces that take power from the motion (or
+        give it: a negative damping). The other velocity terms of -df/dq_dot (gyroscopic, Coriolis,
+        those of the constraint forces) are not damping. Built on first use; zeros without a
+        Rayleigh function or velocity-dependent forces."""
+        n = self.n
+        if self._damping is None:
+            core = self._core
+            qd_ = list(core.qd)
+            Q = list(core.Q) or [se.Integer(0)] * n
+            entries = [core.D.diff(qd_[i]).diff(qd_[j]) - (Q[i].diff(qd_[j]) + Q[j].diff(qd_[i])) / 2
+                       for i in range(n) for j in range(n)]
+            entries = [se.expand(e) for e in entries]
+            self._damping = (se.Lambdify(self._args, entries, cse=True, real=True)
+                             if any(e != 0 for e in entries) else False)
+        if self._damping is False:
+            return np.zeros((n, n))
+        return np.asarray(self._damping(self._argv(q, qd, t, u, p)), dtype=float).reshape(n, n)
 
     def _argv(self, q, qd, t, u, p, extra=()):
         return np.concatenate((q, qd, [t], u, p, extra)).astype(float)

@@ -114,7 +114,7 @@ def assess(problem: StationaryProblem, setting: Setting, q: np.ndarray, tangent:
 
 
 def classify_across(A, K, C, G, P: np.ndarray, kept: int, energy: bool = True) -> tuple[str, bool, bool, np.ndarray]:
-    """(stability, stable, degenerate, damping in the basis) of the linearization A (2n x 2n), K, C,
+    """(stability, stable, degenerate, the velocity terms C + G in the basis) of the linearization A (2n x 2n), K, C,
     G (n x n) in the orthonormal basis P of q-space whose first `kept` columns run across the set of
     stationary states (the others along it: moving along them changes nothing). `degenerate`: the
     linearization does not decide (no eigenvalue grows, and K is singular across the set or an
@@ -139,7 +139,7 @@ def classify_across(A, K, C, G, P: np.ndarray, kept: int, energy: bool = True) -
         sv = np.linalg.svd(Kt, compute_uv=False) if Kt.size else np.zeros(0)
         singular = bool(sv.size) and sv.min() <= 1e-9 * max(float(sv.max()), 1e-300)
         degenerate = bool(not growing and (stability == "unstable" or singular))
-    return stability, stable, degenerate, Cp
+    return stability, stable, degenerate, Cp + Gp
 
 
 def _higher_order(problem: StationaryProblem, setting: Setting, tangent: np.ndarray, solution: dict | None,

@@ -24,8 +24,7 @@ states that problem: f + G^T lambda = 0 and g = 0 in (q, lambda)); everything he
 from __future__ import annotations
 
 import math
-import signal
-import threading
+import sys
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -46,8 +45,10 @@ __all__ = ["StationaryProblem", "stationary_problem", "conserved_cyclic", "state
            "residual", "conditions_hold", "parameter_conditions", "constant_map", "evaluate_exact",
            "normalized_exact", "wrap_angles", "same_point", "solved_exactly", "periodic_in"]
 
-#: Seconds SymPy may spend looking for exact solutions before the numerical search takes over.
-EXACT_TIME_LIMIT = 5.0
+#: The work SymPy may do looking for exact solutions before the numerical search takes over,
+#: counted in Python function calls (here about a million a second; the arm of two links takes 3
+#: million): a count, not a clock, so that the answer never depends on the machine or its load.
+EXACT_CALL_BUDGET = 10_000_000
 _MAX_EXACT_UNKNOWNS = 3
 
 
@@ -183,27 +184,31 @@ def periodic_in(evaluate, points, i: int, rtol: float = 0.0) -> bool:
     return True
 
 
-class _TimeUp(Exception):
-    pass
+class _OverBudget(BaseException):
+    """Raised inside SymPy when it has used its budget (a BaseException: SymPy's own
+    ``except Exception`` clauses must not swallow it)."""
 
 
 @contextmanager
-def _time_limit(seconds: float):
-    """Interrupt SymPy after `seconds` (only in the main thread, where signals can be used)."""
-    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer"):
-        yield False
-        return
+def _call_budget(calls: int):
+    """Interrupt the code inside (SymPy) with _OverBudget after `calls` Python function calls in
+    this thread: a budget that is the same on every machine and under any load (the profile hook
+    is per thread, so the server's worker threads count only their own work)."""
+    previous = sys.getprofile()
+    count = 0
 
-    def handler(signum, frame):
-        raise _TimeUp()
+    def profile(frame, event, arg):
+        nonlocal count
+        if event == "call":
+            count += 1
+            if count > calls:
+                raise _OverBudget()
 
-    old = signal.signal(signal.SIGALRM, handler)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    sys.setprofile(profile)
     try:
-        yield True
+        yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
+        sys.setprofile(previous)
 
 
 def _conditions(solution: dict, assumptions) -> tuple:
@@ -252,8 +257,8 @@ def _simplify_relational(c):
 
 def _exact_solutions(variables: tuple, exprs: list, unknowns: tuple[int, ...], constants: tuple,
                      values: np.ndarray, unknown_rates: dict, most: int = _MAX_EXACT_UNKNOWNS):
-    """(SymPy's solutions of exprs = 0 for the unknowns, complete): None when it fails, takes too
-    long, or has more than `most` unknowns. `variables` are the symbols the unknowns index;
+    """(SymPy's solutions of exprs = 0 for the unknowns, complete): None when it fails, uses up
+    EXACT_CALL_BUDGET, or has more than `most` unknowns. `variables` are the symbols the unknowns index;
     `unknown_rates` maps a coordinate index to the expression of its rate (fixed momenta)."""
     qs = [variables[i] for i in unknowns]
     if not exprs or len(qs) > most or sum(sympy.count_ops(e) for e in exprs) > 400:
@@ -262,14 +267,12 @@ def _exact_solutions(variables: tuple, exprs: list, unknowns: tuple[int, ...], c
     assumptions = {c: sympy.Symbol(c.name, positive=True) for c, v in zip(constants, values)
                    if math.isfinite(v) and v > 0}
     back = {v: k for k, v in assumptions.items()}
-    with _time_limit(EXACT_TIME_LIMIT) as limited:
-        if not limited and len(qs) > 1:
-            return None, False
-        try:
+    try:
+        with _call_budget(EXACT_CALL_BUDGET):
             exprs = [sympy.factor(sympy.trigsimp(e.subs(assumptions))) for e in exprs]
             sols = sympy.solve(exprs, qs, dict=True)
-        except (NotImplementedError, _TimeUp, ValueError, TypeError, ZeroDivisionError, RecursionError):
-            return None, False
+    except (NotImplementedError, _OverBudget, ValueError, TypeError, ZeroDivisionError, RecursionError):
+        return None, False
     allowed = set(assumptions.values()) | set(constants)
     out, rates = [], []
     for s in sols:
@@ -347,7 +350,7 @@ def stationary_problem(equations: Equations, inputs: Mapping[str, float], t: flo
 def solved_exactly(problem: StationaryProblem, inputs: Mapping[str, float], values: np.ndarray | None,
                    unknown_rates: dict | None = None, most: int = _MAX_EXACT_UNKNOWNS) -> StationaryProblem:
     """The problem with SymPy's solutions, when it finds them all (for at most `most` unknowns, within
-    EXACT_TIME_LIMIT); `values` are the parameter values (for the sign assumptions)."""
+    EXACT_CALL_BUDGET); `values` are the parameter values (for the sign assumptions)."""
     equations, velocities, momenta = problem.equations, problem.velocities, problem.momenta
     unknown_rates = unknown_rates or {}
     defaults = np.array([v if v is not None else math.nan for v in equations.parameters.values()], dtype=float)

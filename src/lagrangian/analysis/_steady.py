@@ -128,6 +128,7 @@ def _fixed(equations: Equations, velocities: Mapping | None, momenta: Mapping | 
             "steady motions are its equilibria (lagrangian equilibria)")
     out_v: dict[int, float] = {}
     out_p: dict[int, float] = {}
+    symbols = {**{u.name: "an input" for u in equations.inputs}, **{p.name: "a parameter" for p in equations.parameters}}
 
     def check(kind, given, prefix, suffix, allowed, out):
         choices = f"the {word} coordinates' {'velocities' if kind == 'velocity' else 'momenta'} are " \
@@ -149,6 +150,11 @@ def _fixed(equations: Equations, velocities: Mapping | None, momenta: Mapping | 
                                         f"cannot move at a constant rate in a steady motion; {choices}", key=key))
             elif number is None:
                 problems.append(Problem(f"the value of '{key}' must be a finite number, got {value!r}", key=key))
+            elif key in symbols:
+                problems.append(Problem(f"'{key}' is both the momentum of {base} and {symbols[key]} of the model, "
+                                        f"so the steady motions (their exact forms) could not tell the two apart: "
+                                        f"rename the {symbols[key].split()[-1]} in the model, or give the rate "
+                                        f"{base}_dot instead", key=key))
             else:
                 out[i] = number
 
@@ -190,7 +196,7 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
     t : float
         The time, for equations that contain t.
     exact : bool
-        Try SymPy first (up to 3 unknowns, within a time limit of a few seconds).
+        Try SymPy first (up to 3 unknowns, within a budget of work counted in calls, never a clock).
     starts : int
         Number of starting points of the numerical search (default 24 + 24 per unknown).
     seed : int
