@@ -311,6 +311,19 @@ initial = {{ x = 1.0 }}
 '''
 
 
+def _seeded_cache(folder: Path) -> Path:
+    """A new cache folder holding the compiled integrators of this machine's cache (copied with their
+    times, so that numba reuses them: compiling them again would take 20 s a process)."""
+    from lagrangian.numeric._codegen import cache_dir
+    from lagrangian.numeric._fast import kernels
+
+    kernels()
+    (folder / "__pycache__").mkdir(parents=True)
+    for path in [*cache_dir().glob("lagrangian_kernels_*"), *(cache_dir() / "__pycache__").glob("lagrangian_kernels_*")]:
+        shutil.copy2(path, folder / path.relative_to(cache_dir()))
+    return folder
+
+
 def _cli(args, cwd, cache):
     env = {**os.environ, "LAGRANGIAN_CACHE_DIR": str(cache)}
     return subprocess.run([sys.executable, "-m", "lagrangian", *args], cwd=cwd, env=env, capture_output=True,
@@ -321,7 +334,7 @@ def test_the_issue_s_model_file_runs_no_code_and_cannot_poison_the_cache(tmp_pat
     """`lagrangian simulate evil.toml` creates no PWNED; the innocent model with the same equations
     has its own cache entry (the key is the hash of the exact source); an entry changed on disk
     (here: made to create a marker) is rewritten before it is imported, never run."""
-    cache = tmp_path / "cache"
+    cache = _seeded_cache(tmp_path / "cache")
     marker = tmp_path / f"{MARKER}-evil"
     (tmp_path / "evil.toml").write_text(EVIL.format(marker=marker))
     run = _cli(["simulate", "evil.toml", "--t-end", "0.1", "-o", "out.csv"], tmp_path, cache)

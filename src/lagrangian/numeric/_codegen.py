@@ -24,7 +24,8 @@ from .._codetext import comment_text, local_name
 from ..equations import Equations
 from ._kernels import SINGULAR_RATIO as SINGULAR
 
-__all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "numba_source", "c_source",
+__all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "model_module", "numba_source",
+           "c_source",
            "load_module", "Unsupported",
            "GENERATOR_VERSION"]
 
@@ -74,11 +75,13 @@ def source_key(source: str, *salt: str) -> str:
     return h.hexdigest()[:32]
 
 
-def fingerprint(equations: Equations) -> str:
-    """A hash of the equations' content (the FMU's GUID is made from it)."""
+def fingerprint(equations: Equations, *salt: str) -> str:
+    """A hash of what the generators read of `equations` (the expressions, the names, the model's
+    name) and of `salt` (the FMU's GUID is made from it; :func:`model_module` finds a cached
+    module by it)."""
     core = equations.core
     h = hashlib.sha256()
-    h.update(f"{GENERATOR_VERSION}|{_names(equations)}".encode())
+    h.update(repr((GENERATOR_VERSION, _names(equations), equations.model.name, salt)).encode())
     for e in (*core.M, *core.f, core.L, core.D, *core.Q, *core.p, *core.g, *core.w, *core.c):
         h.update(str(e).encode())
         h.update(b"|")
@@ -731,25 +734,51 @@ def store(path: Path, text: str) -> None:
         raise
 
 
+def _numba_key(source: str) -> str:
+    import numba
+
+    return source_key(source, "numba", numba.__version__, sys.version)
+
+
 def cached_module(source: str, prefix: str = "lagrangian"):
     """(path, key, module): the Python module of `source`, stored in the cache under the hash of
     its exact text (see :func:`source_key`) after it passed a check (it compiles), and imported.
     A module that fails to import is removed from the cache, so that the next call builds it
     again."""
-    import numba
-
     compile(source, "<generated>", "exec")  # a syntax check; nothing runs
-    key = source_key(source, "numba", numba.__version__, sys.version)
+    key = _numba_key(source)
     path = cache_dir() / f"{prefix}_{key}.py"
     store(path, source)
+    return path, key, _import_or_remove(path, f"{prefix}_generated_{key}")
+
+
+def _import_or_remove(path: Path, name: str):
     try:
-        module = load_module(path, f"{prefix}_generated_{key}")
+        return load_module(path, name)
     except BaseException:
-        try:
-            path.unlink()
-        except OSError:
-            pass
+        path.unlink(missing_ok=True)
         raise
+
+
+def model_module(equations: Equations, part: str):
+    """(path, key, module) of the numba module `part` of `equations` (:func:`numba_source`).
+
+    The module is stored under the hash of its exact source (:func:`cached_module`). So that a
+    second process need not generate the source to find it (seconds for a large model), an
+    index entry named by :func:`fingerprint` (everything the generator reads, the model's name
+    included) gives that hash; the module is used only when its file still hashes to it (an
+    entry changed on disk is generated and written again, never imported)."""
+    folder = cache_dir()
+    index = folder / f"lagrangian_index_{fingerprint(equations, 'numba-' + part)}.txt"
+    try:
+        key = index.read_text().strip()
+        path = folder / f"lagrangian_{key}.py"
+        if re.fullmatch(r"[0-9a-f]{32}", key) and _numba_key(path.read_text(encoding="utf-8")) == key:
+            return path, key, _import_or_remove(path, f"lagrangian_generated_{key}")
+    except (OSError, UnicodeDecodeError):
+        pass
+    path, key, module = cached_module(numba_source(equations, part))
+    store(index, key)
     return path, key, module
 
 

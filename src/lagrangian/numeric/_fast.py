@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..equations import Equations
-from ._codegen import cache_dir, cached_module, load_module, numba_source, store
+from ._codegen import cache_dir, load_module, model_module, store
 from ._inputs import constant_programs
 
 __all__ = ["CompiledModel", "compile_numba", "BACKENDS"]
@@ -228,8 +228,8 @@ _KERNELS = None
 
 
 def _module(equations: Equations, part: str):
-    """(path, key, module) of the numba module `part` of `equations` (see _codegen.cached_module)."""
-    return cached_module(numba_source(equations, part))
+    """(path, key, module) of the numba module `part` of `equations` (see _codegen.model_module)."""
+    return model_module(equations, part)
 
 
 def compile_numba(equations: Equations) -> "CompiledModel":
