@@ -17,7 +17,7 @@ import uuid
 import zipfile
 from pathlib import Path
 from typing import Mapping
-from xml.sax.saxutils import quoteattr
+from .._codetext import c_strings, comment_text, xml_attribute
 
 from ..equations import Equations
 from ..io._files import check_replaceable, replacing
@@ -105,8 +105,8 @@ def _model_description(eq: Equations, ident: str, guid: str, variables: list[dic
     n2 = 2 * eq.n
     files = "".join(f'\n      <File name="{f}"/>' for f in sources)
     lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(eq.model.name)} guid="{guid}"',
-             f'  description={quoteattr((eq.model.description or f"{eq.model.name}: Lagrangian model").strip())}',
+             f'<fmiModelDescription fmiVersion="2.0" modelName={xml_attribute(eq.model.name)} guid="{guid}"',
+             f'  description={xml_attribute((eq.model.description or f"{eq.model.name}: Lagrangian model").strip())}',
              f'  generationTool="lagrangian {__version__}" generationDateAndTime="{now}"',
              '  variableNamingConvention="structured" numberOfEventIndicators="0">',
              f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true" canSerializeFMUstate="true"',
@@ -128,7 +128,7 @@ def _model_description(eq: Equations, ident: str, guid: str, variables: list[dic
         lines.append(f'  <DefaultExperiment startTime="0" stopTime="{float(sim["t_end"])!r}"{extra}/>')
     lines.append('  <ModelVariables>')
     for vr, v in enumerate(variables):
-        attrs = (f'name={quoteattr(v["name"])} valueReference="{vr}" description={quoteattr(v["description"])} '
+        attrs = (f'name={xml_attribute(v["name"])} valueReference="{vr}" description={xml_attribute(v["description"])} '
                  f'causality="{v["causality"]}" variability="{v["variability"]}"')
         if "initial" in v:
             attrs += f' initial="{v["initial"]}"'
@@ -216,7 +216,7 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     ExportResult
         ``files`` (the .fmu), ``binary`` (the platform built, or None) and ``warnings``.
     """
-    from ..numeric._codegen import model_key
+    from ..numeric._codegen import fingerprint
 
     eq = equations_of(system)
     path = output_file(path, ".fmu", "--fmu", "an FMU's file name")
@@ -225,15 +225,15 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     pvalues = parameter_values(eq, params)
     x0 = start_state(eq, initial, params)
     variables = _variables(eq, pvalues, x0)
-    key = f"lagrangian:{model_key(eq, 'fmu')}:{pvalues}:{x0}"
-    if eq.is_constrained:  # model_key does not see the constraints
+    key = f"lagrangian:{fingerprint(eq)}:{pvalues}:{x0}"
+    if eq.is_constrained:  # the fingerprint does not see the constraints
         key += ":" + "|".join(f"{c.kind}:{c.name}:{c.expression}" for c in eq.model.constraints)
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, key)) + "}"
     files = c_files(eq, params, initial)
     template = (_HERE / "fmu_template.c").read_text()
-    names = ", ".join(f'"{v["name"]}"' for v in variables)
+    names = c_strings(v["name"] for v in variables)
     starts = ", ".join(repr(float(v.get("start", 0.0))) for v in variables)
-    fmu_c = (template.replace("@ID@", ident).replace("@NAME@", eq.model.name).replace("@NX@", str(2 * eq.n))
+    fmu_c = (template.replace("@ID@", ident).replace("@NAME@", comment_text(eq.model.name)).replace("@NX@", str(2 * eq.n))
              .replace("@NU@", str(len(eq.inputs))).replace("@NC@", str(len(eq.multipliers)))
              .replace("@UP@", ident.upper()).replace("@NP@", str(len(eq.parameters))).replace("@GUID@", guid)
              .replace("@START@", starts).replace("@NAMES@", names).replace("@DOP853@", _dop853_tables()))
