@@ -460,7 +460,7 @@ def test_cli_analysis_errors(capsys):
     assert code == 2 and "--plot x.gif: expected a file ending in .png, .pdf or .svg" in err
     code, _, err = run(capsys, "sweep", "rotating-pendulum", "--param", "Omega", "--from", "0", "--to", "1",
                        "--steps", "0")
-    assert code == 2 and "--steps 0: expected a whole number >= 1" in err
+    assert code == 2 and "--steps must be at least 1, got 0; for example --steps 200" in err
     code, _, err = run(capsys, "linearize", "cart-pendulum", "--at", "q9=1")
     assert code == 2 and "'q9' is not a coordinate or velocity" in err
     code, _, err = run(capsys, "linearize", "cart-pendulum-massless", "--at", "q2=pi/2")

@@ -648,7 +648,7 @@ def test_simulate_bad_input_exits_2(capsys, extra, needles):
 
 def test_simulate_bad_t_end(capsys, oscillator):
     rc, out, err = run_cli(capsys, "simulate", "cart-pendulum", "--t-end", "-1")
-    assert_bad_input(rc, out, err, "t_end")
+    assert_bad_input(rc, out, err, "--t-end must be a positive number, got -1; for example --t-end 10")
     rc, out, err = run_cli(capsys, "simulate", oscillator)  # no --t-end and no [simulation] t_end
     assert_bad_input(rc, out, err, "t_end")
 

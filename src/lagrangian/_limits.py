@@ -77,24 +77,26 @@ LIMITS = {limit.name: limit for limit in (MAX_ROWS, MAX_STEPS, MAX_TERMS, MAX_EX
 
 
 def number_problem(value, name: str, *, positive: bool = False, minimum: float | None = None,
-                   maximum: float | None = None, integer: bool = False, example: str | None = None) -> str | None:
+                   maximum: float | None = None, integer: bool = False, example: str | None = None,
+                   shown: str | None = None) -> str | None:
     """Why `value` cannot be the numeric option `name`, or None when it can.
 
     Every number must be finite (not NaN or infinite); `positive` asks for > 0, `minimum` and
     `maximum` bound it (inclusive), `integer` asks for a whole number. `example` is a value shown
-    in the message (``"--dt 0.01"``)."""
+    in the message (``"--dt 0.01"``), `shown` the value as the user wrote it (default its repr)."""
     hint = f"; for example {example}" if example else ""
+    got = shown if shown is not None else repr(value)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         kind = "a whole number" if integer else "a number"
-        return f"{name} must be {kind}, got {value!r}{hint}"
+        return f"{name} must be {kind}, got {got}{hint}"
     if not math.isfinite(value):
-        return f"{name} must be a finite number, got {value!r}{hint}"
+        return f"{name} must be a finite number, got {got}{hint}"
     if integer and value != int(value):
-        return f"{name} must be a whole number, got {value!r}{hint}"
+        return f"{name} must be a whole number, got {got}{hint}"
     if positive and not value > 0:
-        return f"{name} must be a positive number, got {value!r}{hint}"
+        return f"{name} must be a positive number, got {got}{hint}"
     if minimum is not None and value < minimum:
-        return f"{name} must be at least {minimum:g}, got {value!r}{hint}"
+        return f"{name} must be at least {minimum:g}, got {got}{hint}"
     if maximum is not None and value > maximum:
-        return f"{name} must be at most {maximum:g}, got {value!r}{hint}"
+        return f"{name} must be at most {maximum:g}, got {got}{hint}"
     return None

@@ -12,6 +12,7 @@ import os
 import sys
 from typing import Sequence
 
+from ._common import check_numbers
 from ..errors import (ExpressionError, LagrangianError, ModelError, OutputFileError, SimulationError,
                       SingularMassMatrixError)
 
@@ -56,6 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     try:
+        check_numbers(args)
         return args.handler(args)
     except (SingularMassMatrixError, SimulationError) as exc:
         print(f"lagrangian {args.command}: error: {exc}", file=sys.stderr)

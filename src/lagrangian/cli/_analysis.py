@@ -7,7 +7,7 @@ import json
 import os
 
 from ..errors import ModelError
-from ._common import MODEL_HELP, assignments, check_writable, number
+from ._common import MODEL_HELP, assignments, check_writable, number, option_number
 
 
 def register(sub, fmt) -> None:
@@ -86,9 +86,9 @@ def register(sub, fmt) -> None:
     s.add_argument("model", help=MODEL_HELP)
     s.add_argument("--param", action="append", default=[], metavar="NAME[=VALUE]",
                    help="the parameter to sweep (a name), and other parameter values (NAME=VALUE, repeatable)")
-    s.add_argument("--from", dest="start", type=float, required=True, metavar="A", help="first value")
-    s.add_argument("--to", dest="stop", type=float, required=True, metavar="B", help="last value")
-    s.add_argument("--steps", type=int, default=200, help="number of intervals between A and B (default 200)")
+    s.add_argument("--from", dest="start", type=option_number("--from", example="--from 0"), required=True, metavar="A", help="first value")
+    s.add_argument("--to", dest="stop", type=option_number("--to", example="--to 8"), required=True, metavar="B", help="last value")
+    s.add_argument("--steps", type=option_number("--steps", integer=True, minimum=1, maximum=100_000, example="--steps 200"), default=200, help="number of intervals between A and B (default 200)")
     s.add_argument("--input", action="append", default=[], metavar="NAME=VALUE",
                    help="a constant input value (repeatable, or comma-separated); inputs not given are 0")
     s.add_argument("--plot", metavar="FILE", help="draw the bifurcation diagram into FILE (.png, .pdf, .svg)")
@@ -110,7 +110,7 @@ def _at(p: argparse.ArgumentParser) -> None:
     p.add_argument("--at", action="append", default=[], metavar="NAME=VALUE,...",
                    help="the operating point: coordinates and velocities, e.g. q1=0,q2=pi/2 (others are 0); "
                         "default: the stable equilibrium nearest q = 0")
-    p.add_argument("--t", type=float, default=0.0, help="the time, for models that contain t (default 0)")
+    p.add_argument("--t", type=option_number("--t", example="--t 0"), default=0.0, help="the time, for models that contain t (default 0)")
 
 
 def _numbers(items, what: str) -> dict[str, float]:
@@ -202,8 +202,6 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if len(swept) != 1:
         raise ModelError("--param: name exactly one parameter to sweep (without a value), e.g. --param Omega; "
                          f"got {', '.join(swept) or 'none'}")
-    if args.steps < 1:
-        raise ModelError(f"--steps {args.steps}: expected a whole number >= 1, e.g. --steps 200")
     if args.plot:
         ext = os.path.splitext(args.plot)[1].lower()
         if ext not in (".png", ".pdf", ".svg"):

@@ -4,6 +4,7 @@ simulation options that `simulate` and `animate` share."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Sequence
 
@@ -50,14 +51,18 @@ def number(text: str, where: str) -> float:
     from ..io._expr import parse_expression
 
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         pass
+    else:
+        if not math.isfinite(value):
+            raise ModelError(f"{where}: '{text}' is not a finite number; write e.g. 0.5 or pi/2")
+        return value
     try:
         value = parse_expression(text, {})
     except ExpressionError as exc:
         raise ModelError(f"{where}: '{text}' is not a number ({exc.reason}); write e.g. 0.5 or pi/2") from None
-    return float(value)
+    return float(value)  # finite and real: the parser refuses every other constant
 
 
 def check_writable(path: str, example: str = "out.csv", option: str = "--output") -> None:
@@ -66,9 +71,43 @@ def check_writable(path: str, example: str = "out.csv", option: str = "--output"
     check_output(path, option, example)
 
 
+class InvalidNumber(str):
+    """The message about a numeric option's value that failed its check: parsed as the option's value
+    and raised by check_numbers (in main, as one ModelError with every such problem: exit 2)."""
+
+
+def option_number(flag: str, *, integer: bool = False, example: str | None = None, **bounds):
+    """The argparse `type` of a numeric option: the number, checked by lagrangian._limits.number_problem
+    (finite; `bounds`: positive, minimum, maximum), or an InvalidNumber saying what is wrong."""
+    from .._limits import number_problem
+
+    example = example or f"{flag} {'200' if integer else '0.5'}"
+
+    def parse(text: str):
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            return InvalidNumber(f"{flag} must be {'a whole number' if integer else 'a number'}, got {text!r}; "
+                                 f"for example {example}")
+        problem = number_problem(value, flag, integer=integer, example=example, shown=text, **bounds)
+        return InvalidNumber(problem) if problem else value
+
+    parse.__name__ = "whole number" if integer else "number"
+    return parse
+
+
+def check_numbers(args: argparse.Namespace) -> None:
+    """Raise one ModelError with every numeric option that failed its check (see option_number)."""
+    from ..errors import Problem
+
+    bad = [Problem(str(v)) for v in vars(args).values() if isinstance(v, InvalidNumber)]
+    if bad:
+        raise ModelError(bad)
+
+
 def add_simulation_options(s: argparse.ArgumentParser) -> None:
     """The options of a simulation, shared by every command that simulates (simulate, animate)."""
-    s.add_argument("--t-end", type=float, metavar="T", help="final time (s)")
+    s.add_argument("--t-end", type=option_number("--t-end", positive=True, example="--t-end 10"), metavar="T", help="final time (s)")
     s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE,...",
                    help="initial coordinates and velocities, e.g. q1=0,q2=0.5,q2_dot=0 (values may use pi); others are 0")
     s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
@@ -80,16 +119,16 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
     s.add_argument("--sample-time", metavar="TS or NAME=TS",
                    help="sample the inputs every TS seconds and hold them in between (a digital controller); "
                         "NAME=TS,... samples only the named inputs")
-    s.add_argument("--dt", type=float, help="output interval (default: the model's, or 0.01)")
-    s.add_argument("--rtol", type=float, help="relative tolerance (default 1e-9)")
-    s.add_argument("--atol", type=float, help="absolute tolerance (default 1e-9)")
+    s.add_argument("--dt", type=option_number("--dt", positive=True, example="--dt 0.01"), help="output interval (default: the model's, or 0.01)")
+    s.add_argument("--rtol", type=option_number("--rtol", positive=True, maximum=1, example="--rtol 1e-9"), help="relative tolerance (default 1e-9)")
+    s.add_argument("--atol", type=option_number("--atol", positive=True, example="--atol 1e-9"), help="absolute tolerance (default 1e-9)")
     s.add_argument("--method", default="DOP853",
                    help="integrator: DOP853 (default, compiled), variational (compiled, fixed step, for long "
                         "conservative runs), or SciPy's RK45, RK23, Radau, BDF, LSODA")
     s.add_argument("--backend", default="auto", choices=("auto", "numba", "c", "scipy"),
                    help="where the integrator runs: auto (default: numba when it can), numba, c (needs a C "
                         "compiler), scipy (SciPy's solve_ivp)")
-    s.add_argument("--step", type=float, help="fixed step of --method variational (default: at most 1e-3, dividing dt)")
+    s.add_argument("--step", type=option_number("--step", positive=True, example="--step 0.001"), help="fixed step of --method variational (default: at most 1e-3, dividing dt)")
     s.add_argument("--event", action="append", default=[], metavar="NAME=EXPR",
                    help="record where an expression of t, coordinates, velocities, inputs and parameters crosses "
                         "zero, e.g. \"upright=cos(q2)\" (repeatable; compiled DOP853 only)")

@@ -9,7 +9,7 @@ import os
 
 from ..errors import ModelError
 from ._analysis import _at, _load, _numbers, _operating_point, _values
-from ._common import MODEL_HELP, assignments, number, split_top_level
+from ._common import MODEL_HELP, assignments, number, option_number, split_top_level
 
 
 def register(sub, fmt) -> None:
@@ -73,7 +73,7 @@ def register(sub, fmt) -> None:
 
 
 def _design_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--sample-time", type=float, metavar="TS",
+    p.add_argument("--sample-time", type=option_number("--sample-time", positive=True, example="--sample-time 0.02"), metavar="TS",
                    help="design for a controller sampled every TS seconds (zero-order hold): the discrete design "
                         "on the exact discretization; simulate it with --sample-time TS")
     p.add_argument("--wrap", action="append", default=[], metavar="NAME",
