@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import symengine as se
 
+from .._limits import MAX_COORDINATES, MAX_TERMS
+from ..errors import ModelError, Problem
 from ..model import Model
 from ..model._constraints import HOLONOMIC
 from ..model._elements import Particle, RigidBody, RigidBody3D
@@ -44,6 +46,9 @@ def derive(model: Model) -> Equations:
         raise TypeError(f"derive() expects a Model (lagrangian.load(...) or lagrangian.Model(...)), "
                         f"got {type(model).__name__}")
     model.validate()
+    if len(model.q) > MAX_COORDINATES.value:
+        raise ModelError([Problem(f"model '{model.name}' has {len(model.q)} coordinates, more than derive() takes: "
+                                 f"{MAX_COORDINATES.how_to_raise()}", key="coordinates")])
     snapshot = model.copy()._freeze()
     massive = [e for e in snapshot.elements if isinstance(e, (Particle, RigidBody, RigidBody3D))]
     kin = Kinematics(snapshot.q, massive)
@@ -59,6 +64,7 @@ def derive(model: Model) -> Equations:
         if c.Q:
             Q = [a + b for a, b in zip(Q, c.Q)]
 
+    _check_sizes(snapshot, T, V, D, Q, kin)
     L = T - V
     q, qd, t = kin.q, kin.qd, kin.t
     p = [L.diff(v) for v in qd]
@@ -78,6 +84,26 @@ def derive(model: Model) -> Equations:
     core = SymbolicCore(q=tuple(q), qd=tuple(qd), t=t, T=T, V=V, D=D, Q=tuple(Q), L=L,
                         p=tuple(p), M=M, f=tuple(f), g=g, G=G, w=w, c=c)
     return Equations(model=snapshot, core=core)
+
+
+def _check_sizes(model: Model, T, V, D, Q, kin: Kinematics) -> None:
+    """Refuse, before any work on them, expressions whose expansion could have more terms than
+    MAX_TERMS (counted on the tree, not by expanding: ``(x + y + z + w)**200`` has 1,373,701), since
+    the equations' parts and readable forms expand them: every such expression is reported at once."""
+    from ._readable import expanded_terms_bound
+
+    limit = MAX_TERMS.value
+    parts = [("energy.T", "T*", T), ("energy.V", "V", V), ("energy.D", "D", D)]
+    parts += [(f"forces.{c}", f"Q[{c}]", Qi) for c, Qi in zip(model.q, Q)]
+    parts += [(f"constraints[{k}]", f"constraint {k + 1}", kin.se(con.expression))
+              for k, con in enumerate(model.constraints)]
+    memo: dict = {}
+    problems = [Problem(f"{name} could expand to more than {limit:,} terms (counted on its expression, e.g. a power "
+                        "of a long sum): write it in a shorter form (fewer terms in a raised sum, a parameter for a "
+                        f"repeated factor); {MAX_TERMS.how_to_raise()}", key=key)
+                for key, name, e in parts if expanded_terms_bound(e, limit, memo) > limit]
+    if problems:
+        raise ModelError(problems)
 
 
 def _constraint_parts(model: Model, kin: Kinematics):
