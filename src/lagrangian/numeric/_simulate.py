@@ -197,7 +197,13 @@ def _input_function(nm, inputs, pvalues, problems: list[Problem]):
     def u(t: float, x) -> np.ndarray:
         out = constant.copy()
         for i, f in funcs:
-            value = f(t, x)
+            try:
+                value = f(t, x)
+            except (ValueError, ArithmeticError) as exc:  # an expression out of its domain here: acos(2 + q1)
+                raise SimulationError(f"input '{nm.input_names[i]}' has no value at t = {t:g} ({exc}): its "
+                                      "expression leaves the domain of a function there (acos, asin, log, sqrt of "
+                                      "a negative number, a division by zero); keep the arguments in range, e.g. "
+                                      "with clip(x, lo, hi)", time=float(t)) from None
             try:
                 out[i] = float(value)
             except (TypeError, ValueError):
