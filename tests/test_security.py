@@ -383,3 +383,38 @@ def test_a_truncated_entry_is_rebuilt(tmp_path, monkeypatch):
     with pytest.raises(SyntaxError):  # what does not compile is never stored
         cached_module("X = (", prefix="lagrangian_test")
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
+
+
+# ------------------------------------------------------------------------------- the report
+
+TEX = "\\input{/etc/hostname} \\immediate\\write18{touch LG_PWNED} $x$ # & % ~ ^ \x00 \x0c"
+HTML = "<script>alert(1)</script> <img src=x onerror=alert(1)> [link](javascript:alert(1)) **bold**\n# heading"
+
+
+def test_reports_show_hostile_names_as_text(tmp_path):
+    """The report's title and description are text in every format: HTML escaped, Markdown without a
+    tag, a link or a second heading, LaTeX that pdflatex compiles (when installed) without reading a
+    file or running a command."""
+    from lagrangian.reporting import report
+    from lagrangian.reporting._writers import to_html, to_latex, to_markdown
+
+    rep = report(oscillator(TEX + HTML, description=HTML + TEX))
+    html_text = to_html(rep)
+    assert "<script>" not in html_text and "<img" not in html_text and "&lt;script&gt;" in html_text
+    md = to_markdown(rep)
+    head = md.split("\n\n")[:2]
+    assert head[0].startswith("# ") and "\n" not in head[0] and "\x00" not in md
+    for raw in ("<script>", "<img", " [link](javascript", "**bold**", "\n# heading"):
+        assert raw not in md
+    assert "&lt;script&gt;" in md and "\\[link\\]" in md
+    tex = to_latex(rep)
+    assert "\\input{" not in tex and "\\write18{" not in tex and "\x00" not in tex
+    latex = shutil.which("pdflatex")
+    if latex is None:
+        pytest.skip("pdflatex is not installed (apt-get install texlive-latex-base): the .tex was checked as text")
+    (tmp_path / "r.tex").write_text(tex)
+    run = subprocess.run([latex, "-no-shell-escape", "-interaction=nonstopmode", "-halt-on-error", "r.tex"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:]
+    assert (tmp_path / "r.pdf").exists() and "(/etc/hostname" not in run.stdout  # TeX logs a file it reads
+    no_marker(tmp_path)

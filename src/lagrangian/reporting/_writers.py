@@ -122,8 +122,16 @@ def to_html(report: Report) -> str:
 
 
 # ----------------------------------------------------------------- Markdown
+_MD_SPECIAL = set("\\`*_[]#")
+_MD_HTML = {"<": "&lt;", ">": "&gt;", "&": "&amp;"}
+
+
 def _md_text(text: str) -> str:
-    return text.replace("*", "\\*").replace("_", "\\_")
+    """Text as Markdown that shows it as it is: Markdown's punctuation escaped, HTML's special
+    characters as entities (a description cannot become a tag or a link), no line break or control
+    character (a heading stays one line)."""
+    text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in text)
+    return "".join(_MD_HTML.get(c) or ("\\" + c if c in _MD_SPECIAL else c) for c in text)
 
 
 def _latex_inline(part, text, large: str) -> str:
@@ -165,7 +173,7 @@ def _latex_relation(block: Math) -> str:
 
 def to_markdown(report: Report) -> str:
     """The report as Markdown; mathematics as LaTeX between ``$$`` (display) and ``$`` (inline)."""
-    out = [f"# {report.title}", ""]
+    out = [f"# {_md_text(report.title)}", ""]
     if report.description:
         out += [_md_text(report.description), ""]
     for s in report.sections:
@@ -182,6 +190,9 @@ _TEX_ESCAPES = {"\\": "\\textbackslash{}", "&": "\\&", "%": "\\%", "$": "\\$", "
 
 
 def _tex_text(text: str) -> str:
+    """Text as LaTeX that typesets it: TeX's special characters as commands, control characters
+    (a NUL, a form feed; newlines too) as spaces, other non-ASCII characters as ?."""
+    text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in text)
     out = "".join(_TEX_ESCAPES.get(c, c) for c in text)
     return out.encode("ascii", "replace").decode("ascii") if not out.isascii() else out
 
