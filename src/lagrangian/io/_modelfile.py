@@ -741,7 +741,7 @@ class _Reader:
                               f"got {_describe(value)}")
             return None
         if not isinstance(value, str):
-            if not math.isfinite(value) or (isinstance(value, int) and abs(value) > _LARGEST_FLOAT):
+            if (abs(value) > _LARGEST_FLOAT) if isinstance(value, int) else not math.isfinite(value):
                 self.problem(key, f"expected a finite number, got {_shown_number(value)}; the largest a "
                                   "simulation can compute is about 1.8e308")
                 return None
