@@ -120,3 +120,85 @@ def test_a_bad_request_with_a_bad_model_reports_both():
 def test_a_good_request_still_simulates():
     status, errors = _post_simulate({"model": OSCILLATOR, "t_end": 0.5, "initial": {"x": 1}, "inputs": {"F": "0"}})
     assert status == 200 and errors == []
+
+
+# ------------------------------------------------------------------ a mass matrix that becomes singular
+COLLAPSE = ('name = "collapse"\ncoordinates = ["x"]\n[energy]\nT = "x**2*x_dot**2/2"\nV = "0"\n'
+            '[simulation]\nt_end = 3.0\ninitial = { x = 1.0, x_dot = -1.0 }\n')
+
+
+@pytest.mark.parametrize("backend", ["auto", "scipy"])
+def test_a_mass_matrix_that_loses_its_inertia_during_a_run_is_said_so_with_the_diagnosis(backend):
+    # x x_dot = -1 along the motion, so x**2 = 1 - 2 t reaches 0 (where M = x**2 vanishes) at t = 0.5; the
+    # scale-free inertia measure of a 1x1 M stays 1, and the integrator's step size collapses there: before,
+    # a step-size failure with the advice to use Radau, which fails there too
+    from lagrangian.io import loads_model
+
+    eqs = lg.derive(loads_model(COLLAPSE))
+    with pytest.raises(lg.SingularMassMatrixError) as info:
+        lg.simulate(eqs, backend=backend)
+    err = info.value
+    assert err.time == pytest.approx(0.5, abs=1e-6)
+    assert abs(err.state["x"]) < 1e-4
+    text = str(err)
+    assert text.startswith("the mass matrix became singular at t = 0.5 (its least inertia is ")
+    assert "of that at the start) in the state x = " in text
+    assert "Radau" not in text
+    assert err.diagnosis.startswith("det M = x**2\ndet M vanishes where x = 0.")
+    assert "Fix: give the body that x moves a mass" in err.diagnosis
+
+
+@pytest.mark.parametrize("backend", ["auto", "scipy"])
+def test_a_step_size_failure_away_from_a_singular_mass_matrix_keeps_its_message(backend):
+    # x'' = x**3 runs away to infinity at t = 1.854 with M = 1 all along: not a singular mass matrix
+    eqs = lg.derive(lg.Model(coordinates=["x"], T="x_dot**2/2", V="-x**4/4"))
+    with pytest.raises(lg.SimulationError) as info:
+        lg.simulate(eqs, t_end=5.0, initial={"x": 1.0}, backend=backend)
+    assert not isinstance(info.value, lg.SingularMassMatrixError)
+    assert str(info.value).startswith("the integrator stopped at t = 1.85")
+    assert "Required step size is less than spacing between numbers" in str(info.value)
+
+
+@pytest.mark.parametrize("backend", ["auto", "scipy"])
+def test_the_diagnosis_of_a_singular_run_uses_the_parameter_values_it_ran_with(backend):
+    # before: "became singular" and then "The mass matrix is regular" (the diagnosis took the model's M2 = 1)
+    eqs = lg.derive(lg.load("cart-pendulum"))
+    with pytest.raises(lg.SingularMassMatrixError) as info:
+        lg.simulate(eqs, t_end=1.0, params={"M2": 0}, backend=backend)
+    text = str(info.value)
+    assert "The mass matrix is regular" not in text
+    assert ("det M vanishes at every configuration for the parameter values: the mass matrix is always singular"
+            in text)
+    assert "only massless parts move: particle 'pendulum' (mass M2 = 0)" in text
+
+
+def test_linearize_at_a_singular_mass_matrix_diagnoses_it_with_the_parameter_values_given():
+    eqs = lg.derive(lg.load("cart-pendulum"))
+    with pytest.raises(lg.SingularMassMatrixError) as info:
+        lg.linearize(eqs, {"q2": 1.0}, params={"M2": 0})
+    assert str(info.value).startswith("the mass matrix is singular at the operating point (q1 = 0, q2 = 1)")
+    assert "the mass matrix is always singular" in info.value.diagnosis
+    assert "is regular" not in info.value.diagnosis
+
+
+def test_singularities_takes_parameter_values():
+    eqs = lg.derive(lg.load("cart-pendulum"))
+    assert not lg.singularities(eqs).singular
+    report = lg.singularities(eqs, parameters={"M1": 0})
+    assert report.singular and not report.everywhere
+    assert [c.condition for c in report.configurations] == ["q2 = -pi/2", "q2 = pi/2"]
+    assert lg.singularities(eqs, parameters={"M2": 0}).everywhere
+    with pytest.raises(lg.ModelError, match=r"'LL' is not a parameter of the model \(did you mean 'L'\?\); "
+                                            r"its parameters are M1, M2, L, g"):
+        lg.singularities(eqs, parameters={"LL": 0})
+
+
+def test_the_cli_gives_one_answer_for_a_massless_pendulum(tmp_path):
+    import subprocess
+    import sys
+
+    p = subprocess.run([sys.executable, "-m", "lagrangian", "simulate", "cart-pendulum", "--param", "M2=0",
+                        "--t-end", "1", "-o", str(tmp_path / "x.csv")], capture_output=True, text=True, timeout=600)
+    assert p.returncode == 1
+    assert "the mass matrix became singular at t = 0" in p.stderr
+    assert "the mass matrix is always singular" in p.stderr and "is regular" not in p.stderr

@@ -446,7 +446,7 @@ def linearize_at(equations: Equations, point: Mapping[str, float], setting: Sett
             or (diag.size and diag.min() <= _ROUND_OFF * diag.max())):
         # the second test: a diagonal entry at round-off against the others (sin(pi)**2 = 1.5e-32
         # at the pole of spherical coordinates), which the scaled measure cannot see
-        raise _singular_error(equations, point)
+        raise _singular_error(equations, point, setting.parameters)
     qdd = np.linalg.solve(M, f)
     parts = d.full(q, qd, setting.t, u, p, qdd) if np.any(qdd) else base
     D = -parts["fqd"]
@@ -511,9 +511,10 @@ def cyclic_coordinates(equations: Equations) -> tuple[str, ...]:
 _CYCLIC: "weakref.WeakKeyDictionary[Equations, tuple]" = weakref.WeakKeyDictionary()
 
 
-def _singular_error(equations: Equations, point: Mapping[str, float]) -> SingularMassMatrixError:
+def _singular_error(equations: Equations, point: Mapping[str, float],
+                    parameters: Mapping[str, float]) -> SingularMassMatrixError:
     where = ", ".join(f"{k} = {v:.6g}" for k, v in point.items() if not k.endswith("_dot"))
-    diagnosis = singularities(equations).text()
+    diagnosis = singularities(equations, parameters=parameters).text()  # with the values it was linearized at
     return SingularMassMatrixError(
         f"the mass matrix is singular at the operating point ({where}), so the equations cannot be "
         f"solved for q_ddot there and have no linearization in state-space form.\n{diagnosis}",

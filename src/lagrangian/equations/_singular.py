@@ -7,13 +7,16 @@ moves no mass, and no solver can find q_ddot there.
 
 from __future__ import annotations
 
+import difflib
 import itertools
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 import symengine as se
 import sympy
 
+from ..errors import ModelError, Problem
 from ..model._elements import Particle, RigidBody, RigidBody3D
 from ._equations import Equations
 from ._readable import trigonometric_polynomial
@@ -194,8 +197,20 @@ def factored(expr) -> sympy.Expr:
     return sympy.factor(trigonometric_polynomial(expr))
 
 
-def _values(eqs: Equations) -> dict:
-    return {p: sympy.nsimplify(v) for p, v in eqs.parameters.items() if v is not None}
+def _values(eqs: Equations, parameters: Mapping | None = None) -> dict:
+    """The parameter values, exact where they are simple numbers: the model's, those of `parameters`
+    (by name) in their place."""
+    given = {getattr(k, "name", k): v for k, v in (parameters or {}).items()}
+    names = [p.name for p in eqs.parameters]
+    unknown = [k for k in given if k not in names]
+    if unknown:
+        raise ModelError([Problem(f"'{k}' is not a parameter of the model"
+                                  + (f" (did you mean '{close[0]}'?)" if (close := difflib.get_close_matches(
+                                      str(k), names, n=1)) else "")
+                                  + f"; its parameters are {', '.join(names) or 'none'}", key=f"parameters.{k}")
+                          for k in unknown])
+    values = {p: given.get(p.name, v) for p, v in eqs.parameters.items()}
+    return {p: sympy.nsimplify(v) for p, v in values.items() if v is not None}
 
 
 def _wrap(value: sympy.Expr) -> sympy.Expr:
@@ -327,19 +342,31 @@ def _blamed_coordinate(eqs: Equations, direction: sympy.Matrix) -> sympy.Symbol:
     return (translations or support)[0]
 
 
-def singularities(equations: Equations) -> SingularityReport:
+def singularities(equations: Equations, parameters: Mapping | None = None) -> SingularityReport:
     """Diagnose the mass matrix of `equations`.
 
     det M is computed symbolically and factored (for up to 4 coordinates; numerically beyond),
     its real zeros are found for the parameter values, and at each the velocity combination with
     no inertia is named, with the likely cause and a fix.
 
+    Parameters
+    ----------
+    equations : Equations
+    parameters : mapping of str to float, optional
+        Parameter values that override the model's (a simulation's diagnosis uses those it ran
+        with, ``--param M2=0`` included).
+
     Returns
     -------
     SingularityReport
+
+    Raises
+    ------
+    ModelError
+        A name in `parameters` that is not a parameter of the model.
     """
     eqs = equations
-    values = _values(eqs)
+    values = _values(eqs, parameters)
     M = sympy.Matrix(eqs.mass_matrix)
     n = eqs.n
     det = det_values = numeric_M = None
@@ -350,7 +377,7 @@ def singularities(equations: Equations) -> SingularityReport:
         everywhere = det_values == 0
     else:  # expanding det M of a large system is hopeless: keep it unevaluated, search numerically
         det = sympy.Determinant(sympy.ImmutableMatrix(M))
-        numeric_M = _numeric_mass_matrix(eqs)
+        numeric_M = _numeric_mass_matrix(eqs, values)
         everywhere = _numerically_zero_everywhere(eqs, numeric_M)
     configurations: list[SingularConfiguration] = []
     if everywhere:
@@ -429,10 +456,10 @@ def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tu
     return cause, fix
 
 
-def _numeric_mass_matrix(eqs: Equations):
-    """M(q) with the parameter values as a fast function of q (SymEngine), for large n."""
+def _numeric_mass_matrix(eqs: Equations, values: dict):
+    """M(q) with the parameter `values` (see _values) as a fast function of q (SymEngine), for large n."""
     core = eqs.core
-    values = {se.Symbol(p.name): float(v) for p, v in eqs.parameters.items() if v is not None}
+    values = {se.Symbol(p.name): float(v) for p, v in values.items()}
     n = eqs.n
     entries = [core.M[i, j].subs(values).subs({core.t: 0}) for i in range(n) for j in range(n)]
     f = se.Lambdify(list(core.q), entries, cse=True, real=True)
