@@ -560,14 +560,15 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
             else:
                 te, xe = _last_state(sol)
             raise _singular_error(nm, te, xe, nm.singular_ratio(te, xe, u_at(te, xe), p), p)
-        if sol.status != 0:
-            te, xe = _last_state(sol)
+        if sol.status != 0:  # (no output yet when the first step failed: the start)
+            te, xe = _last_state(sol) if len(sol.t) else (float(times[0]), x0)
             raise SimulationError(f"the integrator stopped at t = {te:.6g}: {sol.message} "
                                   f"(state {_state_text(nm, xe)}); try a smaller rtol/atol, a stiff method "
                                   "such as method='Radau', or check the model's parameters",
                                   status=sol.status, time=te)
     except (SimulationError, SingularMassMatrixError) as exc:
-        reached = _finite_rows(sol.y.T)  # the output times reached: solve_ivp's t_eval points before the failure
+        # the output times reached: solve_ivp's t_eval points before the failure (none when its first step failed)
+        reached = _finite_rows(sol.y.T) if len(sol.t) else 0
         if reached:
             exc.partial = trajectory(sol.t[:reached], sol.y.T[:reached], failure=str(exc))
         raise
