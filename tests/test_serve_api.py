@@ -601,6 +601,12 @@ def test_a_time_out_ends_the_compiler_and_removes_the_request_s_temporary_files(
         assert list(temp.iterdir()) == []  # the request's folder, the compiler's files in it, removed
         assert s.post_json("/api/derive", OSCILLATOR)[0] == 200
         assert list(temp.iterdir()) == []  # every request's folder goes when it ends
+        temp.rmdir()  # no temporary folder for a request: refused before any work
+        status, data = s.post_json("/api/derive", OSCILLATOR)
+        assert status == 503 and data["errors"][0]["message"] == (
+            f"the server cannot create a temporary folder for the derivation in {temp} (No such file or directory): "
+            "check that this folder exists, is writable and has free space, or start the server with TMPDIR set to "
+            "another folder")
     finally:
         code, out, err = s.stop()
     assert code == 0 and "Traceback" not in err, err

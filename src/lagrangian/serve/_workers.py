@@ -321,9 +321,10 @@ class WorkerPool:
         try:
             folder = tempfile.mkdtemp(prefix="lagrangian-request-")
         except OSError as exc:
-            return errors_reply(503, [f"the server cannot create a temporary folder for the {what} "
-                                      f"({exc.strerror or exc}) in {tempfile.gettempdir()}: free some disk space "
-                                      "there, or set TMPDIR to another folder before starting the server"])
+            return errors_reply(503, [f"the server cannot create a temporary folder for the {what} in "
+                                      f"{tempfile.gettempdir()} ({exc.strerror or exc}): check that this folder exists, "
+                                      "is writable and has free space, or start the server with TMPDIR set to "
+                                      "another folder"])
         lane = "short" if kind in SHORT_TASKS else "long"
         try:
             worker = await self._acquire(lane)
