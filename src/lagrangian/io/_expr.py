@@ -987,7 +987,11 @@ class _Constants:
             values = [(negated, self.value(term)) for negated, term in node.terms]
             if any(v is None for _, v in values):
                 return None
-            return self.finite(math.fsum(-v if negated else v for negated, v in values), None)
+            try:
+                total = math.fsum(-v if negated else v for negated, v in values)
+            except OverflowError:  # an intermediate sum past the doubles: 1e308 + 1e308
+                self.too_large(None, "this sum")
+            return self.finite(total, None, "this sum")
         if isinstance(node, _Product):
             return self.product(node)
         if isinstance(node, _Pow):
