@@ -131,8 +131,9 @@ def test_a_request_from_another_web_page_is_refused_before_any_work(server, orig
 
 
 def test_the_page_s_own_origin_is_served_by_the_name_it_was_opened_with(server):
-    """The page's own requests (Origin = http://HOST:PORT as the browser addressed the server, any
-    loopback name) are answered, JSON bodies for every endpoint: {"model": TEXT} where the text is taken."""
+    """The page's own requests (Origin = http://HOST:PORT as the browser addressed the server: any
+    loopback name, a port forwarded by a tunnel) are answered, JSON bodies for every endpoint:
+    {"model": TEXT} where the text is taken."""
     raw = server.request("POST", "/api/derive", OSCILLATOR)[2]
     for host in ("127.0.0.1", "localhost", "[::1]"):
         own = {"Host": f"{host}:{server.port}", "Origin": f"http://{host}:{server.port}",
@@ -140,6 +141,8 @@ def test_the_page_s_own_origin_is_served_by_the_name_it_was_opened_with(server):
         status, headers, body = server.request("POST", "/api/derive", {"model": OSCILLATOR}, headers=own)
         assert status == 200 and body == raw, body[:300]  # the bytes of the text sent as it is
         _no_cors(headers)
+    tunnel = {"Host": "localhost:9000", "Origin": "http://localhost:9000", "Content-Type": "application/json"}
+    assert server.request("POST", "/api/derive", {"model": OSCILLATOR}, headers=tunnel)[2] == raw  # ssh -L 9000:...
     own = {"Origin": f"http://127.0.0.1:{server.port}", "Content-Type": "application/json"}
     status, data = server.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "dt": 0.5}, headers=own)
     assert status == 200 and data["columns"]["t"] == [0.0, 0.5, 1.0]

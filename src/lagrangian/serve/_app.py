@@ -104,9 +104,10 @@ class _Base(tornado.web.RequestHandler):
 
     def check_origin(self) -> bool:
         """Refuse a request that a web page other than the playground's own made (403): its Origin
-        header, when it has one, must be this server's origin as the browser sees it
-        (http://HOST:PORT, HOST as in the request's Host header, PORT this server's); without one,
-        a Sec-Fetch-Site header must not say another site. Scripts send neither."""
+        header, when it has one, must be this server's origin as the browser addressed it
+        (http://HOST:PORT of the request's Host header, which the browser sets: through a tunnel or
+        a forwarded port, the address the page was opened at); without one, a Sec-Fetch-Site
+        header must not say another site. Scripts send neither."""
         origin = self.request.headers.get("Origin")
         own = self.own_origin()
         if origin is None:
@@ -128,15 +129,18 @@ class _Base(tornado.web.RequestHandler):
         return False
 
     def own_origin(self) -> str:
-        """This server's origin as the request addressed it: http://HOST:PORT."""
-        host = self.request.host_name
-        return f"{self.request.protocol}://{host}:{self._port()}"
+        """This server's origin as the request addressed it: http://HOST:PORT (the Host header's)."""
+        return f"{self.request.protocol}://{self.request.host.lower()}"
 
-    def _same_origin(self, origin: str, own: str) -> bool:
+    @staticmethod
+    def _same_origin(origin: str, own: str) -> bool:
+        def parts(url):
+            u = urlsplit(url.strip())
+            return u.scheme.lower(), u.hostname, u.port or {"http": 80, "https": 443}.get(u.scheme.lower()), \
+                u.path, u.query, u.username, u.password
+
         try:
-            theirs, ours = urlsplit(origin.strip()), urlsplit(own)
-            return ((theirs.scheme.lower(), theirs.hostname, theirs.port or 80, theirs.path, theirs.query)
-                    == (ours.scheme, ours.hostname, ours.port, "", ""))
+            return parts(origin) == parts(own)
         except ValueError:  # not a URL, or a port out of range
             return False
 
