@@ -102,8 +102,15 @@ def test_library_writers_follow_the_umask(tmp_path, cart, umask):
     write_atomically(tmp_path / "w.bin", b"\x00\x01")
     with replacing(tmp_path / "r.txt") as tmp:
         Path(tmp).write_text("x")
-    for name in ("t.csv", "r.md", "w.bin", "r.txt"):
+    pytest.importorskip("matplotlib")
+    from lagrangian import plot
+
+    anim = plot.animate(traj, fps=5, dpi=30)
+    anim.save(tmp_path / "a.gif")
+    anim.save_frame(tmp_path / "f.png")
+    for name in ("t.csv", "r.md", "w.bin", "r.txt", "a.gif", "f.png"):
         assert mode(tmp_path / name) == 0o640, name
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
     umask_077 = os.umask(0o077)
     try:
         traj.to_csv(tmp_path / "private.csv")
@@ -351,3 +358,37 @@ def test_a_failed_run_to_stdout_streams_its_partial_rows(failing, capsys):
     assert re.match(STOPPED, out.removeprefix("# partial: ")) and len(out.splitlines()) == 103
     assert err.endswith("\nThe 101 rows computed up to t = 1 were written to stdout, marked as partial in the CSV's "
                         "first line ('# partial: ...').\n")
+
+
+@pytest.mark.parametrize("backend", ["auto", "scipy"])
+def test_a_failed_constrained_simulation_keeps_its_rows_and_multipliers(backend):
+    """A bob on a rod driven by x = sin(t): the rod and the drive become dependent at t = pi/2 (y = 0)."""
+    m = lg.Model("driven-rod", coordinates=["x", "y"], parameters={"g": 9.81})
+    m.add_particle(1, ("x", "y"), name="bob")
+    m.add_gravity("g")
+    m.add_constraint("x**2 + y**2 - 1", name="rod")
+    m.add_constraint("x - sin(t)", name="drive")
+    with pytest.raises((lg.SimulationError, lg.SingularMassMatrixError)) as caught:
+        lg.simulate(lg.derive(m), t_end=3.0, initial={"x": 0.0, "y": -1.0}, backend=backend)
+    partial = caught.value.partial
+    assert partial is not None and partial.failure == str(caught.value)
+    assert len(partial.t) == 158 and partial.t[-1] == pytest.approx(1.57) and caught.value.time == pytest.approx(
+        np.pi / 2, abs=1e-6)
+    assert np.allclose(partial["x"], np.sin(partial.t), atol=1e-7)
+    assert partial.multiplier_names == ("lambda_rod", "lambda_drive") and np.all(np.isfinite(partial.multipliers))
+    assert partial.to_csv().startswith("# partial: ")
+
+
+def test_a_failed_eliminated_simulation_keeps_its_rows(tmp_path):
+    """x independent, y by Newton on the rod: y cannot be solved for where the rod is level (y = 0)."""
+    path = tmp_path / "rod.toml"
+    path.write_text('name = "rod"\ncoordinates = ["x", "y"]\n[parameters]\ng = 9.81\n[[particles]]\nmass = 1.0\n'
+                    'position = ["x", "y"]\n[[constraints]]\nname = "rod"\nholonomic = "x**2 + y**2 - 1"\n'
+                    '[gravity]\ng = "g"\n[simulation]\nindependent = ["x"]\nt_end = 3\n'
+                    'initial = { x = 0.0, y = -1.0, x_dot = 6.0 }\n')
+    with pytest.raises(lg.SimulationError, match=r"the constraints' Jacobian G loses rank at t = 0\.29") as caught:
+        lg.simulate(lg.load(path), constraints="eliminate")
+    partial = caught.value.partial
+    assert len(partial.t) == 30 and partial.t[-1] == pytest.approx(0.29)
+    assert np.allclose(partial["x"] ** 2 + partial["y"] ** 2, 1.0, atol=1e-12)  # on the rod up to there
+    assert partial.failure == str(caught.value) and partial.to_csv().startswith("# partial: the constraints'")

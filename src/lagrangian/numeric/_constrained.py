@@ -254,20 +254,24 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
     else:
         solver = _solver(method)(rhs, 0.0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j, nstep = 1, 0
-        while j < len(times):
-            _step(solver)
-            nstep += 1
-            dense = solver.dense_output()
-            projected = cm.project(solver.t, solver.y, p)
-            while j < len(times) and times[j] <= solver.t:
-                X[j] = projected if times[j] == solver.t else cm.project(times[j], dense(times[j]), p)
-                j += 1
-            solver.y = projected
-            if hasattr(solver, "f") and method != "DOP853":  # DOP853 keeps its last stage, as compiled
-                solver.f = rhs(solver.t, projected)
-            if solver.status == "finished" and j < len(times):
-                X[j:] = projected
-                break
+        try:
+            while j < len(times):
+                _step(solver)
+                nstep += 1
+                dense = solver.dense_output()
+                projected = cm.project(solver.t, solver.y, p)
+                while j < len(times) and times[j] <= solver.t:
+                    X[j] = projected if times[j] == solver.t else cm.project(times[j], dense(times[j]), p)
+                    j += 1
+                solver.y = projected
+                if hasattr(solver, "f") and method != "DOP853":  # DOP853 keeps its last stage, as compiled
+                    solver.f = rhs(solver.t, projected)
+                if solver.status == "finished" and j < len(times):
+                    X[j:] = projected
+                    break
+        except (ConstraintSingular, SimulationError) as exc:
+            exc.rows = X[:j]  # the output rows reached: simulate keeps them (SimulationError.partial)
+            raise
     U = np.array([u_of(t, x) for t, x in zip(times, X)]).reshape(len(times), -1)
     Lam, drift = multipliers_and_drift(cm, times, X, U, p)
     stats = {"nfev": nfev, "nstep": nstep, "projection": "coordinate projection after every step",
@@ -361,17 +365,21 @@ def integrate_eliminated(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, m
     if times[-1] > 0:
         solver = _solver(method)(rhs, 0.0, z0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j = 1
-        while j < len(times):
-            _step(solver)
-            nstep += 1
-            dense = solver.dense_output()
-            while j < len(times) and times[j] <= solver.t:
-                X[j] = full(times[j], dense(times[j]))
-                j += 1
-            full(solver.t, solver.y)  # the branch at the step's end, for the next step's start
-            if solver.status == "finished" and j < len(times):
-                X[j:] = full(solver.t, solver.y)
-                break
+        try:
+            while j < len(times):
+                _step(solver)
+                nstep += 1
+                dense = solver.dense_output()
+                while j < len(times) and times[j] <= solver.t:
+                    X[j] = full(times[j], dense(times[j]))
+                    j += 1
+                full(solver.t, solver.y)  # the branch at the step's end, for the next step's start
+                if solver.status == "finished" and j < len(times):
+                    X[j:] = full(solver.t, solver.y)
+                    break
+        except (ConstraintSingular, SimulationError) as exc:
+            exc.rows = X[:j]  # the output rows reached: simulate keeps them (SimulationError.partial)
+            raise
     U = np.array([u_of(t, x) for t, x in zip(times, X)]).reshape(len(times), -1)
     Lam, drift = multipliers_and_drift(cm, times, X, U, p)
     stats = {"nfev": nfev, "nstep": nstep,

@@ -956,19 +956,53 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
         else:
             X, U, Lam, stats = integrate(cm, x0, times, p, u_of, rtol, atol, max_step, method)
     except ConstraintSingular as s:
-        raise SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=-1, time=float(s.t)) from None
+        error = SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=-1, time=float(s.t))
+        error.partial = _constrained_partial(nm, cm, fast, method, times, getattr(s, "rows", None), u_of, p,
+                                             str(error))
+        raise error from None
+    except (SimulationError, SingularMassMatrixError) as exc:
+        exc.partial = _constrained_partial(nm, cm, fast, method, times, getattr(exc, "rows", None), u_of, p,
+                                           str(exc))
+        raise
     if not np.all(np.isfinite(X)):
         raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
                               "and initial state", status=-1)
+    return _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p)
+
+
+def _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p, failure: str | None = None) -> Trajectory:
+    """The Trajectory of a constrained run's output rows at `times` (all of them, or those before a
+    failure, whose message is `failure`)."""
+    eq = nm.equations
     energy = name = None
     if not eq.explicit_time:
         energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)])
         name = "energy" if _is_natural(eq) else "jacobi_integral"
     stats = {"backend": "scipy" if fast is None else fast.backend, "method": method, **stats}
     return Trajectory(times, X, nm.state_names, U, nm.input_names, energy, name, eq.is_conservative,
-                      dict(zip(nm.parameter_names, map(float, p))), stats["nfev"], "constrained integration finished",
-                      stats=stats, model=eq.model, multipliers=Lam,
-                      multiplier_names=tuple(m.name for m in eq.multipliers))
+                      dict(zip(nm.parameter_names, map(float, p))), stats["nfev"], "constrained integration finished"
+                      if failure is None else "stopped", stats=stats, model=eq.model, multipliers=Lam,
+                      multiplier_names=tuple(m.name for m in eq.multipliers), failure=failure)
+
+
+def _constrained_partial(nm, cm, fast, method, times, rows, u_of, p, failure: str) -> Trajectory | None:
+    """The rows a failed constrained run reached (`rows`: its states at the first output times, as
+    the integrators attach them to their error), as a Trajectory marked partial; None without rows."""
+    from ._constrained import ConstraintSingular, multipliers_and_drift
+
+    reached = 0 if rows is None else _finite_rows(np.asarray(rows))
+    while reached:
+        t, X = times[:reached], np.asarray(rows)[:reached]
+        U = np.array([u_of(ti, xi) for ti, xi in zip(t, X)]).reshape(reached, -1)
+        try:
+            Lam, drift = multipliers_and_drift(cm, t, X, U, p)
+            break
+        except ConstraintSingular:  # the last row already at the dead point: keep those before it
+            reached -= 1
+    else:
+        return None
+    stats = {"nfev": 0, "projection": "coordinate projection after every step", "constraint_drift": drift}
+    return _constrained_trajectory(nm, fast, method, t, X, U, Lam, stats, p, failure)
 
 
 def _compiled_constrained(nm, backend: str, method: str, u_exprs):
@@ -990,24 +1024,28 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
     the projection after every accepted step (see _codegen_constrained); (X, U, Lambda, stats) as
     _constrained.integrate returns them."""
     from ._codegen_constrained import work_size
-    from ._constrained import multipliers_and_drift
+    from ._constrained import ConstraintSingular, multipliers_and_drift
     from ._fast import _address, inputs_and_energy, run_dop853
     from ._kernels import STATUS
 
     prog = _input_programs(fast.equations, u_exprs)
     raw = run_dop853(fast, x0, times, p, prog, rtol, atol, max_step, progress=progress,
                      project=_address(fast.project_c), nwork=work_size(cm.n, cm.m))
-    if raw.status in (1, 2) or (raw.status not in (0, 4) and raw.stop_measure < 1e-6 and raw.status != 3):
-        cm.solve(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)  # ConstraintSingular at a dead point
-        raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure, p)
-    if raw.status == 3:
-        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the state "
-                              f"{_state_text(fast, raw.stop_x)}: check the model's parameters and expressions",
-                              status=-1, time=raw.stop_t)
-    if raw.status != 0:
-        raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
-                              f"(state {_state_text(fast, raw.stop_x)}); try a smaller rtol/atol", status=raw.status,
-                              time=raw.stop_t)
+    try:
+        if raw.status in (1, 2) or (raw.status not in (0, 4) and raw.stop_measure < 1e-6 and raw.status != 3):
+            cm.solve(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)  # ConstraintSingular at a dead point
+            raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure, p)
+        if raw.status == 3:
+            raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the "
+                                  f"state {_state_text(fast, raw.stop_x)}: check the model's parameters and "
+                                  "expressions", status=-1, time=raw.stop_t)
+        if raw.status != 0:
+            raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
+                                  f"(state {_state_text(fast, raw.stop_x)}); try a smaller rtol/atol",
+                                  status=raw.status, time=raw.stop_t)
+    except (ConstraintSingular, SimulationError, SingularMassMatrixError) as exc:
+        exc.rows = raw.x[:len(raw.t)]  # the output rows reached: simulate keeps them (SimulationError.partial)
+        raise
     X = raw.x
     U, _ = inputs_and_energy(fast, times, X, p, prog)
     Lam, drift = multipliers_and_drift(cm, times, X, U, p)

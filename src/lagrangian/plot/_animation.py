@@ -479,9 +479,16 @@ class Animation:
             raise LagrangianError(f"ffmpeg could not write '{shown or path}': {last}")
 
     def save_frame(self, path: str | os.PathLike, k: int = 0, *, dpi: float | None = None) -> None:
-        """Write frame `k` as a still image (PNG, SVG, PDF... by suffix)."""
+        """Write frame `k` as a still image (PNG, SVG, PDF... by suffix), atomically and with the
+        user's umask (see :meth:`save`)."""
+        from ..io._files import check_output, replacing
+
+        path = os.fspath(path)
+        check_output(path, "Animation.save_frame", "frame.png")
         self.draw(k)
-        self.figure.savefig(path, dpi=dpi or self.figure.dpi)
+        suffix = os.path.splitext(path)[1][1:].lower() or None
+        with replacing(path) as tmp:
+            self.figure.savefig(tmp, dpi=dpi or self.figure.dpi, format=suffix)
 
     def __len__(self) -> int:
         return len(self.times)
