@@ -313,3 +313,14 @@ def test_the_api_refuses_an_expansion_past_the_limit(server):
     status, data = server.post_json("/api/derive", text)
     assert status == 400 and data["errors"][0]["key"] == "energy.V"
     assert data["errors"][0]["message"].startswith("V could expand to more than 100,000 terms")
+
+
+def test_a_slow_motion_animation_takes_each_sample_once_without_an_array_of_wanted_times():
+    # speed 1e-9 at 25 fps asked for 2.5e10 wanted times (186 GiB) for 1 s; every sample is a frame
+    import numpy as np
+
+    from lagrangian.plot._animation import _frame_indices
+
+    t = np.linspace(0, 1, 101)
+    assert _frame_indices(t, 25.0, 1e-9).tolist() == list(range(101))
+    assert _frame_indices(t, 25.0, 1.0).tolist() == list(range(0, 101, 4))  # 25 fps of 100 samples per second

@@ -65,6 +65,8 @@ def _frame_indices(t: np.ndarray, fps: float, speed: float) -> np.ndarray:
     if len(t) == 0:
         raise ModelError("the trajectory is empty: there is nothing to animate")
     step = speed / fps
+    if len(t) > 1 and step <= np.min(np.diff(t)) / 2:  # every sample is nearest to one of the wanted times:
+        return np.arange(len(t))                       # a frame each, without an array of them (speed 1e-9)
     wanted = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step * (1 + 1e-12))) + 1)
     idx = np.clip(np.searchsorted(t, wanted), 0, len(t) - 1)
     left = np.clip(idx - 1, 0, len(t) - 1)
