@@ -392,3 +392,39 @@ def test_a_failed_eliminated_simulation_keeps_its_rows(tmp_path):
     assert len(partial.t) == 30 and partial.t[-1] == pytest.approx(0.29)
     assert np.allclose(partial["x"] ** 2 + partial["y"] ** 2, 1.0, atol=1e-12)  # on the rod up to there
     assert partial.failure == str(caught.value) and partial.to_csv().startswith("# partial: the constraints'")
+
+
+def test_a_block_device_is_refused_as_an_output(capsys):
+    devices = [f"/dev/{name}" for name in sorted(os.listdir("/dev"))
+               if stat.S_ISBLK(os.lstat(f"/dev/{name}").st_mode)]
+    if not devices:
+        pytest.skip("no block device in /dev")
+    rc, out, err = cli(capsys, "simulate", "cart-pendulum", "--t-end", "0.1", "-o", devices[0])
+    assert rc == 2 and err == (f"lagrangian simulate: error: --output {devices[0]}: it is a block device; write to "
+                               "a regular file, a FIFO or a character device such as /dev/null\n")
+
+
+def test_a_stream_that_became_a_file_is_not_appended_to(tmp_path, monkeypatch):
+    """Checked as a stream, then replaced by a regular file before it is opened: refused, the file kept."""
+    from lagrangian.io import _files
+
+    path = tmp_path / "was-a-fifo"
+    path.write_text("precious")
+    monkeypatch.setattr(_files, "is_stream", lambda p: True)
+    with pytest.raises(lg.OutputFileError, match=r"--output .*was-a-fifo: it was a stream when checked and is a "
+                                                 r"regular file now; write again"):
+        _files.write_output(path, "t,x\n", "--output")
+    assert path.read_text() == "precious"
+
+
+def test_partial_rows_that_cannot_be_written_are_said_so(failing, tmp_path, capsys, monkeypatch):
+    from lagrangian.io import _files
+
+    def refuse(path, data):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(_files, "write_atomically", refuse)
+    rc, out, err = cli(capsys, "simulate", failing, "-o", tmp_path / "out.csv")
+    assert rc == 1
+    assert err.endswith(f"\nThe 101 rows computed up to t = 1 were not written: {tmp_path / 'out.partial.csv'}: "
+                        "Permission denied.\n")

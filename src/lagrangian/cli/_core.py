@@ -129,7 +129,10 @@ def _keep_partial(output: str, partial) -> str:
         return (f"{rows} were not written: {path}, where they would go, exists and is not a partial output of "
                 "lagrangian (its first line is not '# partial: ...'); move it away to keep them next time.")
     kept = "keeps its earlier contents" if os.path.lexists(output) else "was not created"
-    write_atomically(path, partial.to_csv())
+    try:
+        write_atomically(path, partial.to_csv())
+    except OSError as exc:
+        return f"{rows} were not written: {path}: {exc.strerror or exc}."
     return (f"{rows} were written to {path}, marked as partial in the CSV's first line ('# partial: ...'); "
             f"{output} {kept} (it receives complete runs only).")
 
