@@ -4,6 +4,10 @@ parameters usable in the CLI's expressions, and what the first run is doing whil
 
 from __future__ import annotations
 
+import json
+import math
+
+import numpy as np
 import pytest
 
 import lagrangian as lg
@@ -202,3 +206,98 @@ def test_the_cli_gives_one_answer_for_a_massless_pendulum(tmp_path):
     assert p.returncode == 1
     assert "the mass matrix became singular at t = 0" in p.stderr
     assert "the mass matrix is always singular" in p.stderr and "is regular" not in p.stderr
+
+
+# ------------------------------------------------------------------ the model's parameters in options
+ARM2 = """\
+name = "arm2"
+coordinates = ["th1", "th2"]
+inputs = ["tau1", "tau2"]
+[parameters]
+m1 = 2.0
+m2 = 1.0
+l1 = 0.5
+l2 = 0.4
+g = 9.81
+[[bodies]]
+name = "link1"
+mass = "m1"
+inertia = "m1*l1**2/12"
+position = ["l1/2*cos(th1)", "l1/2*sin(th1)"]
+angle = "th1"
+[[bodies]]
+name = "link2"
+mass = "m2"
+inertia = "m2*l2**2/12"
+position = ["l1*cos(th1) + l2/2*cos(th1+th2)", "l1*sin(th1) + l2/2*sin(th1+th2)"]
+angle = "th1 + th2"
+[gravity]
+g = "g"
+[forces]
+th1 = "tau1"
+th2 = "tau2"
+"""
+#: the torques that hold the arm straight out at th1 = 1, th2 = 0, in the model's own parameters
+HOLD = "tau1=g*cos(1)*(m1*l1/2 + m2*(l1 + l2/2)),tau2=m2*g*l2/2*cos(1)"
+
+
+def _cli(capsys, *args):
+    from lagrangian.cli import main
+
+    try:
+        rc = main([str(a) for a in args])
+    except SystemExit as exc:
+        rc = exc.code
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_lqr_inputs_may_use_the_model_s_parameters(tmp_path, capsys):
+    # before: "unknown names 'g', 'l1'" for the model's own parameters
+    path = tmp_path / "arm2.toml"
+    path.write_text(ARM2)
+    rc, out, err = _cli(capsys, "lqr", path, "--at", "th1=1,th2=0", "--input", HOLD, "--json")
+    assert rc == 0, err
+    data = json.loads(out)
+    assert data["inputs"] == pytest.approx({"tau1": 9.81 * math.cos(1) * (2 * 0.5 / 2 + 1 * (0.5 + 0.2)),
+                                                  "tau2": 1 * 9.81 * 0.2 * math.cos(1)}, rel=1e-12)
+    # --param overrides the value the expressions use: g = 1 needs torques 9.81 times smaller
+    rc, out, err = _cli(capsys, "lqr", path, "--at", "th1=1,th2=0", "--input", HOLD, "--param", "g=1", "--json")
+    assert rc == 0, err
+    assert json.loads(out)["inputs"]["tau2"] == pytest.approx(0.2 * math.cos(1), rel=1e-12)
+
+
+def test_an_unknown_name_in_an_option_lists_the_parameters(tmp_path, capsys):
+    path = tmp_path / "arm2.toml"
+    path.write_text(ARM2)
+    rc, out, err = _cli(capsys, "linearize", path, "--at", "th1=1", "--input", "tau1=gg*l1")
+    assert rc == 2 and out == ""
+    assert err.strip() == ("lagrangian linearize: error: --input tau1: 'gg*l1' is not a number (unknown name 'gg' "
+                           "(did you mean 'g'?)); write e.g. 0.5 or pi/2, or an expression of the parameters m1, "
+                           "m2, l1, l2, g")
+
+
+def test_at_and_initial_may_use_the_model_s_parameters(tmp_path, capsys):
+    rc, out, err = _cli(capsys, "linearize", "cart-pendulum", "--at", "q1=L/4,q2=pi/2", "--param", "L=2", "--json")
+    assert rc == 0, err
+    assert json.loads(out)["operating_point"]["q1"] == 0.5
+    out_csv = tmp_path / "x.csv"
+    rc, out, err = _cli(capsys, "simulate", "cart-pendulum", "--initial", "q1=L/4,q2=pi/2", "--param", "L=2",
+                        "--t-end", "0.01", "-o", out_csv)
+    assert rc == 0, err
+    first = out_csv.read_text().splitlines()[1].split(",")
+    assert float(first[1]) == 0.5 and float(first[2]) == pytest.approx(math.pi / 2)
+    rc, out, err = _cli(capsys, "export", "cart-pendulum", "--modelica", tmp_path / "m.mo", "--initial", "q1=-L")
+    assert rc == 0, err
+    assert "q1(start = -1" in (tmp_path / "m.mo").read_text()
+
+
+def test_simulate_inputs_use_the_parameter_values_after_overrides():
+    # the library: an input expression's parameters take the values of params=..., as the CLI's --param
+    eqs = lg.derive(lg.load("cart-pendulum"))
+    traj = lg.simulate(eqs, t_end=0.1, initial={"q2": math.pi / 2}, inputs={"F": "(M1 + M2)*g/10"},
+                       params={"M1": 3.0})
+    force = (3.0 + 0.5) * 9.81 / 10  # M2 = 0.5, the model's
+    assert traj["F"] == pytest.approx(np.full(len(traj.t), force), rel=1e-15)
+    given = lg.simulate(eqs, t_end=0.1, initial={"q2": math.pi / 2}, inputs={"F": force}, params={"M1": 3.0})
+    assert np.allclose(traj.x, given.x, rtol=1e-12, atol=1e-15) and traj.x[-1, 0] > 1e-3

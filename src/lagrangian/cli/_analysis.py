@@ -5,9 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+from typing import Mapping
 
 from ..errors import ModelError
-from ._common import MODEL_HELP, assignments, check_writable, number, option_number
+from ._common import MODEL_HELP, assignments, check_writable, number, option_number, parameter_values
 
 
 def register(sub, fmt) -> None:
@@ -90,7 +91,8 @@ def register(sub, fmt) -> None:
     s.add_argument("--to", dest="stop", type=option_number("--to", example="--to 8"), required=True, metavar="B", help="last value")
     s.add_argument("--steps", type=option_number("--steps", integer=True, minimum=1, maximum=100_000, example="--steps 200"), default=200, help="number of intervals between A and B (default 200)")
     s.add_argument("--input", action="append", default=[], metavar="NAME=VALUE",
-                   help="a constant input value (repeatable, or comma-separated); inputs not given are 0")
+                   help="a constant input value, a number or an expression of the model's parameters such as "
+                        "\"tau1=g*l1*(m1/2+m2)\" (repeatable, or comma-separated); inputs not given are 0")
     s.add_argument("--plot", metavar="FILE", help="draw the bifurcation diagram into FILE (.png, .pdf, .svg)")
     s.add_argument("--coordinate", metavar="NAME", help="the coordinate on the diagram's vertical axis")
     s.add_argument("--json", action="store_true",
@@ -103,18 +105,22 @@ def _values(p: argparse.ArgumentParser) -> None:
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a parameter value (repeatable, or comma-separated)")
     p.add_argument("--input", action="append", default=[], metavar="NAME=VALUE",
-                   help="a constant input value (repeatable, or comma-separated); inputs not given are 0")
+                   help="a constant input value, a number or an expression of the model's parameters such as "
+                        "\"tau1=g*l1*(m1/2+m2)\" (repeatable, or comma-separated); inputs not given are 0")
 
 
 def _at(p: argparse.ArgumentParser) -> None:
     p.add_argument("--at", action="append", default=[], metavar="NAME=VALUE,...",
-                   help="the operating point: coordinates and velocities, e.g. q1=0,q2=pi/2 (others are 0); "
+                   help="the operating point: coordinates and velocities, e.g. q1=0,q2=pi/2 (values may use the "
+                        "model's parameters; others are 0); "
                         "default: the stable equilibrium nearest q = 0")
     p.add_argument("--t", type=option_number("--t", example="--t 0"), default=0.0, help="the time, for models that contain t (default 0)")
 
 
-def _numbers(items, what: str) -> dict[str, float]:
-    return {k: number(v, f"--{what} {k}") for k, v in assignments(items, what).items()}
+def _numbers(items, what: str, names: Mapping[str, float] | None = None) -> dict[str, float]:
+    """NAME=VALUE options as numbers; with `names` (parameter_values), the values may be expressions of the
+    model's parameters."""
+    return {k: number(v, f"--{what} {k}", names) for k, v in assignments(items, what).items()}
 
 
 def _load(args):
@@ -127,7 +133,8 @@ def _cmd_equilibria(args: argparse.Namespace) -> int:
     from ..analysis import equilibria
 
     eqs = _load(args)
-    found = equilibria(eqs, params=_numbers(args.param, "param"), inputs=_numbers(args.input, "input"))
+    params = _numbers(args.param, "param")
+    found = equilibria(eqs, params=params, inputs=_numbers(args.input, "input", parameter_values(eqs, params)))
     if args.json:
         print(json.dumps([e.to_dict() for e in found], indent=2))
         return 0
@@ -139,8 +146,11 @@ def _cmd_steady(args: argparse.Namespace) -> int:
     from ..analysis import steady_motions
 
     eqs = _load(args)
-    found = steady_motions(eqs, _numbers(args.velocity, "velocity"), momenta=_numbers(args.momentum, "momentum"),
-                           params=_numbers(args.param, "param"), inputs=_numbers(args.input, "input"))
+    params = _numbers(args.param, "param")
+    names = parameter_values(eqs, params)
+    found = steady_motions(eqs, _numbers(args.velocity, "velocity", names),
+                           momenta=_numbers(args.momentum, "momentum", names), params=params,
+                           inputs=_numbers(args.input, "input", names))
     if args.json:
         print(json.dumps([e.to_dict() for e in found], indent=2))
     else:
@@ -152,9 +162,11 @@ def _operating_point(args, eqs):
     """(linear model, description): about --at, or the stable equilibrium nearest q = 0."""
     from ..analysis import equilibria, linearize
 
-    params, inputs = _numbers(args.param, "param"), _numbers(args.input, "input")
+    params = _numbers(args.param, "param")
+    names = parameter_values(eqs, params)  # --input and --at may use the model's parameters
+    inputs = _numbers(args.input, "input", names)
     if args.at or eqs.model.operating_point:
-        at = _numbers(args.at, "at") if args.at else None  # None: the model's [operating_point]
+        at = _numbers(args.at, "at", names) if args.at else None  # None: the model's [operating_point]
         return linearize(eqs, at, params=params, inputs=inputs, t=args.t), None
     found = [e for e in equilibria(eqs, params=params, inputs=inputs, t=args.t) if e.linear_model is not None]
     stable = [e for e in found if e.stable]
@@ -208,8 +220,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             raise ModelError(f"--plot {args.plot}: expected a file ending in .png, .pdf or .svg")
         check_writable(args.plot, "diagram.png", option="--plot")
     eqs = _load(args)
-    result = continuation(eqs, swept[0], np.linspace(args.start, args.stop, args.steps + 1),
-                          params=_numbers(fixed, "param"), inputs=_numbers(args.input, "input"))
+    params = _numbers(fixed, "param")
+    result = continuation(eqs, swept[0], np.linspace(args.start, args.stop, args.steps + 1), params=params,
+                          inputs=_numbers(args.input, "input", parameter_values(eqs, params, leave_out=swept)))
     if args.plot:
         import matplotlib
 

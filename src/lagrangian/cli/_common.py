@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Sequence
+from typing import Mapping, Sequence
 
 from ..errors import ExpressionError, ModelError
 from ..io._files import check_output, write_atomically, write_output  # noqa: F401  (the writers of every command)
@@ -46,8 +46,11 @@ def assignments(items: Sequence[str], what: str, *, split_commas: bool = True) -
     return out
 
 
-def number(text: str, where: str) -> float:
-    """A number, or a constant expression such as pi/2 (parsed safely)."""
+def number(text: str, where: str, names: Mapping[str, float] | None = None) -> float:
+    """A number, or a constant expression such as pi/2 (parsed safely); with `names` (see
+    parameter_values), also an expression of the model's parameters, g*l1*(m1/2 + m2), at their values."""
+    import sympy
+
     from ..io._expr import parse_expression
 
     try:
@@ -59,10 +62,21 @@ def number(text: str, where: str) -> float:
             raise ModelError(f"{where}: '{text}' is not a finite number; write e.g. 0.5 or pi/2")
         return value
     try:
-        value = parse_expression(text, {})
+        value = parse_expression(text, {k: sympy.Float(v) for k, v in (names or {}).items()})
     except ExpressionError as exc:
-        raise ModelError(f"{where}: '{text}' is not a number ({exc.reason}); write e.g. 0.5 or pi/2") from None
+        also = f", or an expression of the parameters {', '.join(names)}" if names else ""
+        raise ModelError(f"{where}: '{text}' is not a number ({exc.reason}); write e.g. 0.5 or pi/2{also}") from None
     return float(value)  # finite and real: the parser refuses every other constant
+
+
+def parameter_values(model, params: Mapping[str, float], leave_out: Sequence[str] = ()) -> dict[str, float]:
+    """The names an option's expression (--initial, --input, --at, ...) may use: the parameters of
+    `model` (a Model or its Equations) with their values, those of --param (`params`) in their place;
+    without those in `leave_out` (a swept parameter, whose value varies)."""
+    names = [p.name for p in model.parameters]
+    values = {p.name: float(v) for p, v in model.parameters.items() if v is not None}
+    values.update({k: v for k, v in params.items() if k in names})
+    return {k: v for k, v in values.items() if k not in leave_out}
 
 
 def check_writable(path: str, example: str = "out.csv", option: str = "--output") -> None:
@@ -109,7 +123,8 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
     """The options of a simulation, shared by every command that simulates (simulate, animate)."""
     s.add_argument("--t-end", type=option_number("--t-end", positive=True, example="--t-end 10"), metavar="T", help="final time (s)")
     s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE,...",
-                   help="initial coordinates and velocities, e.g. q1=0,q2=0.5,q2_dot=0 (values may use pi); others are 0")
+                   help="initial coordinates and velocities, e.g. q1=0,q2=0.5,q2_dot=0 (values may use pi and the model's "
+                        "parameters, at their --param values); others are 0")
     s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a parameter value (repeatable, or comma-separated)")
     s.add_argument("--input", action="append", default=[], metavar="NAME=EXPR",
@@ -148,8 +163,9 @@ def run_simulation(args, *, equations_to=None):
     from .. import derive, load, simulate
 
     model = load(args.model)
-    initial = {k: number(v, f"--initial {k}") for k, v in assignments(args.initial, "initial").items()}
     params = {k: number(v, f"--param {k}") for k, v in assignments(args.param, "param").items()}
+    names = parameter_values(model, params)
+    initial = {k: number(v, f"--initial {k}", names) for k, v in assignments(args.initial, "initial").items()}
     inputs = assignments(args.input, "input", split_commas=False)
     events = assignments(getattr(args, "event", []), "event", split_commas=False)
     stop_on = [name.strip() for item in getattr(args, "stop_on", []) for name in item.split(",") if name.strip()]

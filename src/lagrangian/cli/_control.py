@@ -9,7 +9,7 @@ import os
 
 from ..errors import ModelError
 from ._analysis import _at, _load, _numbers, _operating_point, _values
-from ._common import MODEL_HELP, assignments, number, option_number, split_top_level
+from ._common import MODEL_HELP, assignments, number, option_number, parameter_values, split_top_level
 
 
 def register(sub, fmt) -> None:
@@ -150,7 +150,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from .. import derive
 
     eqs = derive(load(args.model))
-    params, initial = _numbers(args.param, "param"), _numbers(args.initial, "initial")
+    params = _numbers(args.param, "param")
+    initial = _numbers(args.initial, "initial", parameter_values(eqs, params))
     _check_destinations(args, eqs)
     if args.fmu:
         result = ex.export_fmu(eqs, args.fmu, params=params, initial=initial, binary=not args.no_binary,
