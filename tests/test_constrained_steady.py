@@ -77,6 +77,23 @@ def test_the_bicycle_runs_straight_as_table_2_says_and_turns_steadily(bicycle):
     (slow,) = [m for m in steady_motions(bicycle, {"thetaR_dot": 3 / rR}, starts=16)
                if m.coordinates["phi"] == 0 and m.coordinates["delta"] == 0 and m.coordinates["theta"] == 0]
     assert slow.stability == "unstable"  # below the weave speed 4.29 m/s
+    # the bicycle is symmetric: each turn comes with its mirror image (phi, delta and the yaw rate of
+    # opposite signs, the same stability), and no pose turned over under the wheels is listed
+    assert any(s.coordinates["phi"] != 0 for s in found)
+    for s in found:
+        c = s.coordinates
+        assert any(_angle(m.coordinates["phi"], -c["phi"]) < 1e-9 and _angle(m.coordinates["delta"], -c["delta"]) < 1e-9
+                   and m.velocities["psi_dot"] == pytest.approx(-s.velocities["psi_dot"], abs=1e-9)
+                   and m.stability == s.stability for m in found)
+        assert abs(c["theta"]) < 0.1 and s.linear_model is not None
+        if s.stability == "marginally stable":  # only where no eigenvalue grows
+            assert max(z.real for z in s.eigenvalues) <= 1e-6 * max(1.0, np.abs(s.eigenvalues).max())
+    assert ("2 solutions with the centres of mass of B and H below the ground (the mechanism turned over under its "
+            "wheels: upside down, which the coordinates allow) are left out") in found.notes
+
+
+def _angle(a, b):
+    return abs(math.remainder(a - b, 2 * math.pi))
 
 
 def test_a_hands_free_steady_turn_of_the_bicycle_is_kept_by_the_simulation(bicycle):

@@ -196,6 +196,14 @@ class SteadyState:
                 return np.concatenate((q[:n], nan)), nan, np.full(cm.m, np.nan), np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan)
         return x, qdd, lam, np.concatenate((qdd[self.held], g, w))
 
+    def meets_constraints(self, setting: Setting, q: np.ndarray) -> bool:
+        """Whether q meets the holonomic constraints, g(q) = 0 to round-off of the coordinates (a
+        root must: next to a singular configuration, the bicycle lying flat, the residual's
+        Jacobian grows without bound and a residual of the size of the forces looks small)."""
+        with np.errstate(all="ignore"):
+            g = self.cm._holonomic(setting.t, self.state(setting, np.asarray(q, float)), setting.p)[0]
+        return bool(np.all(np.isfinite(g)) and np.all(np.abs(g) <= 1e-9 * (1.0 + float(np.max(np.abs(q))))))
+
     def term_scale(self, setting: Setting, q: np.ndarray) -> float:
         """The size of the accelerations the terms of the equations make at q (forces over masses,
         the constraints' c, the squared rates): the scale against which a residual is round-off."""
@@ -314,36 +322,62 @@ def _coupled(evaluator: SteadyState, setting: Setting) -> bool:
     return False
 
 
-def _wheel_heights(equations: Equations):
-    """(q, p) -> the heights of the wheels' centres above the ground (empty without wheels)."""
+def _heights(equations: Equations):
+    """(q, p) -> (the heights above the ground of the wheels' centres, of the centres of mass of the
+    bodies and particles in space): two arrays (empty without wheels), and the names of the latter."""
     import sympy
 
+    from ..model._elements import Particle, RigidBody3D
     from ..model._frames import frame_pose
 
     model = equations.model
-    heights = []
+    wheels = []
     for wheel in model.wheels:
         origin, R = frame_pose(model.frames, wheel.frame)
-        heights.append((sympy.Matrix(origin) + R * sympy.Matrix(wheel.center))[2])
-    if not heights:
-        return lambda q, p: np.zeros(0)
-    f = sympy.lambdify([list(equations.coordinates), list(equations.parameters)], heights, modules="numpy")
-    return lambda q, p: np.asarray(f(list(q), list(p)), float)
+        wheels.append((sympy.Matrix(origin) + R * sympy.Matrix(wheel.center))[2])
+    masses = [e for e in model.elements if isinstance(e, (RigidBody3D, Particle)) and len(e.position) == 3]
+    names = tuple(e.name for e in masses)
+    if not wheels:
+        return (lambda q, p: (np.zeros(0), np.zeros(0))), names
+    args = [list(equations.coordinates), list(equations.parameters)]
+    f = sympy.lambdify(args, wheels, modules="numpy")
+    g = sympy.lambdify(args, [sympy.sympify(e.position[2]) for e in masses], modules="numpy") if masses else None
+    return (lambda q, p: (np.asarray(f(list(q), list(p)), float),
+                          np.asarray(g(list(q), list(p)), float) if g else np.zeros(0))), names
 
 
 def above_ground(problem: StationaryProblem, setting: Setting, points: list) -> tuple[list, tuple[str, ...]]:
-    """The points whose wheels all have their centres above the ground, and a note on those left out:
-    where the coordinates keep a wheel on the ground, they allow it to touch the ground from below
-    (its centre under the ground, the contact at the top of the rim), which is no rolling state."""
+    """The points in a pose the ground allows, and a note on those left out: where the coordinates
+    keep a wheel on the ground, they allow it to touch the ground from below (its centre under the
+    ground, the contact at the top of the rim), and the rest of the mechanism to turn over under it
+    (a bicycle's frame pitched by about -pi, its rider under the ground): no rolling state. Those
+    with a wheel's centre, or the centre of mass of a body or particle, below the ground z = 0 are
+    left out."""
     if not problem.equations.model.wheels:
         return points, ()
-    height = _wheel_heights(problem.equations)
-    kept = [r for r in points if np.all(height(r.q, setting.p) > 0)]
-    left = len(points) - len(kept)
-    if not left:
-        return kept, ()
-    return kept, (f"{left} solution{'s' if left > 1 else ''} with a wheel's centre below the ground (touching it from "
-                  f"below, which the coordinates allow) {'are' if left > 1 else 'is'} left out",)
+    height, names = _heights(problem.equations)
+    kept, wheel_below, body_below = [], 0, {}
+    for r in points:
+        wheels, masses = height(r.q, setting.p)
+        under = [n for n, z in zip(names, masses) if z < -1e-9 * (1.0 + float(np.max(np.abs(masses))))]
+        if not np.all(wheels > 0):
+            wheel_below += 1
+        elif under:
+            body_below[tuple(under)] = body_below.get(tuple(under), 0) + 1
+        else:
+            kept.append(r)
+    notes = []
+    if wheel_below:
+        notes.append(f"{wheel_below} solution{'s' if wheel_below > 1 else ''} with a wheel's centre below the ground "
+                     f"(touching it from below, which the coordinates allow) {'are' if wheel_below > 1 else 'is'} "
+                     "left out")
+    for under, count in body_below.items():
+        which = (f"the centre of mass of {under[0]}" if len(under) == 1 else
+                 f"the centres of mass of {', '.join(under[:-1])} and {under[-1]}")
+        notes.append(f"{count} solution{'s' if count > 1 else ''} with {which} below the ground (the mechanism "
+                     f"turned over under its wheels: upside down, which the coordinates allow) "
+                     f"{'are' if count > 1 else 'is'} left out")
+    return kept, tuple(notes)
 
 
 def steady_details(problem: StationaryProblem, setting: Setting, q: np.ndarray):

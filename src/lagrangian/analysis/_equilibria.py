@@ -45,8 +45,8 @@ from ..equations import Equations
 from ..model._constraints import VELOCITY
 from ._linearize import LinearModel
 from ._setting import Setting, resolve_setting
-from ._roots import (RootSet, completeness_notes, free_axes, group_roots, is_root, no_root_reasons, numeric_roots,
-                     search_context)
+from ._roots import (RootSet, completeness_notes, free_axes, group_roots, is_root, mirror_images, no_root_reasons,
+                     numeric_roots, search_context)
 from ._stability import DEGENERATE, NOT_FINITE, UNDETERMINED, assess
 from ._stationary import (StationaryProblem, conditions_hold, evaluate_exact, normalized_exact,
                           parameter_conditions, same_point, stationary_problem)
@@ -220,7 +220,8 @@ def found_points(problem: StationaryProblem, setting: Setting, *, starts, seed) 
             continue
         points.append(RootSet(q, np.zeros((len(q), 0)), normalized_exact(problem, setting, sol), conds, sol))
     if problem.unknowns:
-        for q in numeric_roots(problem, setting, starts=starts, seed=seed, ctx=ctx):
+        numeric = numeric_roots(problem, setting, starts=starts, seed=seed, ctx=ctx)
+        for q in numeric + mirror_images(ctx, numeric):
             if not any(same_point(q, other.q, problem.angles) for other in points):
                 points.append(RootSet(q, np.zeros((len(q), 0))))
     elif not conditions_hold(problem, setting) and (problem.evaluator is None or is_root(ctx, np.zeros(size))):

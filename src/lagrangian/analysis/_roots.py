@@ -9,6 +9,9 @@ Answers are right or absent:
   Jacobian is singular the Newton test is done again in 50-digit arithmetic, so that forces that
   underflow to 0 far away (exp(-x**2) at x = 45) are not taken for roots. A search that drifts to
   r = 1e25 because the forces tend to 0 at infinity finds nothing, and says so.
+* The images of the numerical roots under changes of sign of the coordinates are tested as roots
+  too (a symmetric model's mirror images: a bicycle turning left and right), whichever one the
+  starts found; a root reported once, wrapped, polished and compared modulo 2 pi in angles.
 * A root where the Jacobian is singular is tested for being non-isolated (a curve or surface of
   roots): the roots found on one connected set are reported once, with its dimension.
 * When there is none, the reasons are given: a condition on the parameters that fails
@@ -27,7 +30,7 @@ from ..model._kinematics import to_sympy
 from ._setting import Setting
 from ._stationary import StationaryProblem, conditions_hold, constant_map, residual, same_point, wrap_angles
 
-__all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "RootSet", "group_roots",
+__all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "mirror_images", "RootSet", "group_roots",
            "free_axes", "no_root_reasons", "runaway_notes", "completeness_notes"]
 
 #: A root's residual, relative to the scale of the forces.
@@ -101,6 +104,8 @@ def is_root(ctx: Search, q: np.ndarray) -> bool:
     unk = list(problem.unknowns)
     z = q[unk]
     if any(not problem.angles[i] and abs(q[i]) > ctx.far for i in unk):
+        return False
+    if problem.evaluator is not None and not problem.evaluator.meets_constraints(ctx.setting, q):
         return False
     checked = _checked_residual(ctx, q)
     if checked is None:
@@ -255,6 +260,41 @@ def numeric_roots(problem: StationaryProblem, setting: Setting, *, starts: int |
         if q is not None and not any(same_point(q, g, problem.angles) for g in found):
             found.append(q)
     return found
+
+
+def mirror_images(ctx: Search, roots: list[np.ndarray]) -> list[np.ndarray]:
+    """The images of the roots under changes of sign of the coordinates that are roots too, and
+    not among `roots` (those of a symmetric model: the bicycle's turn to the right as well as to
+    the left, whichever one the starts led to). Each image is tested as any root is (is_root);
+    none for more than 6 unknown coordinates, or with multipliers among the variables."""
+    problem = ctx.problem
+    coords = [i for i in problem.unknowns if i < problem.equations.n]
+    if problem.multipliers or not 0 < len(coords) <= 6:
+        return []
+
+    def size(q):  # the residual alone (a numerical residual's Jacobian costs 2 evaluations per unknown)
+        with np.errstate(all="ignore"):
+            r = (problem.evaluator.values(ctx.setting, q)[3] if problem.evaluator is not None
+                 else residual(problem, ctx.setting, q)[0])
+        return float(np.max(np.abs(r), initial=0.0)) if np.all(np.isfinite(r)) else math.inf
+
+    out: list[np.ndarray] = []
+    for q in roots:
+        # the image of a root of a symmetric problem is a root to the same round-off: a far larger
+        # residual (one that is_root lets pass next to a singular point) is no image
+        bound = 10.0 * size(q) + 1e-13 * ctx.force_scale
+        for bits in range(1, 2 ** len(coords)):
+            flipped = [i for b, i in enumerate(coords) if bits >> b & 1]
+            if not np.any(q[flipped]):  # a sign change of zeros: the same point
+                continue
+            image = np.array(q, dtype=float)
+            image[flipped] = -image[flipped]
+            image = wrap_angles(image, problem.angles)
+            if any(same_point(image, other, problem.angles) for other in (*roots, *out)):
+                continue
+            if size(image) <= bound and is_root(ctx, image):
+                out.append(image)
+    return out
 
 
 # --------------------------------------------------------------------------- non-isolated roots
