@@ -85,12 +85,15 @@ def test_the_cli_says_the_same_with_exit_2(tmp_path, capsys, what, text, line, k
     assert f"m.toml:{line}" in err and out == ""
 
 
-def test_an_initial_value_no_force_can_be_computed_at_is_a_failed_computation_with_its_reason(tmp_path, capsys):
+def test_an_initial_value_too_large_for_the_equations_is_refused_with_exit_2(tmp_path, capsys):
     path = tmp_path / "m.toml"
     path.write_text(OSCILLATOR + "[simulation]\nt_end = 1.0\ninitial = { x = 1e308 }\n")
     code, out, err = run(capsys, "simulate", str(path), "-o", str(tmp_path / "out.csv"))
-    assert code == 1 and "Traceback" not in err
-    assert "the forcing f is not finite (NaN or infinity) at t = 0 in the state x = 1e+308, x_dot = 0" in err
+    assert_refused(code, out, err, "[initial.x]: the value of 'x' is 1e+308, too large: at most 1e+150 in magnitude, "
+                                   "so that the products of the equations stay finite in double precision")
+    assert not (tmp_path / "out.csv").exists()
+    code, out, err = run(capsys, "simulate", "cart-pendulum", "--param", "M1=-1e200")
+    assert_refused(code, out, err, "[params.M1]: the value of 'M1' is -1e+200, too large: at most 1e+150")
 
 
 # ------------------------------------------------------------------ derive's bounds
@@ -291,6 +294,7 @@ def server():
     ({"t_end": 1e6, "dt": 1e-12}, "the simulation would output 1e+18 rows"),
     ({"t_end": 1, "initial": {"q2": "sqrt(-1)"}}, "initial.q2: 'sqrt(-1)' is not a number (not a real number"),
     ({"t_end": 1, "inputs": {"F": "acos(2)"}}, "not a real number: acos(2) has no real value"),
+    ({"t_end": 1, "initial": {"q2": 1e308}}, "the value of 'q2' is 1e+308, too large: at most 1e+150 in magnitude"),
 ])
 def test_the_api_answers_400_with_the_reason(server, fields, message):
     status, data = server.post_json("/api/simulate", json.dumps({"model": example_source("cart-pendulum"), **fields}),

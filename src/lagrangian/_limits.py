@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 from .errors import ModelError
 
-__all__ = ["Limit", "MAX_ROWS", "MAX_STEPS", "MAX_TERMS", "MAX_EXPONENT", "MAX_COORDINATES", "LIMITS",
+__all__ = ["Limit", "MAX_MAGNITUDE", "MAX_ROWS", "MAX_STEPS", "MAX_TERMS", "MAX_EXPONENT", "MAX_COORDINATES", "LIMITS",
            "number_problem"]
 
 
@@ -71,6 +71,11 @@ MAX_TERMS = Limit("max_terms", 100_000, "terms of the expansion of an energy, di
                                        "force or constraint")
 MAX_EXPONENT = Limit("max_exponent", 1_000, "the exponent of a power of a variable")
 MAX_COORDINATES = Limit("max_coordinates", 100, "coordinates of a model")
+
+#: The largest magnitude of a value given to a simulation, an export or a batch (an initial value, a
+#: parameter's value): the square root of the largest double is about 1.3e154, so that the products of
+#: two such values, as the equations form them, stay finite.
+MAX_MAGNITUDE = 1e150
 
 #: Every limit, by name.
 LIMITS = {limit.name: limit for limit in (MAX_ROWS, MAX_STEPS, MAX_TERMS, MAX_EXPONENT, MAX_COORDINATES)}
