@@ -301,3 +301,63 @@ def test_simulate_inputs_use_the_parameter_values_after_overrides():
     assert traj["F"] == pytest.approx(np.full(len(traj.t), force), rel=1e-15)
     given = lg.simulate(eqs, t_end=0.1, initial={"q2": math.pi / 2}, inputs={"F": force}, params={"M1": 3.0})
     assert np.allclose(traj.x, given.x, rtol=1e-12, atol=1e-15) and traj.x[-1, 0] > 1e-3
+
+
+# ------------------------------------------------------------------ the first run compiles
+def test_the_progress_bar_says_what_it_waits_for_until_the_count_moves():
+    import io
+
+    from lagrangian._progress import Progress
+
+    stream = io.StringIO()
+    bar = Progress(100, "simulating", stream=stream, enabled=True, delay=0.0, interval=0.0)
+    bar.wait("compiling the integrators, once per machine")
+    bar.set(0)
+    shown = stream.getvalue()
+    assert shown.startswith("\rcompiling the integrators, once per machine... 0 s")
+    assert "simulating" not in shown and "0/100" not in shown
+    bar.set(1)  # the counted work has begun: the bar from now on
+    assert stream.getvalue()[len(shown):].startswith("\rsimulating [")
+    bar.set(0)
+    assert "compiling" not in stream.getvalue()[len(shown):]
+    bar.close()
+
+
+def test_the_integrators_compiled_are_told_from_those_still_to_compile():
+    import numba
+
+    from lagrangian.numeric._fast import compiled, kernels
+
+    fresh = numba.njit(lambda x: x + 1)  # no cache on disk, not compiled yet
+    assert not compiled(fresh)
+    assert fresh(1) == 2 and compiled(fresh)
+    lg.simulate(lg.derive(lg.load("cart-pendulum")), t_end=0.01)
+    assert compiled(kernels().dop853)  # compiled in this process, or found in numba's cache on disk
+
+
+def test_a_first_run_says_it_compiles_the_integrators_before_the_bar(capsys):
+    import time
+
+    import numpy as np
+
+    from lagrangian.numeric._fast import COMPILING, _with_progress
+
+    assert COMPILING == "compiling the integrators, once per machine"
+    stats = np.zeros(5, dtype=np.int64)
+
+    def call():  # what the kernel's first call does: compile (no output yet), then integrate
+        time.sleep(1.5)
+        stats[3] = 1
+        time.sleep(0.3)
+        stats[3] = 10
+        return 0
+
+    assert _with_progress(call, stats, 10, True, compiling=True) == 0
+    err = capsys.readouterr().err
+    assert "\rcompiling the integrators, once per machine... 1 s" in err
+    assert err.index("compiling the integrators") < err.index("simulating [")
+    assert err.split("\r")[-1].startswith("simulating [") and "] 10/10" in err.split("\r")[-1]
+    # a later run (compiled) shows the bar only
+    stats[:] = 0
+    _with_progress(call, stats, 10, True, compiling=False)
+    assert "compiling" not in capsys.readouterr().err

@@ -10,6 +10,10 @@ default); otherwise nothing is printed. No dependency::
             ...
             bar.update(len(chunk))      # add to the count
     # bar.set(k) sets the count instead of adding to it
+
+Work of unknown length before the count starts (compiling the integrators on a machine's first
+run) is said instead of the bar: ``bar.wait("compiling the integrators, once per machine")``
+shows that text and the seconds spent, until the count first moves.
 """
 
 from __future__ import annotations
@@ -40,6 +44,12 @@ class Progress:
         self.start = time.monotonic()
         self._last = 0.0
         self._shown = False
+        self.waiting: str | None = None
+
+    def wait(self, text: str) -> None:
+        """Say `text` (what is being done, with the seconds spent) instead of the bar, until the count
+        first moves: work of unknown length before the counted work starts."""
+        self.waiting = text
 
     def update(self, k: int = 1) -> None:
         """Add `k` to the count."""
@@ -47,7 +57,10 @@ class Progress:
 
     def set(self, count: int) -> None:
         """Set the count."""
-        self.count = min(max(0, int(count)), self.total) if self.total else int(count)
+        count = min(max(0, int(count)), self.total) if self.total else int(count)
+        if count != self.count:
+            self.waiting = None  # the counted work has begun
+        self.count = count
         if not self.enabled:
             return
         now = time.monotonic()
@@ -59,6 +72,12 @@ class Progress:
     def _draw(self, now: float) -> None:
         elapsed = now - self.start
         width = shutil.get_terminal_size((80, 20)).columns
+        if self.waiting is not None:
+            line = f"{self.waiting}... {elapsed:.0f} s"
+            self.stream.write(("\r" + line.ljust(width - 1))[: width + 1])
+            self.stream.flush()
+            self._shown = True
+            return
         frac = self.count / self.total if self.total else 0.0
         if 0 < frac < 1:
             eta = f"{elapsed * (1 - frac) / frac:5.0f} s left"

@@ -10,6 +10,7 @@ variational integrator).
 from __future__ import annotations
 
 import functools
+import os
 import threading
 import weakref
 from dataclasses import dataclass, field
@@ -288,15 +289,33 @@ def stage_table():
 MAX_EVENTS = 100_000
 
 
-def _with_progress(call, stats, total: int, enabled: bool | None):
+#: What the progress bar says while numba compiles the integrators (a machine's first run: about 20 s).
+COMPILING = "compiling the integrators, once per machine"
+
+
+def compiled(dispatcher) -> bool:
+    """Whether numba has `dispatcher` (a kernel) compiled: in this process, or in its cache on disk
+    (loading it then takes well under a second). False when it cannot tell."""
+    if dispatcher.signatures:
+        return True
+    try:
+        return os.path.exists(dispatcher._cache._cache_file._index_path)
+    except AttributeError:  # no cache on disk (cache=False), or another numba's internals
+        return False
+
+
+def _with_progress(call, stats, total: int, enabled: bool | None, compiling: bool = False):
     """Run the compiled integrator; on a terminal, in a thread (the kernel releases the GIL) while
-    this one draws a progress bar from the outputs done so far (stats[3]). The results are the
-    same either way."""
+    this one draws a progress bar from the outputs done so far (stats[3]), after saying that it
+    compiles the integrators while it does (`compiling`: before the first output). The results are
+    the same either way."""
     from .._progress import Progress
 
     bar = Progress(total, "simulating", enabled=enabled)
     if not bar.enabled:
         return call()
+    if compiling:
+        bar.wait(COMPILING)
     import threading
 
     result: dict = {}
@@ -393,7 +412,8 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
                                 events.starts, eterm, ev_t, ev_k, ev_x, ev_n, sampling.hold, sampling.samples,
                                 sampling.which, hist, int(project), int(nwork))
 
-    status = call() if progress is False else _with_progress(call, stats, len(times), progress)
+    status = call() if progress is False else _with_progress(call, stats, len(times), progress,
+                                                              not compiled(kernels().dop853))
     k = int(stats[3])
     m = int(ev_n[0]) if nev else 0
     order = np.argsort(ev_t[:m], kind="stable") if m else slice(None)
