@@ -418,3 +418,22 @@ def test_reports_show_hostile_names_as_text(tmp_path):
     assert run.returncode == 0, run.stdout[-2000:]
     assert (tmp_path / "r.pdf").exists() and "(/etc/hostname" not in run.stdout  # TeX logs a file it reads
     no_marker(tmp_path)
+
+
+def test_pictures_show_hostile_names_as_text(tmp_path):
+    """A model's name is a figure's title as it is (Matplotlib parsed '$\\frac{ $' as mathtext and
+    raised while drawing), and the HTML animation's <title> is escaped."""
+    from lagrangian import plot
+
+    name = "cost $\\frac{ and \x00 $ </title><script>alert(1)</script>"
+    model = lg.Model(name, coordinates=["x"], parameters={"k": 4.0}, T="x_dot**2/2", V="k*x**2/2")
+    model.add_particle(1, ("x", 0), name="mass")
+    traj = lg.simulate(lg.derive(model), 0.2, {"x": 1.0}, dt=0.1)
+    for figure in (plot.time_history(traj), plot.energy_drift(traj)):
+        figure.savefig(tmp_path / "f.png")
+        titles = [t.get_text() for t in figure.findobj(lambda a: hasattr(a, "get_text"))]
+        assert any("cost \\$\\frac{ and   \\$" in t for t in titles)
+    anim = plot.animate(traj)
+    anim.save(str(tmp_path / "a.html"))
+    page = (tmp_path / "a.html").read_text()
+    assert "<script>alert(1)" not in page and "&lt;/title&gt;&lt;script&gt;" in page

@@ -31,7 +31,7 @@ import re
 from xml.sax.saxutils import quoteattr
 
 __all__ = ["IDENTIFIER", "COMMENT_MAX", "check_identifier", "local_name", "module_identifier", "comment_text",
-           "c_string", "c_strings", "modelica_string", "xml_attribute", "RESERVED"]
+           "c_string", "c_strings", "modelica_string", "xml_attribute", "plot_text", "RESERVED"]
 
 #: The one rule for a name that enters generated code.
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -131,6 +131,13 @@ def modelica_string(text: str) -> str:
     a NUL) as spaces."""
     text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in str(text))
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def plot_text(text: object) -> str:
+    """`text` as Matplotlib shows it literally: ``$`` escaped (no mathtext parsed from a model's
+    name), control characters as spaces."""
+    text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in str(text))
+    return text.replace("$", "\\$")
 
 
 _XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff\ud800-\udfff]")

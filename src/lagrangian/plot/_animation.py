@@ -17,6 +17,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .._codetext import plot_text
 from ..errors import LagrangianError, ModelError
 from ._figures import matplotlib_module
 from ._geometry import AXIS_LENGTH, Scene, check_drawable, clip_line, ground_grid, scene_of
@@ -199,7 +200,7 @@ class Animation:
         self.axes = ax
         self._set_box(0)
         if title is not None:
-            ax.set_title(title)
+            ax.set_title(plot_text(title))
         empty = [[] for _ in range(scene.dim)]
         # tracks and ground (static, unless a 3D view follows: then clipped to the box at each frame)
         for k, (point, direction) in enumerate(scene.tracks):
@@ -430,7 +431,9 @@ class Animation:
     def _write(self, path: str, suffix: str, shown: str) -> None:
         """Write the file `path` (a temporary one) for the user's `shown` (named in errors)."""
         if suffix == ".html":
-            title = getattr(self.trajectory.model, "name", "animation")
+            import html
+
+            title = html.escape(str(getattr(self.trajectory.model, "name", "animation")))
             page = (f"<!DOCTYPE html>\n<html>\n<head><meta charset=\"utf-8\"><title>{title}</title></head>\n"
                     f"<body>\n{self.to_html()}\n</body>\n</html>\n")
             with open(path, "w", encoding="utf-8") as fh:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import sympy
 
+from .._codetext import plot_text
 from ..errors import ModelError
 from ._figures import pyplot, units
 
@@ -69,6 +70,6 @@ def bifurcation_diagram(continuation, coordinate: str | None = None, *, ax=None,
     unit = units(continuation.equations.model).get(coordinate)
     ax.set_xlabel(continuation.parameter)
     ax.set_ylabel(f"{coordinate} ({unit})" if unit else coordinate)
-    ax.set_title(f"Equilibria of {continuation.equations.model.name}")
+    ax.set_title(plot_text(f"Equilibria of {continuation.equations.model.name}"))
     ax.legend(loc="best", fontsize=9)
     return fig

@@ -10,6 +10,7 @@ from typing import Sequence
 import numpy as np
 import sympy
 
+from .._codetext import plot_text
 from ..errors import ModelError
 
 __all__ = ["time_history", "phase_portrait", "energy_drift", "units", "pyplot", "matplotlib_module"]
@@ -104,7 +105,7 @@ def time_history(traj, names: Sequence[str] | str | None = None, *, figsize=None
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel(_label("t", unit))
     if traj.model is not None:
-        fig.suptitle(traj.model.name)
+        fig.suptitle(plot_text(traj.model.name))
     return fig
 
 
@@ -140,7 +141,7 @@ def phase_portrait(traj, q: Sequence[str] | str | None = None, *, figsize=None):
         ax.grid(True, alpha=0.3)
         ax.legend(loc="best", fontsize="small")
     if traj.model is not None:
-        fig.suptitle(traj.model.name)
+        fig.suptitle(plot_text(traj.model.name))
     return fig
 
 
@@ -176,6 +177,7 @@ def energy_drift(traj, *, relative: bool = False, figsize=None):
     ax.set_ylabel(label)
     ax.grid(True, alpha=0.3)
     kind = "conserved" if traj.conservative else "not conserved (D, Q or inputs act)"
-    ax.set_title(f"{traj.model.name + ': ' if traj.model is not None else ''}{traj.energy_name.replace('_', ' ')}"
-                 f" ({kind}); max |drift| = {np.max(np.abs(drift)):.2e}", fontsize="medium")
+    ax.set_title(plot_text(f"{traj.model.name + ': ' if traj.model is not None else ''}"
+                           f"{traj.energy_name.replace('_', ' ')} ({kind}); max |drift| = {np.max(np.abs(drift)):.2e}"),
+                 fontsize="medium")
     return fig
