@@ -266,7 +266,8 @@ def mirror_images(ctx: Search, roots: list[np.ndarray]) -> list[np.ndarray]:
     """The images of the roots under changes of sign of the coordinates that are roots too, and
     not among `roots` (those of a symmetric model: the bicycle's turn to the right as well as to
     the left, whichever one the starts led to). Each image is tested as any root is (is_root);
-    none for more than 6 unknown coordinates, or with multipliers among the variables."""
+    only of isolated roots (a set of roots is walked as a set); none for more than 6 unknown
+    coordinates, or with multipliers among the variables."""
     problem = ctx.problem
     coords = [i for i in problem.unknowns if i < problem.equations.n]
     if problem.multipliers or not 0 < len(coords) <= 6:
@@ -278,8 +279,18 @@ def mirror_images(ctx: Search, roots: list[np.ndarray]) -> list[np.ndarray]:
                  else residual(problem, ctx.setting, q)[0])
         return float(np.max(np.abs(r), initial=0.0)) if np.all(np.isfinite(r)) else math.inf
 
+    def isolated(q):  # a Jacobian of full rank (a set of roots, a ring, is found and walked as a set)
+        with np.errstate(all="ignore"):
+            J = residual(problem, ctx.setting, q)[1]
+        if not (J.size and np.all(np.isfinite(J))):
+            return False
+        sv = np.linalg.svd(J, compute_uv=False)
+        return bool(sv.max() > 0 and np.sum(sv > 1e-9 * sv.max()) == J.shape[1])
+
     out: list[np.ndarray] = []
     for q in roots:
+        if not isolated(q):
+            continue
         # the image of a root of a symmetric problem is a root to the same round-off: a far larger
         # residual (one that is_root lets pass next to a singular point) is no image
         bound = 10.0 * size(q) + 1e-13 * ctx.force_scale
