@@ -209,6 +209,12 @@ def test_rolling_disk_is_conservative_no_damping(capsys):
     assert code == 0
     assert "  C (damping) =\n" + "               0            0            0\n" * 3 in out
     assert "  G (gyroscopic, Coriolis, and the constraint forces' velocity terms) =" in out
+    code, out, _ = run(capsys, "modes", "rolling-disk", "--json")
+    assert code == 0 and json.loads(out)["damped"] is False
+    code, out, _ = run(capsys, "modes", "rolling-disk")
+    assert code == 0 and "no damping (C = 0)" in out and "damping is" not in out
+    code, out, _ = run(capsys, "modes", "mck", "--json")  # its dampers c1, c2
+    assert code == 0 and json.loads(out)["damped"] is True
 
 
 def test_steady_rolling_of_the_disk_has_no_damping():

@@ -44,13 +44,18 @@ class Modes:
         phi^T M phi and phi^T K phi for the unit shapes (their ratio is omega^2).
     damping_ratios : ndarray, shape (n,)
         zeta of each mode from the eigenvalues of A (NaN for rigid and unstable modes); exactly 0
-        when the linearization has no damping at all (C = 0), not the round-off of the eigenvalues.
+        when the velocity terms neither take nor give power (C = 0 and G skew-symmetric), not the
+        round-off of the eigenvalues. (A rolling bicycle's weave decays with C = 0: its velocity
+        terms from the constraints are not skew-symmetric.)
     damped_frequencies : ndarray, shape (n,)
         |Im(lambda)| (rad/s): 0 for an overdamped mode.
     proportional_damping : bool
         Whether the damping matrix is diagonal in the modal coordinates (classical damping).
     eigenvalues : ndarray of complex, shape (2n,)
         Of A.
+    damped : bool
+        Whether the linearization has damping at all (C != 0: a damper, a viscous force); False
+        for a conservative system, a rolling one included.
     coupling : tuple of str
         "gyroscopic" (G != 0) and "circulatory" (K not symmetric) when the linearization has such
         terms: the modes above are those of M and K's symmetric part alone, and the motion's
@@ -70,6 +75,7 @@ class Modes:
     proportional_damping: bool
     eigenvalues: np.ndarray = field(repr=False)
     coupling: tuple[str, ...] = ()
+    damped: bool = True
 
     def to_dict(self) -> dict:
         """The JSON contract: frequencies_hz (ascending; null for unstable modes), damping_ratios
@@ -89,6 +95,7 @@ class Modes:
             "modal_masses": listed(self.modal_masses),
             "modal_stiffnesses": listed(self.modal_stiffnesses),
             "proportional_damping": self.proportional_damping,
+            "damped": self.damped,
             "coupling": list(self.coupling),
         }
 
@@ -107,8 +114,8 @@ class Modes:
             shape = ", ".join(f"{x:.4g}" for x in self.unit_shapes[k])
             lines.append(f"{k + 1:>4}  {self.kinds[k]:<8} {num(self.frequencies_hz[k], '12.6g')} "
                          f"{num(self.frequencies[k], '14.6g')} {num(self.damping_ratios[k], '10.4g')}  [{shape}]")
-        lines.append("damping is " + ("proportional (classical)" if self.proportional_damping else
-                                      "not proportional: the modes couple through it"))
+        lines.append("no damping (C = 0)" if not self.damped else "damping is " + (
+            "proportional (classical)" if self.proportional_damping else "not proportional: the modes couple through it"))
         if self.coupling:
             from ._linearize import _complex_text
 
@@ -168,7 +175,7 @@ def modes(linear_model: LinearModel) -> Modes:
         ("circulatory", np.abs(K - K.T).max(initial=0.0) > 1e-12 * size)) if present)
     return Modes(lin.coordinate_names, read_only(omega), read_only(omega / (2 * math.pi)), tuple(kinds),
                  read_only(shapes), read_only(unit), read_only(modal_m), read_only(modal_k),
-                 read_only(zeta), read_only(wd), proportional, lin.eigenvalues, coupling)
+                 read_only(zeta), read_only(wd), proportional, lin.eigenvalues, coupling, bool(np.any(C)))
 
 
 def _damping(lin: LinearModel, shapes: np.ndarray, kinds: list[str]) -> tuple[np.ndarray, np.ndarray]:
