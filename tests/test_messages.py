@@ -113,6 +113,14 @@ def test_a_simulation_request_reports_its_fields_and_the_names_the_model_lacks_a
         ("inputs.G", "'G' is not an input of the model; the choices are F")]
 
 
+def test_too_many_rows_and_an_unknown_name_are_reported_together():
+    status, errors = _post_simulate({"model": OSCILLATOR, "t_end": 1000, "dt": 0.001, "initial": {"y": 1}})
+    assert status == 400
+    assert [e["message"] for e in errors] == [
+        "the simulation would output 1000001 rows (t_end / dt + 1), more than the limit of 100000 per request: "
+        "raise dt or shorten t_end", "'y' is not a coordinate or velocity; the choices are x, x_dot"]
+
+
 def test_a_bad_request_with_a_bad_model_reports_both():
     status, errors = _post_simulate({"model": OSCILLATOR.replace('V = "k*x**2/2"', 'V = "kk*x**2/2"'),
                                      "t_end": -1})
