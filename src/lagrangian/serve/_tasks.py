@@ -409,8 +409,8 @@ def _simulate(body: bytes):
     t_end = kwargs.get("t_end", defaults.get("t_end"))
     dt = kwargs.get("dt", defaults.get("dt", 0.01))
     if t_end is not None and t_end / dt + 1 > MAX_ROWS:
-        raise BadRequest(f"the simulation would output {t_end / dt + 1:.6g} rows (t_end / dt + 1), more "
-                         f"than the limit of {MAX_ROWS} per request: raise dt or shorten t_end")
+        raise _request_problems(obj, [f"the simulation would output {t_end / dt + 1:.6g} rows (t_end / dt + 1), "
+                                      f"more than the limit of {MAX_ROWS} per request: raise dt or shorten t_end"])
     if kwargs.get("inputs") is not None:
         kwargs["inputs"] = {**defaults.get("inputs", {}), **kwargs["inputs"]}
     return model, simulate(derive(model), **kwargs)
