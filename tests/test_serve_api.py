@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -184,7 +185,8 @@ def test_scripts_without_an_origin_send_the_model_text_as_they_like(server):
     """curl --data-binary (form-urlencoded), text/plain, or no content type: as documented."""
     raw = server.request("POST", "/api/derive", OSCILLATOR)[2]
     for content_type in ("text/plain", "application/x-www-form-urlencoded", "application/toml"):
-        status, headers, body = server.request("POST", "/api/derive", OSCILLATOR, headers={"Content-Type": content_type})
+        status, headers, body = server.request("POST", "/api/derive", OSCILLATOR,
+                                               headers={"Content-Type": content_type})
         assert status == 200 and body == raw
         _no_cors(headers)
     status, data = server.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "dt": 0.5},
@@ -649,6 +651,42 @@ def test_slow_requests_leave_a_worker_to_short_ones():
     assert code == 0 and "Traceback" not in err, err
 
 
+def test_the_lanes_serve_in_order_of_arrival_and_keep_a_worker_for_short_requests():
+    """The pool's queue without processes (two stand-in workers): long requests hold at most one of
+    two workers, a short one takes the other at once, a freed worker goes to the oldest request its
+    lane lets run, a cancelled wait gives nothing away, and past max_waiting a request gets a 503."""
+    import asyncio
+
+    from lagrangian.serve._workers import WorkerPool
+
+    async def scenario():
+        pool = WorkerPool(2, time_limit=1, max_waiting=3)
+        pool._idle = ["w1", "w2"]
+        first = await pool._acquire("long")
+        second = asyncio.ensure_future(pool._acquire("long"))
+        cancelled = asyncio.ensure_future(pool._acquire("long"))
+        await asyncio.sleep(0)
+        assert not second.done() and pool.state()["waiting"] == {"short": 0, "long": 2}
+        short = await pool._acquire("short")  # behind two long ones, served at once
+        assert {first, short} == {"w1", "w2"}
+        assert pool.state()["running"] == {"short": 1, "long": 1}
+        later_short = asyncio.ensure_future(pool._acquire("short"))
+        await asyncio.sleep(0)
+        busy = await pool.run("derive", b"x", what="derivation")  # three waiting: no room for a fourth
+        assert busy.status == 503 and json.loads(busy.body)["errors"][0]["message"] == (
+            "the server is busy: 3 requests are waiting; try again in a moment")
+        cancelled.cancel()
+        await asyncio.sleep(0)
+        pool._release(short, "short")  # the long lane is full: the short one behind goes first
+        assert await later_short == short and not second.done()
+        pool._release(first, "long")
+        assert await second == first
+        assert pool.state()["running"] == {"short": 1, "long": 1}
+        assert pool.state()["waiting"] == {"short": 0, "long": 0}
+
+    asyncio.run(scenario())
+
+
 # ------------------------------------------------------------------ the command
 def test_serve_stops_cleanly_on_ctrl_c_and_takes_its_workers_along():
     s = Server("double-pendulum", workers=1)
@@ -700,17 +738,32 @@ def test_serve_reads_a_model_file_anew_at_each_visit(tmp_path):
 @pytest.mark.parametrize("argv, message", [
     (["nope-model"], "lagrangian serve: error: 'nope-model' is neither a model file nor a built-in example."),
     (["missing.toml"], "lagrangian serve: error: missing.toml: no such model file 'missing.toml': check the path"),
-    (["--port", "70000"], "lagrangian serve: error: --port 70000: expected a port number from 1 to 65535"),
-    (["--workers", "0"], "lagrangian serve: error: --workers 0: expected at least 1"),
-    (["--time-limit", "0"], "lagrangian serve: error: --time-limit 0: expected a positive number of seconds"),
-    (["--memory-limit", "0"], "lagrangian serve: error: --memory-limit 0: expected a positive number of MiB "
-                              "(default 2048)"),
+    (["--port", "70000"], "lagrangian serve: error: --port must be at most 65535, got 70000; for example --port 8800"),
+    (["--workers", "0"], "lagrangian serve: error: --workers must be at least 1, got 0; for example --workers 2"),
+    (["--time-limit", "0"], "lagrangian serve: error: --time-limit must be a positive number, got 0; for example "
+                            "--time-limit 30"),
+    (["--memory-limit", "0"], "lagrangian serve: error: --memory-limit must be at least 64, got 0; for example "
+                              "--memory-limit 2048"),
 ])
 def test_serve_errors(argv, message, tmp_path):
     run = subprocess.run([sys.executable, "-m", "lagrangian", "serve", "--no-browser", *argv], capture_output=True,
                          text=True, timeout=60, cwd=tmp_path)
     assert run.returncode == 2 and run.stderr.startswith(message), run.stderr
     assert "Traceback" not in run.stderr
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"port": 70000}, "--port 70000: expected a port number from 1 to 65535 (or 0 for a free one)"),
+    ({"time_limit": 0}, "--time-limit 0: expected a positive number of seconds"),
+    ({"memory_limit": 0}, "--memory-limit 0: expected a positive number of MiB (default 2048)"),
+    ({"workers": 0}, "--workers 0: expected at least 1"),
+])
+def test_serve_run_checks_its_arguments_before_listening(kwargs, message):
+    """lagrangian.serve.run, the Python entry of the command, refuses what the CLI's options refuse."""
+    from lagrangian.serve import run
+
+    with pytest.raises(lg.errors.ModelError, match=re.escape(message)):
+        run(open_browser=False, **kwargs)
 
 
 def test_a_port_in_use_is_an_error_that_says_what_to_do():

@@ -322,9 +322,9 @@ class WorkerPool:
             folder = tempfile.mkdtemp(prefix="lagrangian-request-")
         except OSError as exc:
             return errors_reply(503, [f"the server cannot create a temporary folder for the {what} in "
-                                      f"{tempfile.gettempdir()} ({exc.strerror or exc}): check that this folder exists, "
-                                      "is writable and has free space, or start the server with TMPDIR set to "
-                                      "another folder"])
+                                      f"{tempfile.gettempdir()} ({exc.strerror or exc}): check that this folder "
+                                      "exists, is writable and has free space, or start the server with TMPDIR set "
+                                      "to another folder"])
         lane = "short" if kind in SHORT_TASKS else "long"
         try:
             worker = await self._acquire(lane)
