@@ -13,6 +13,10 @@ loopback address only, the run is bounded in count and time, and it stops by its
    initial values and parameter values), all sent at once from --concurrency threads, one connection
    each. Meanwhile a prober asks `GET /api/info` every 0.2 s: the event loop's responsiveness while
    the workers are busy.
+3. The short lane: --slow slow simulations at once (the double pendulum for 40 s with RK45 at
+   rtol = atol = 1e-11, a few seconds each), twice as many as the workers, while a prober sends a
+   small derivation (a one-coordinate oscillator) every 0.2 s: how long a user typing waits for
+   the check of the model while the workers are busy with slow work.
 
 It prints how many were answered, the status codes, the latency percentiles (p50, p90, p99, max) of
 each kind and the throughput, and exits with status 1 when a request got no answer or a 5xx.
@@ -83,6 +87,46 @@ def percentiles(values: list[float]) -> str:
             f"max {v[-1] * 1000:8.1f} ms   mean {statistics.fmean(v) * 1000:8.1f} ms")
 
 
+OSCILLATOR = 'coordinates = ["x"]\n[energy]\nT = "x_dot**2/2"\nV = "x**2/2"\n'
+
+
+def short_lane(url: str, slow: int) -> bool:
+    """Phase 3: small derivations sent every 0.2 s while `slow` slow simulations keep the workers busy;
+    True when every request was answered with 200."""
+    from lagrangian.examples import example_source
+
+    body = json.dumps({"model": example_source("double-pendulum"), "t_end": 40, "dt": 0.01, "method": "RK45",
+                       "rtol": 1e-11, "atol": 1e-11}).encode()
+    small: list[tuple[int | None, float, str]] = []
+    running = threading.Event()
+    running.set()
+
+    def probe():
+        time.sleep(0.5)  # the slow ones have reached the workers
+        while running.is_set():
+            small.append(request(url, "POST", "/api/derive", OSCILLATOR.encode()))
+            time.sleep(0.2)
+
+    prober = threading.Thread(target=probe)
+    start = time.perf_counter()
+    with ThreadPoolExecutor(max_workers=slow) as pool:
+        futures = [pool.submit(request, url, "POST", "/api/simulate", body) for _ in range(slow)]
+        prober.start()
+        slow_results = [f.result() for f in futures]
+    running.clear()
+    prober.join()
+    wall = time.perf_counter() - start
+    ok = all(r[0] == 200 for r in slow_results + small)
+    print(f"short lane: {slow} slow simulations at once, answered in {wall:.1f} s: "
+          f"{percentiles([r[1] for r in slow_results])}")
+    print(f"{'derive':>9} ({len(small)} small ones meanwhile, "
+          f"{sum(r[0] == 200 for r in small)} answered 200): {percentiles([r[1] for r in small])}")
+    if not ok:
+        bad = [r for r in slow_results + small if r[0] != 200]
+        print(f"  failed: status {bad[0][0]}: {bad[0][2]}")
+    return ok
+
+
 def main(argv=None) -> int:
     from lagrangian.examples import example_descriptions, example_source
 
@@ -91,6 +135,8 @@ def main(argv=None) -> int:
     ap.add_argument("--concurrency", type=int, default=200, help="requests in flight at once (threads)")
     ap.add_argument("--url", help="a running server (default: start one)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--slow", type=int, help="slow simulations of the short-lane phase (default: 2 per worker; "
+                    "0 leaves the phase out)")
     args = ap.parse_args(argv)
     proc = None
     url = args.url
@@ -184,6 +230,9 @@ def main(argv=None) -> int:
         for r in errors[:5]:
             print(f"  failed: {r[0]}: status {r[1]}: {r[3]}")
         ok = len(answered) == len(results) and not errors and all(r[1] == 200 for r in results)
+        slow = 2 * workers if args.slow is None else args.slow
+        if slow > 0:
+            ok = short_lane(url, slow) and ok
         print("result: " + ("every request answered, none 5xx" if ok else
                             f"{len(results) - len(answered)} unanswered, {len(errors)} failed"))
         return 0 if ok else 1
