@@ -409,8 +409,10 @@ def _simulate(body: bytes):
     t_end = kwargs.get("t_end", defaults.get("t_end"))
     dt = kwargs.get("dt", defaults.get("dt", 0.01))
     if t_end is not None and t_end / dt + 1 > MAX_ROWS:
-        raise _request_problems(obj, [f"the simulation would output {t_end / dt + 1:.6g} rows (t_end / dt + 1), "
-                                      f"more than the limit of {MAX_ROWS} per request: raise dt or shorten t_end"])
+        rows = t_end / dt + 1
+        shown = f"{math.floor(rows)}" if rows < 1e15 else f"{rows:.3g}"  # 1e+302, not 303 digits; inf at dt = 1e-320
+        raise _request_problems(obj, [f"the simulation would output {shown} rows (t_end / dt + 1), more than the "
+                                      f"limit of {MAX_ROWS} per request: raise dt or shorten t_end"])  # with the names
     if kwargs.get("inputs") is not None:
         kwargs["inputs"] = {**defaults.get("inputs", {}), **kwargs["inputs"]}
     return model, simulate(derive(model), **kwargs)
