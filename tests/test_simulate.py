@@ -314,15 +314,18 @@ def test_error_bad_method():
         lg.simulate(oscillator(), 1.0, method="RK44")
 
 
-@pytest.mark.parametrize("t_end", [0, -1.0, float("nan"), float("inf")])
-def test_error_non_positive_t_end(t_end):
-    with pytest.raises(ModelError, match=r"t_end must be a positive number"):
+@pytest.mark.parametrize("t_end, message", [(0, "a positive number, got 0"), (-1.0, "a positive number, got -1.0"),
+                                             (float("nan"), "a finite number, got nan"),
+                                             (float("inf"), "a finite number, got inf")])
+def test_error_non_positive_t_end(t_end, message):
+    with pytest.raises(ModelError, match=rf"\[t_end\]: t_end must be {message}$"):
         lg.simulate(oscillator(), t_end)
 
 
-@pytest.mark.parametrize("dt", [0, -0.1, float("nan")])
-def test_error_non_positive_dt(dt):
-    with pytest.raises(ModelError, match=r"dt must be a positive number"):
+@pytest.mark.parametrize("dt, message", [(0, "a positive number, got 0"), (-0.1, "a positive number, got -0.1"),
+                                         (float("nan"), "a finite number, got nan")])
+def test_error_non_positive_dt(dt, message):
+    with pytest.raises(ModelError, match=rf"\[dt\]: dt must be {message}$"):
         lg.simulate(oscillator(), 1.0, dt=dt)
 
 

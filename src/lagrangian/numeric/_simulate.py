@@ -408,11 +408,11 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     if t_end is None:
         problems.append(Problem("t_end is needed: pass t_end=... (--t-end on the command line) or set "
                                 "t_end under [simulation] in the model file", key="t_end"))
-    elif not isinstance(t_end, numbers.Real) or not t_end > 0 or not math.isfinite(t_end):
-        problems.append(Problem(f"t_end must be a positive number, got {t_end!r}", key="t_end"))
+    elif number_problem(t_end, "t_end", positive=True):  # the CLI's rule (lagrangian._limits), as for every number
+        problems.append(Problem(number_problem(t_end, "t_end", positive=True), key="t_end"))
     dt = defaults.get("dt", 0.01) if dt is None else dt
-    if not isinstance(dt, numbers.Real) or not dt > 0 or not math.isfinite(dt):
-        problems.append(Problem(f"dt must be a positive number, got {dt!r}", key="dt"))
+    if number_problem(dt, "dt", positive=True):
+        problems.append(Problem(number_problem(dt, "dt", positive=True), key="dt"))
     rtol = defaults.get("rtol", 1e-9) if rtol is None else rtol
     atol = defaults.get("atol", 1e-9) if atol is None else atol
     rtol_problem = number_problem(rtol, "rtol", positive=True, maximum=1.0, example="rtol=1e-9 (--rtol 1e-9)")
@@ -431,8 +431,8 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     elif method == "variational" and backend == "scipy":
         problems.append(Problem("method 'variational' runs in compiled code only: use backend='auto' or "
                                 "'numba' (--backend numba), or a SciPy method with backend='scipy'", key="backend"))
-    if step is not None and (not isinstance(step, numbers.Real) or not step > 0 or not math.isfinite(step)):
-        problems.append(Problem(f"step must be a positive number, got {step!r}", key="step"))
+    if step is not None and number_problem(step, "step", positive=True):
+        problems.append(Problem(number_problem(step, "step", positive=True), key="step"))
     p = _parameters(nm, params, problems)
     x0 = _initial_state(nm, defaults.get("initial") if initial is None else initial, problems)
     u_of, u_exprs = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
