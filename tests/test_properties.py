@@ -281,24 +281,27 @@ bad_option_values = st.sampled_from(["-1", "0", "nan", "inf", "-inf", "1e300", "
 
 @st.composite
 def simulation_options(draw) -> dict[str, str]:
-    """The values of --t-end, --dt, --rtol, --atol, --initial and --param: valid but for up to two."""
-    wild = draw(st.sets(st.sampled_from(["t_end", "dt", "rtol", "atol", "initial", "param"]), max_size=2))
+    """The values of --t-end, --dt, --rtol, --atol, --initial, --param and --input: valid but for up to two."""
+    wild = draw(st.sets(st.sampled_from(["t_end", "dt", "rtol", "atol", "initial", "param", "input"]), max_size=2))
     valid = {"t_end": st.floats(min_value=0.01, max_value=2.0).map(repr),
              "dt": st.floats(min_value=1e-3, max_value=0.5).map(repr),
              "rtol": st.sampled_from(["1e-3", "1e-6", "1e-9", "1e-12", "1"]),
              "atol": st.sampled_from(["1e-3", "1e-6", "1e-9", "1e-300"]),
-             "initial": valid_expressions(("pi",)), "param": st.floats(min_value=1, max_value=1e3).map(repr)}
+             "initial": valid_expressions(("pi",)), "param": st.floats(min_value=1, max_value=1e3).map(repr),
+             "input": valid_expressions(("t", "x1", "x2_dot", "k1"))}
     bad = {"initial": st.one_of(expressions(("q1", "q2")), bad_option_values),
-           "param": st.one_of(numbers_text, expressions(()), bad_option_values)}
+           "param": st.one_of(numbers_text, expressions(()), bad_option_values),
+           "input": expressions(("t", "x1", "x2_dot", "k1"))}
     return {key: draw(bad.get(key, bad_option_values) if key in wild else strategy) for key, strategy in valid.items()}
 
 
 @settings(max_examples=40, **SETTINGS)
 @given(options=simulation_options())
 def test_simulate_options_run_or_exit_2_with_one_clear_error(capsys, options):
-    t_end, dt, rtol, atol, initial, param = (options[k] for k in ("t_end", "dt", "rtol", "atol", "initial", "param"))
+    t_end, dt, rtol, atol, initial, param, signal_ = (options[k] for k in ("t_end", "dt", "rtol", "atol", "initial",
+                                                                            "param", "input"))
     argv = ["simulate", "mck", "--backend", "scipy", f"--t-end={t_end}", f"--dt={dt}", f"--rtol={rtol}",
-            f"--atol={atol}", "--initial", f"x1={initial}", "--param", f"k1={param}"]
+            f"--atol={atol}", "--initial", f"x1={initial}", "--param", f"k1={param}", "--input", f"f={signal_}"]
     old = os.environ.get("LAGRANGIAN_MAX_ROWS")
     os.environ["LAGRANGIAN_MAX_ROWS"] = "5000"  # every run that is allowed is small
     try:
