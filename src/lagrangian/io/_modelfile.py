@@ -554,10 +554,11 @@ class _Reader:
                 "{ }); a model file needs at most a few levels: a list of lists such as rotation = "
                 '[["z", "phi"]] is the deepest', line=_deepest_line(self.text)))
         except ValueError as exc:  # tomllib's int() of an integer with more digits than Python converts
+            too_long = "digits" in str(exc)
             self.problems.append(Problem(
                 f"invalid TOML: an integer too long to read ({exc}); a model's numbers are floating-point "
-                "numbers, at most about 1.8e308: write it with an exponent, such as 1.5e20",
-                line=_longest_digits_line(self.text)))
+                "numbers, at most about 1.8e308: write it with an exponent, such as 1.5e20" if too_long else
+                f"invalid TOML: {exc}", line=_longest_digits_line(self.text) if too_long else None))
         if self.problems:
             self.raise_if_problems()
             raise AssertionError("unreachable")  # pragma: no cover
