@@ -18,52 +18,7 @@ from lagrangian.analysis import equilibria, linearize
 from lagrangian.analysis._linearize import vector_names
 from lagrangian.cli import main
 
-# A 2-link planar arm, written from the docs as a new user would: th1 from the x axis, th2 relative.
-ARM2 = """
-name = "arm2"
-coordinates = ["th1", "th2"]
-inputs = ["tau1", "tau2"]
-
-[parameters]
-m1 = 2.0
-m2 = 1.0
-l1 = 0.5
-l2 = 0.4
-g = 9.81
-
-[[points]]
-name = "shoulder"
-position = ["0", "0"]
-
-[[points]]
-name = "elbow"
-position = ["l1*cos(th1)", "l1*sin(th1)"]
-
-[[bodies]]
-name = "link1"
-mass = "m1"
-inertia = "m1*l1**2/12"
-position = ["l1/2*cos(th1)", "l1/2*sin(th1)"]
-angle = "th1"
-
-[[bodies]]
-name = "link2"
-mass = "m2"
-inertia = "m2*l2**2/12"
-position = ["l1*cos(th1) + l2/2*cos(th1 + th2)", "l1*sin(th1) + l2/2*sin(th1 + th2)"]
-angle = "th1 + th2"
-
-[gravity]
-g = "g"
-
-[[loads]]
-torque = "tau1"
-angle = "th1"
-
-[[loads]]
-torque = "tau2"
-angle = "th2"
-"""
+ARM2 = (pathlib.Path(__file__).parent / "models" / "arm2.toml").read_text()
 
 #: The arm's equilibria: hanging (th1 = -pi/2) or upright, the forearm straight or folded back.
 ARM2_EQUILIBRIA = [(-math.pi / 2, 0.0, True), (-math.pi / 2, math.pi, False), (math.pi / 2, 0.0, False),

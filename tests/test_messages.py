@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -219,34 +220,7 @@ def test_the_cli_gives_one_answer_for_a_massless_pendulum(tmp_path):
 
 
 # ------------------------------------------------------------------ the model's parameters in options
-ARM2 = """\
-name = "arm2"
-coordinates = ["th1", "th2"]
-inputs = ["tau1", "tau2"]
-[parameters]
-m1 = 2.0
-m2 = 1.0
-l1 = 0.5
-l2 = 0.4
-g = 9.81
-[[bodies]]
-name = "link1"
-mass = "m1"
-inertia = "m1*l1**2/12"
-position = ["l1/2*cos(th1)", "l1/2*sin(th1)"]
-angle = "th1"
-[[bodies]]
-name = "link2"
-mass = "m2"
-inertia = "m2*l2**2/12"
-position = ["l1*cos(th1) + l2/2*cos(th1+th2)", "l1*sin(th1) + l2/2*sin(th1+th2)"]
-angle = "th1 + th2"
-[gravity]
-g = "g"
-[forces]
-th1 = "tau1"
-th2 = "tau2"
-"""
+ARM2 = (Path(__file__).parent / "models" / "arm2.toml").read_text()
 #: the torques that hold the arm straight out at th1 = 1, th2 = 0, in the model's own parameters
 HOLD = "tau1=g*cos(1)*(m1*l1/2 + m2*(l1 + l2/2)),tau2=m2*g*l2/2*cos(1)"
 
