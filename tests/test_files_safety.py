@@ -368,7 +368,9 @@ def test_a_failed_constrained_simulation_keeps_its_rows_and_multipliers(backend)
     m.add_gravity("g")
     m.add_constraint("x**2 + y**2 - 1", name="rod")
     m.add_constraint("x - sin(t)", name="drive")
-    with pytest.raises((lg.SimulationError, lg.SingularMassMatrixError)) as caught:
+    # both backends name the dead point (the compiled one said "the mass matrix became singular", det M = 1)
+    with pytest.raises(lg.SimulationError, match=r"the constraints' Jacobian G loses rank at t = 1\.5708 .*"
+                                                 r"the rows -0\.447\*rod \+0\.894\*drive combine to zero") as caught:
         lg.simulate(lg.derive(m), t_end=3.0, initial={"x": 0.0, "y": -1.0}, backend=backend)
     partial = caught.value.partial
     assert partial is not None and partial.failure == str(caught.value)

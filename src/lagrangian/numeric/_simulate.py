@@ -1037,7 +1037,12 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
                      project=_address(fast.project_c), nwork=work_size(cm.n, cm.m))
     try:
         if raw.status in (1, 2) or (raw.status not in (0, 4) and raw.stop_measure < 1e-6 and raw.status != 3):
-            cm.solve(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)  # ConstraintSingular at a dead point
+            u0 = np.zeros(len(fast.input_names))
+            cm.solve(raw.stop_t, raw.stop_x, u0, p)  # ConstraintSingular at a dead point
+            M = cm.parts(raw.stop_t, raw.stop_x, u0, p)[0]
+            if np.linalg.cond(M) < 1e12:  # M regular: the saddle-point system is singular through G (a dead
+                # point the kernel's Schur complement sees a step before the SVD's rank test does)
+                raise ConstraintSingular(raw.stop_t, raw.stop_x, raw.stop_measure)
             raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure, p)
         if raw.status == 3:
             raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the "
