@@ -437,3 +437,24 @@ def test_pictures_show_hostile_names_as_text(tmp_path):
     anim.save(str(tmp_path / "a.html"))
     page = (tmp_path / "a.html").read_text()
     assert "<script>alert(1)" not in page and "&lt;/title&gt;&lt;script&gt;" in page
+
+
+@pytest.mark.parametrize("backend", ["numba", "c"])
+def test_names_of_the_generators_own_variables_are_the_user_s_symbols(backend):
+    """Parameters named like the placeholders (__lg_s0), the sin/cos pairs (__lg_sn0), the locals
+    (v_x), SymEngine's CSE names (x1), the generated temporaries (c0, m0_0, f0, d0, r, sn0) and the
+    module's own names (dx, work, carray, math, np) give the SciPy backend's pendulum to 1e-10."""
+    if backend == "c" and c_compiler() is None:
+        pytest.skip("no C compiler")
+    names = ["__lg_s0", "__lg_s1", "__lg_sn0", "__lg_cs0", "v_x", "x1", "c0", "m0_0", "f0", "d0", "r", "sn0", "cs0",
+             "b0", "dx", "work", "carray", "math", "np", "p", "u", "x_"]
+    params = {name: 1.0 + k / 10 for k, name in enumerate(names)}
+    weight = "*".join(names)
+    model = lg.Model("generator-names", coordinates=["x", "y"], parameters=params,
+                     T="(x_dot**2 + y_dot**2 + x_dot*y_dot*cos(x - y))/2",
+                     V=f"-{weight}*cos(x)/1000 - cos(y)*__lg_s0")
+    eq = lg.derive(model)
+    ref = lg.simulate(eq, 2.0, {"x": 0.5, "y": -0.3}, backend="scipy", rtol=1e-12, atol=1e-12, dt=0.5)
+    got = lg.simulate(eq, 2.0, {"x": 0.5, "y": -0.3}, backend=backend, rtol=1e-12, atol=1e-12, dt=0.5)
+    assert np.max(np.abs(got.x - ref.x)) < 1e-9
+    assert abs(ref["x"][-1] - 0.5) > 0.01  # it moved
