@@ -328,3 +328,14 @@ def test_a_slow_motion_animation_takes_each_sample_once_without_an_array_of_want
     t = np.linspace(0, 1, 101)
     assert _frame_indices(t, 25.0, 1e-9).tolist() == list(range(101))
     assert _frame_indices(t, 25.0, 1.0).tolist() == list(range(0, 101, 4))  # 25 fps of 100 samples per second
+
+
+@pytest.mark.parametrize("max_step, message", [
+    (float("nan"), "max_step must be a finite number, got nan (or math.inf: no limit)"),
+    (0, "max_step must be a positive number, got 0 (or math.inf: no limit)"),
+    ("x", "max_step must be a number, got 'x' (or math.inf: no limit)"),
+])
+def test_max_step_is_checked_by_the_same_rule(max_step, message):
+    # it went through as NaN, or failed at t = 4.9e-323 (compiled) or with SciPy's ValueError
+    with pytest.raises(ModelError, match=re.escape(f"[max_step]: {message}")):
+        lg.simulate(lg.derive(lg.load("mck")), 0.1, max_step=max_step)

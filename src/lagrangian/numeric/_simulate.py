@@ -433,6 +433,9 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
                                 "'numba' (--backend numba), or a SciPy method with backend='scipy'", key="backend"))
     if step is not None and number_problem(step, "step", positive=True):
         problems.append(Problem(number_problem(step, "step", positive=True), key="step"))
+    if max_step != math.inf and number_problem(max_step, "max_step", positive=True):  # inf: no limit (the default)
+        problems.append(Problem(number_problem(max_step, "max_step", positive=True) + " (or math.inf: no limit)",
+                                key="max_step"))
     p = _parameters(nm, params, problems)
     x0 = _initial_state(nm, defaults.get("initial") if initial is None else initial, problems)
     u_of, u_exprs = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
