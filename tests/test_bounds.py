@@ -339,3 +339,9 @@ def test_max_step_is_checked_by_the_same_rule(max_step, message):
     # it went through as NaN, or failed at t = 4.9e-323 (compiled) or with SciPy's ValueError
     with pytest.raises(ModelError, match=re.escape(f"[max_step]: {message}")):
         lg.simulate(lg.derive(lg.load("mck")), 0.1, max_step=max_step)
+
+
+def test_a_batch_is_bounded_as_one_simulation_is():
+    # simulate_batch(t_end=1e300) raised numpy's "Maximum allowed size exceeded"
+    with pytest.raises(ModelError, match=re.escape("[dt]: t_end = 1e+300 with dt = 0.01 asks for 1e+302 output rows")):
+        lg.simulate_batch(lg.derive(lg.load("mck")), 1e300, params={"k1": [1.0, 2.0]})

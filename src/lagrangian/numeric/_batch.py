@@ -174,7 +174,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         `status` says why and its states are NaN from then on.
     """
     from ._simulate import (_Names, _as_numeric, _closest, _input_function, _input_programs, _parameters,
-                            requested_times)
+                            _work_problems, requested_times)
     from ._fast import BACKENDS, CompiledModel
 
     nm = _as_numeric(system)
@@ -192,6 +192,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     for key, v in (("dt", dt), ("rtol", rtol), ("atol", atol)):
         if not isinstance(v, numbers.Real) or not v > 0 or not math.isfinite(v):
             problems.append(Problem(f"{key} must be a positive number, got {v!r}", key=key))
+    problems += _work_problems(t_end, dt, t_eval, None, "DOP853")  # the output rows of each run (LAGRANGIAN_MAX_ROWS)
     if lanes is not None and (isinstance(lanes, bool) or not isinstance(lanes, numbers.Integral) or lanes < 1):
         problems.append(Problem(f"lanes must be a positive integer, got {lanes!r}", key="lanes"))
     if backend not in BACKENDS or backend == "scipy":
