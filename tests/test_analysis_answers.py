@@ -128,6 +128,7 @@ def test_vector_names_avoid_every_name_of_the_model():
     m.add_generalized_force("q", "U")
     names = vector_names(lg.derive(m))
     assert names == {"q": "r", "x": "X", "u": "v"}
+    assert "Matrix form M(r) r_ddot = f(r, r_dot, t, v):" in lg.derive(m).text()  # derive's text too
     text = linearize(lg.derive(m)).text()
     assert "M dr'' + (C + G) dr' + K dr = B0 dv;  X' = A X + B v, X = [q, x, z, u, q_dot, x_dot, z_dot, u_dot], " \
            "v = [U]" in text

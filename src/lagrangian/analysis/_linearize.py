@@ -28,7 +28,7 @@ import symengine as se
 import sympy
 
 from ..equations import Equations, singularities
-from ..equations._equations import _depends_on, _latex_name
+from ..equations._equations import _depends_on, _latex_name, vector_names
 from ..equations._singular import inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
@@ -325,28 +325,6 @@ class LinearModel:
 
 #: The printed names of the vectors (the coordinates, the state, the inputs), each with the
 #: letters used in its place when the model names a symbol so (a coordinate named x).
-_VECTOR_NAMES = {"q": ("q", "r", "s"), "x": ("x", "z", "X", "xi"), "u": ("u", "w", "U", "v")}
-
-
-def vector_names(equations: Equations) -> dict[str, str]:
-    """{"q": ..., "x": ..., "u": ...}: the letters that stand for the vector of coordinates, the state
-    and the inputs in printed linearizations, each the first of its candidates that no coordinate,
-    velocity, input or parameter of the model (nor t, nor another vector) is named: a model whose
-    coordinates are x and y has the state z = [x, x_dot, y, y_dot], not x = [x, ...]."""
-    taken = {"t", *(c.name for c in equations.coordinates), *(v.name for v in equations.velocities),
-             *(u.name for u in equations.inputs), *(p.name for p in equations.parameters)}
-    out = {}
-    for vector, candidates in _VECTOR_NAMES.items():
-        name = next((c for c in candidates if c not in taken), None)
-        k = 1
-        while name is None:  # every candidate taken: number the first (x1, x2, ...)
-            name = f"{candidates[0]}{k}" if f"{candidates[0]}{k}" not in taken else None
-            k += 1
-        taken.add(name)
-        out[vector] = name
-    return out
-
-
 def _complex_text(z: complex) -> str:
     if abs(z.imag) <= 1e-12 * max(1.0, abs(z)):
         return f"{z.real:.6g}"

@@ -483,7 +483,9 @@ class Equations:
                           f"{', '.join(m.name for m in self.multipliers)}):"]
             for c, (name, g) in zip(self.model.constraints, self.constraints.items()):
                 lines.append(f"  {name} ({c.kind}): {_text(g)} = 0")
-        form = "M(q) q_ddot = f(q, q_dot, t, u)" + (" + G^T lambda, G q_ddot = c" if self.is_constrained else "")
+        q, _, u = vector_names(self).values()
+        form = (f"M({q}) {q}_ddot = f({q}, {q}_dot, t, {u})"
+                + (f" + G^T lambda, G {q}_ddot = c" if self.is_constrained else ""))
         lines += ["", f"Matrix form {form}:", "  M ="]
         for r in range(self.n):
             lines.append("    [" + ", ".join(_text(x) for x in self.mass_matrix.row(r)) + "]")
@@ -600,3 +602,25 @@ def _latex_name(name: str) -> str:
             return f"{accent}{{{_latex_name(name[: -len(suffix)])}}}"
     base = sympy.latex(sympy.Symbol(name))
     return base
+
+
+_VECTOR_NAMES = {"q": ("q", "r", "s"), "x": ("x", "z", "X", "xi"), "u": ("u", "w", "U", "v")}
+
+
+def vector_names(equations: Equations) -> dict[str, str]:
+    """{"q": ..., "x": ..., "u": ...}: the letters that stand for the vector of coordinates, the state
+    and the inputs in printed linearizations, each the first of its candidates that no coordinate,
+    velocity, input or parameter of the model (nor t, nor another vector) is named: a model whose
+    coordinates are x and y has the state z = [x, x_dot, y, y_dot], not x = [x, ...]."""
+    taken = {"t", *(c.name for c in equations.coordinates), *(v.name for v in equations.velocities),
+             *(u.name for u in equations.inputs), *(p.name for p in equations.parameters)}
+    out = {}
+    for vector, candidates in _VECTOR_NAMES.items():
+        name = next((c for c in candidates if c not in taken), None)
+        k = 1
+        while name is None:  # every candidate taken: number the first (x1, x2, ...)
+            name = f"{candidates[0]}{k}" if f"{candidates[0]}{k}" not in taken else None
+            k += 1
+        taken.add(name)
+        out[vector] = name
+    return out
