@@ -214,3 +214,17 @@ def test_damper_is_damping_also_with_velocity_constraints():
     i = lin.coordinate_names.index("psi")
     assert lin.C[i, i] == pytest.approx(0.3, rel=1e-9)
     assert np.count_nonzero(lin.C) == 1
+
+
+def test_the_feedback_law_names_its_vectors_apart_from_the_model_s_names():
+    """A cart whose coordinate is x and whose input is u: the law reads w = w0 - K (z - z0)."""
+    from lagrangian.control import lqr
+
+    m = lg.Model("cart", coordinates=["x", "th"], parameters={"M": 1.0, "m": 0.5, "l": 1.0, "g": 9.81}, inputs=["u"])
+    m.add_particle("M", ("x", 0), name="cart")
+    m.add_particle("m", ("x + l*sin(th)", "l*cos(th)"), name="bob")
+    m.add_gravity("g")
+    m.add_force(("u", 0), at="cart")
+    assert "  w = w0 - K (z - z0), K =" in lqr(linearize(lg.derive(m), at={"x": 0, "th": 0})).text()
+    plain = lqr(linearize(lg.derive(lg.load("cart-pendulum")), at={"q1": 0, "q2": sympy.pi / 2}))
+    assert "  u = u0 - K (x - x0), K =" in plain.text()

@@ -208,6 +208,13 @@ class StateFeedback:
             out.update(Q=self.Q.tolist(), R=self.R.tolist(), P=self.P.tolist())
         return out
 
+    @property
+    def _letters(self) -> dict[str, str]:
+        """The letters of the state and input vectors: x and u, or others where the model has those names."""
+        from ..equations._equations import vector_letters
+
+        return vector_letters({*self.state_names, *self.input_names})
+
     def text(self, wrap: Sequence[str] = ()) -> str:
         """A report: the gain by name, the eigenvalues and the law."""
         at = ", ".join(f"{k} = {self._x0_text(k) if k in self.exact_point else f'{v:.6g}'}"
@@ -218,7 +225,7 @@ class StateFeedback:
         lines = [f"{kind} for {self.model_name or 'the model'} at {at}"
                  + (", inputs " + ", ".join(f"{k} = {v:g}" for k, v in self.input_values.items())
                     if any(self.input_values.values()) else ""),
-                 "  u = u0 - K (x - x0), K ="]
+                 "  {u} = {u}0 - K ({x} - {x}0), K =".format(**self._letters)]
         width = max(12, *(len(s) + 2 for s in self.state_names))
         lines.append("    " + " " * max(len(u) for u in self.input_names)
                      + "".join(f"{s:>{width}}" for s in self.state_names))

@@ -612,8 +612,13 @@ def vector_names(equations: Equations) -> dict[str, str]:
     and the inputs in printed linearizations, each the first of its candidates that no coordinate,
     velocity, input or parameter of the model (nor t, nor another vector) is named: a model whose
     coordinates are x and y has the state z = [x, x_dot, y, y_dot], not x = [x, ...]."""
-    taken = {"t", *(c.name for c in equations.coordinates), *(v.name for v in equations.velocities),
-             *(u.name for u in equations.inputs), *(p.name for p in equations.parameters)}
+    return vector_letters({*(c.name for c in equations.coordinates), *(v.name for v in equations.velocities),
+                           *(u.name for u in equations.inputs), *(p.name for p in equations.parameters)})
+
+
+def vector_letters(taken) -> dict[str, str]:
+    """:func:`vector_names` for a model whose names are `taken`."""
+    taken = {"t", *taken}
     out = {}
     for vector, candidates in _VECTOR_NAMES.items():
         name = next((c for c in candidates if c not in taken), None)
