@@ -458,3 +458,20 @@ def test_names_of_the_generators_own_variables_are_the_user_s_symbols(backend):
     got = lg.simulate(eq, 2.0, {"x": 0.5, "y": -0.3}, backend=backend, rtol=1e-12, atol=1e-12, dt=0.5)
     assert np.max(np.abs(got.x - ref.x)) < 1e-9
     assert abs(ref["x"][-1] - 0.5) > 0.01  # it moved
+
+
+def test_integers_past_the_targets_ranges_are_written_as_doubles(tmp_path):
+    """99999999999999999999 in T and V: numba could not type it and C truncated it (the energy came
+    out -1.5e19 instead of 5e19); now x(1) = cos(1) and h = 1e20/2 in every backend, and the
+    Modelica model (whose Integer has 32 bits) writes it as a Real."""
+    big = "99999999999999999999"
+    model = lg.Model("big", coordinates=["x"], T=f"{big}*x_dot**2/2", V=f"{big}*x**2/2 + 3000000000*x/3000000000")
+    eq = lg.derive(model)
+    backends = ("numba", "scipy", "c") if c_compiler() else ("numba", "scipy")
+    for backend in backends:
+        traj = lg.simulate(eq, 1.0, {"x": 1.0}, backend=backend, rtol=1e-11, atol=1e-11, dt=0.5)
+        # x'' = -x - 1e-20: x = cos t to 1e-15
+        assert traj["x"][-1] == pytest.approx(math.cos(1.0), abs=1e-8), backend
+        assert traj.energy[-1] == pytest.approx(0.5e20 + 1.0, rel=1e-9), backend
+    text = Path(export_modelica(eq, tmp_path / "big.mo").files[0]).read_text()
+    assert big not in text and "1e+20" in text

@@ -93,10 +93,15 @@ class _ModelicaPrinter(StrPrinter):
         return repr(float(expr))
 
     def _print_Rational(self, expr):
-        return f"{expr.p}/{expr.q}" if expr.q != 1 else str(expr.p)
+        return f"{_integer(expr.p)}/{_integer(expr.q)}" if expr.q != 1 else _integer(expr.p)
 
     def _print_Integer(self, expr):
-        return str(expr.p)
+        return _integer(expr.p)
+
+
+def _integer(k: int) -> str:
+    """An integer literal, or a Real one past Modelica's Integer (32 bits in most tools)."""
+    return str(k) if abs(k) < 2**31 else repr(float(k))
 
 
 def _number(value: float) -> str:

@@ -128,7 +128,10 @@ class _Printer:
     def _translate(self, text: str, temps: dict[str, str]) -> str:
         def sub(m):
             if m.group(1):
-                return m.group(1)
+                number = m.group(1)
+                # an integer past 15 digits as a double: C truncates a literal past long long's range
+                # (99999999999999999999 gave wrong numbers) and numba cannot type one past int64
+                return repr(float(number)) if number.isdigit() and len(number) > 15 else number
             name = m.group(2)
             if name in temps:
                 return temps[name]
