@@ -345,3 +345,13 @@ def test_a_batch_is_bounded_as_one_simulation_is():
     # simulate_batch(t_end=1e300) raised numpy's "Maximum allowed size exceeded"
     with pytest.raises(ModelError, match=re.escape("[dt]: t_end = 1e+300 with dt = 0.01 asks for 1e+302 output rows")):
         lg.simulate_batch(lg.derive(lg.load("mck")), 1e300, params={"k1": [1.0, 2.0]})
+
+
+def test_analysis_refuses_a_parameter_value_past_the_magnitude_limit():
+    """equilibria with M1 = 1e300 answered 'singular mass matrix' (M1 + M2 overflowed in products);
+    the analysis now refuses the value as simulate does."""
+    eq = lg.derive(lg.load("cart-pendulum"))
+    with pytest.raises(lg.ModelError, match=r"the value of 'M1' is 1e\+300, too large: at most 1e\+150 in magnitude"):
+        lg.equilibria(eq, params={"M1": 1e300})
+    with pytest.raises(lg.ModelError, match=r"the value of 'M1' must be a finite number, got inf"):
+        lg.linearize(eq, at={"q2": 0.0}, params={"M1": float("inf")})

@@ -77,6 +77,17 @@ MAX_COORDINATES = Limit("max_coordinates", 100, "coordinates of a model")
 #: two such values, as the equations form them, stay finite.
 MAX_MAGNITUDE = 1e150
 
+def value_problem(name: str, value) -> str | None:
+    """Why `value` cannot be the value of the parameter, input or state component `name` (not a
+    finite number, or past :data:`MAX_MAGNITUDE`), or None when it can."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
+        return f"the value of '{name}' must be a finite number, got {value!r}"
+    if abs(value) > MAX_MAGNITUDE:
+        return (f"the value of '{name}' is {float(value):g}, too large: at most {MAX_MAGNITUDE:g} in magnitude, so "
+                "that the products of the equations stay finite in double precision")
+    return None
+
+
 #: Every limit, by name.
 LIMITS = {limit.name: limit for limit in (MAX_ROWS, MAX_STEPS, MAX_TERMS, MAX_EXPONENT, MAX_COORDINATES)}
 

@@ -21,6 +21,7 @@ import symengine as se
 import sympy
 
 from ..equations import Equations
+from .._limits import value_problem
 from ..errors import ModelError, Problem
 
 __all__ = ["Setting", "resolve_setting", "collect_setting", "derivatives", "read_only"]
@@ -83,9 +84,8 @@ def _named(values: Mapping | None, names: tuple[str, ...], what: str, key: str,
         if name not in names:
             problems.append(Problem(f"'{name}' is not {what}{_closest(name, names)}; the choices are "
                                     f"{', '.join(names) or 'none'}", key=f"{key}.{name}"))
-        elif number is None:
-            problems.append(Problem(f"the value of '{name}' must be a finite number, got {value!r}",
-                                    key=f"{key}.{name}"))
+        elif (why := value_problem(name, value if number is None else number)) is not None:
+            problems.append(Problem(why, key=f"{key}.{name}"))
         else:
             out[name] = number
     return out

@@ -13,7 +13,7 @@ import numpy as np
 import sympy
 
 from ..equations import Equations, derive, singularities
-from .._limits import MAX_MAGNITUDE, MAX_ROWS, MAX_STEPS, number_problem
+from .._limits import MAX_ROWS, MAX_STEPS, number_problem, value_problem
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError
 from ..model import Model
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations
@@ -118,13 +118,8 @@ def _named_values(values: Mapping, names: tuple[str, ...], what: str, key: str,
         if name not in names:
             problems.append(Problem(f"'{name}' is not {what}{_closest(name, names)}; "
                                     f"the choices are {', '.join(names) or 'none'}", key=f"{key}.{name}"))
-        elif not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
-            problems.append(Problem(f"the value of '{name}' must be a finite number, got {value!r}",
-                                    key=f"{key}.{name}"))
-        elif abs(value) > MAX_MAGNITUDE:
-            problems.append(Problem(f"the value of '{name}' is {float(value):g}, too large: at most {MAX_MAGNITUDE:g} "
-                                    "in magnitude, so that the products of the equations stay finite in double "
-                                    "precision", key=f"{key}.{name}"))
+        elif (why := value_problem(name, value)) is not None:
+            problems.append(Problem(why, key=f"{key}.{name}"))
         else:
             out[names.index(name)] = float(value)
     return out
