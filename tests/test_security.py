@@ -197,6 +197,31 @@ def test_c_sources_of_hostile_names_are_the_plain_sources(tmp_path):
     no_marker(tmp_path)
 
 
+@needs_cc
+def test_fmu_sources_of_hostile_names_are_the_plain_sources(tmp_path):
+    """The FMU's C (fmu.c, where the name stood in a comment) and the model's C in it: without
+    comments, those of the model named by the identifier; its modelDescription.xml differs only in
+    the name, the description and the time of generation."""
+    varying = {"modelName", "description", "generationDateAndTime", "guid"}  # the guid hashes the name too
+    for key, text in payloads(tmp_path).items():
+        ident = ct.module_identifier(text)
+        out = {}
+        for name, eq in (("hostile", lg.derive(oscillator(text, text))), ("plain", lg.derive(oscillator(ident)))):
+            export_fmu(eq, tmp_path / f"{name}.fmu", binary=False)
+            with zipfile.ZipFile(tmp_path / f"{name}.fmu") as z:
+                for file in ("fmu.c", f"{ident}.c", f"{ident}.h"):
+                    (tmp_path / f"{name}-{file}").write_bytes(z.read(f"sources/{file}"))
+                root = ElementTree.fromstring(z.read("modelDescription.xml"))
+            out[name] = [(e.tag, {k: v for k, v in e.attrib.items() if not (e is root and k in varying)})
+                         for e in root.iter()]
+        assert out["hostile"] == out["plain"], key
+        guid = re.compile(r'#define GUID "[^"]*"')
+        for file in ("fmu.c", f"{ident}.c", f"{ident}.h"):
+            codes = [guid.sub("", _c_code(tmp_path / f"{name}-{file}")) for name in ("hostile", "plain")]
+            assert codes[0] == codes[1], (key, file)
+    no_marker(tmp_path)
+
+
 def test_modelica_of_hostile_names_declares_what_the_plain_model_declares(tmp_path):
     for key, text in payloads(tmp_path).items():
         ident = ct.module_identifier(text, "modelica")
