@@ -29,7 +29,7 @@ def upright(cart):
 def _closed_loop_jacobian(eqs, law: dict, x0: np.ndarray, eps: float = 1e-6) -> np.ndarray:
     """The Jacobian at x0 of x' = f(x, u(x)) with the law's expressions (read by the parser and
     evaluated by SymPy), by central differences."""
-    from lagrangian.io._expr import parse_expression
+    from lagrangian.model._expr import parse_expression
 
     nm = lg.compile(eqs)
     syms = [*eqs.coordinates, *eqs.velocities]

@@ -1,4 +1,4 @@
-"""Tests of the safe expression parser `lagrangian.io._expr`."""
+"""Tests of the safe expression parser `lagrangian.model._expr`."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 import sympy
 
 from lagrangian.errors import ExpressionError, ModelError, UnknownNameError
-from lagrangian.io import _expr
-from lagrangian.io._expr import (
+from lagrangian.model import _expr
+from lagrangian.model._expr import (
     ALLOWED_FUNCTIONS,
     MAX_DEPTH,
     MAX_LENGTH,

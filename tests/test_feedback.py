@@ -9,7 +9,7 @@ import sympy
 
 import lagrangian as lg
 from lagrangian.errors import ExpressionError
-from lagrangian.io._expr import parse_expression
+from lagrangian.model._expr import parse_expression
 
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,7 @@ import lagrangian as lg  # noqa: E402
 from lagrangian.cli import main  # noqa: E402
 from lagrangian.errors import ExpressionError, LagrangianError, ModelError, ModelFileError  # noqa: E402
 from lagrangian.io import loads_model  # noqa: E402
-from lagrangian.io._expr import parse_expression  # noqa: E402
+from lagrangian.model._expr import parse_expression  # noqa: E402
 
 #: Where the payloads would leave their mark: absolute, so that a payload run from any folder is seen.
 MARKER = Path(os.environ.get("TMPDIR", "/tmp")) / f"lagrangian-property-marker-{os.getpid()}"

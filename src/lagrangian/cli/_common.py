@@ -51,7 +51,7 @@ def number(text: str, where: str, names: Mapping[str, float] | None = None) -> f
     parameter_values), also an expression of the model's parameters, g*l1*(m1/2 + m2), at their values."""
     import sympy
 
-    from ..io._expr import parse_expression
+    from ..model._expr import parse_expression
 
     try:
         value = float(text)

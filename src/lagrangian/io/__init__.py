@@ -8,7 +8,7 @@ import re
 from pathlib import Path
 
 from ..errors import ModelFileError, Problem
-from ._expr import parse_expression
+from ..model._expr import parse_expression
 
 __all__ = ["load", "parse_expression", "load_model_file", "loads_model"]
 

@@ -1,14 +1,14 @@
 """The model-file reader: a TOML description of a mechanical system -> :class:`~lagrangian.Model`.
 
 A model file is data, never code. It is read with :mod:`tomllib`, every expression goes through
-the safe parser :func:`lagrangian.io._expr.parse_expression` (never ``eval`` or ``sympify``),
+the safe parser :func:`lagrangian.model._expr.parse_expression` (never ``eval`` or ``sympify``),
 and the whole file is checked in one pass: :func:`load_model_file` and :func:`loads_model`
 raise a single :class:`~lagrangian.errors.ModelFileError` that lists *every* problem found,
 each with its key (``"particles[1].position[0]"``) and its line in the file.
 
 Format
 ------
-Expressions are strings in the expression syntax of :mod:`lagrangian.io._expr` (numbers,
+Expressions are strings in the expression syntax of :mod:`lagrangian.model._expr` (numbers,
 names, ``+ - * / ** ^``, parentheses and the functions ``sin cos tan asin acos atan atan2
 sinh cosh tanh exp log sqrt abs sign``, and ``pi``). Wherever an expression is expected, a
 plain TOML number is accepted too (``mass = 2.5``). An expression may use the coordinates,

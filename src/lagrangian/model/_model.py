@@ -239,7 +239,7 @@ class Model:
         if isinstance(value, numbers.Real):
             return sympy.Float(float(value))
         if isinstance(value, str):
-            from ..io._expr import parse_expression
+            from ._expr import parse_expression
 
             try:
                 return parse_expression(value, self.names())

@@ -239,7 +239,7 @@ def _input_names(eq: Equations) -> dict:
 
 
 def _input_expression(nm, spec, pvalues) -> tuple[Callable[[float, np.ndarray], float], sympy.Expr]:
-    from ..io._expr import parse_expression
+    from ..model._expr import parse_expression
     from ..errors import ExpressionError
 
     eq = nm.equations
@@ -733,7 +733,7 @@ _CALLABLE_INPUT = ("an input is a Python function, which compiled code cannot ca
 def _event_expressions(nm, events, stop_on, problems) -> dict:
     """{name: sympy expression} of the event functions; problems for bad names or expressions."""
     from ..errors import ExpressionError
-    from ..io._expr import parse_expression
+    from ..model._expr import parse_expression
 
     events = dict(events or {})
     eq = nm.equations
