@@ -29,7 +29,7 @@ def c_file_names(eq: Equations) -> tuple[str, ...]:
 
 def c_files(eq: Equations, params: Mapping | None = None, initial: Mapping | None = None) -> dict[str, str]:
     """{file name: text} of the C export: <id>.h, <id>.c, main.c and CMakeLists.txt."""
-    from .. import __version__
+    from .._version import __version__
     from ..numeric._codegen import c_source
 
     ident = identifier(eq.model.name)

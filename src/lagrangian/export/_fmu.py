@@ -99,7 +99,7 @@ def _variables(eq: Equations, pvalues, x0) -> list[dict]:
 
 
 def _model_description(eq: Equations, ident: str, guid: str, variables: list[dict], sources: list[str]) -> str:
-    from .. import __version__
+    from .._version import __version__
 
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     n2 = 2 * eq.n

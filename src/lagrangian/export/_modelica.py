@@ -110,7 +110,7 @@ def _number(value: float) -> str:
 
 def modelica_source(eq: Equations, params: Mapping | None = None, initial: Mapping | None = None) -> str:
     """The Modelica text of the model (see :func:`export_modelica`)."""
-    from .. import __version__
+    from .._version import __version__
 
     pvalues = parameter_values(eq, params)
     x0 = start_state(eq, initial, params)

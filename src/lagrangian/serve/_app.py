@@ -286,7 +286,7 @@ class ReportHandler(_TextApi):
 
 class InfoHandler(_Base):
     def get(self):
-        from .. import __version__
+        from .._version import __version__
         from ._tasks import MAX_FRAMES, MAX_ROWS
 
         pool = self.settings_.pool
