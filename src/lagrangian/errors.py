@@ -20,6 +20,7 @@ __all__ = [
     "SingularMassMatrixError",
     "SimulationError",
     "OutputFileError",
+    "DesignError",
 ]
 
 
@@ -162,6 +163,12 @@ class SimulationError(LagrangianError, RuntimeError):
         self.time = time
         self.partial = partial
         super().__init__(message)
+
+
+class DesignError(LagrangianError):
+    """A controller cannot be designed for this linearization (an uncontrollable unstable mode, a
+    Riccati equation without a stabilizing solution, poles that cannot be placed). Raised by
+    :mod:`lagrangian.control`, which re-exports it."""
 
 
 class OutputFileError(LagrangianError, ValueError):

@@ -29,6 +29,7 @@ import sympy
 
 from ..equations import Equations, singularities
 from ..equations._equations import _depends_on, _latex_name, vector_names
+from ..equations._exact import exact_number
 from ..equations._singular import inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
@@ -499,24 +500,15 @@ def _singular_error(equations: Equations, point: Mapping[str, float],
         state=dict(point), diagnosis=diagnosis)
 
 
-def _exact_number(value: float, given=None) -> sympy.Expr:
-    if given is not None:
-        return sympy.sympify(given)
-    if value == int(value) and abs(value) < 2**53:
-        return sympy.Integer(int(value))
-    guess = sympy.nsimplify(value, [sympy.pi], tolerance=1e-12)
-    return guess if abs(float(guess) - value) <= 1e-12 * max(1.0, abs(value)) else sympy.Float(value)
-
-
 def _symbolic(lin: LinearModel) -> SymbolicLinearization:
     eqs = lin.equations
     eqs.require_unconstrained("the exact (symbolic) linearization", "its numeric linearization (A, B, M, C, K) is "
                               "in the independent coordinates")
     core, n = eqs.core, eqs.n
-    point = {se.Symbol(s): se.sympify(_exact_number(v, lin._exact_point.get(s)))
+    point = {se.Symbol(s): se.sympify(exact_number(v, lin._exact_point.get(s)))
              for s, v in lin.operating_point.items()}
-    point[core.t] = se.sympify(_exact_number(lin.t))
-    point.update({se.Symbol(u): se.sympify(_exact_number(v)) for u, v in lin.input_values.items()})
+    point[core.t] = se.sympify(exact_number(lin.t))
+    point.update({se.Symbol(u): se.sympify(exact_number(v)) for u, v in lin.input_values.items()})
     q, qd = list(core.q), list(core.qd)
     us = [se.Symbol(u) for u in lin.input_names]
 

@@ -26,14 +26,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import LagrangianError, ModelError, Problem
+from ..equations._exact import exact_number
+from ..errors import DesignError, ModelError, Problem
 
 __all__ = ["StateFeedback", "DesignError", "lqr", "place", "discretize"]
-
-
-class DesignError(LagrangianError):
-    """A controller cannot be designed for this linearization (an uncontrollable unstable mode, a
-    Riccati equation without a stabilizing solution, poles that cannot be placed)."""
 
 
 def _frozen(a) -> np.ndarray:
@@ -387,11 +383,9 @@ def _plant(lin, sample_time) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _result(lin, K, A, B, method, sample_time, **extra) -> StateFeedback:
-    from ..analysis._linearize import _exact_number
-
     exact = {}
     for name, v in lin.operating_point.items():
-        e = _exact_number(v, lin._exact_point.get(name))
+        e = exact_number(v, lin._exact_point.get(name))
         if e.free_symbols == set() and not e.is_Float and not e.is_Integer:
             exact[name] = str(e)
     return StateFeedback(
