@@ -4,12 +4,12 @@ simulation options that `simulate` and `animate` share."""
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from typing import Mapping, Sequence
 
-from ..errors import ExpressionError, ModelError
+from ..errors import ModelError
 from ..io._files import check_output, write_atomically, write_output  # noqa: F401  (the writers of every command)
+from ..model._expr import constant_value as number  # the value of a numeric option (shared with the playground)
 
 MODEL_HELP = "a model file (.toml) or a built-in example name (see `lagrangian examples`)"
 
@@ -44,29 +44,6 @@ def assignments(items: Sequence[str], what: str, *, split_commas: bool = True) -
             name, value = part.split("=", 1)
             out[name.strip()] = value.strip()
     return out
-
-
-def number(text: str, where: str, names: Mapping[str, float] | None = None) -> float:
-    """A number, or a constant expression such as pi/2 (parsed safely); with `names` (see
-    parameter_values), also an expression of the model's parameters, g*l1*(m1/2 + m2), at their values."""
-    import sympy
-
-    from ..model._expr import parse_expression
-
-    try:
-        value = float(text)
-    except ValueError:
-        pass
-    else:
-        if not math.isfinite(value):
-            raise ModelError(f"{where}: '{text}' is not a finite number; write e.g. 0.5 or pi/2")
-        return value
-    try:
-        value = parse_expression(text, {k: sympy.Float(v) for k, v in (names or {}).items()})
-    except ExpressionError as exc:
-        also = f", or an expression of the parameters {', '.join(names)}" if names else ""
-        raise ModelError(f"{where}: '{text}' is not a number ({exc.reason}); write e.g. 0.5 or pi/2{also}") from None
-    return float(value)  # finite and real: the parser refuses every other constant
 
 
 def parameter_values(model, params: Mapping[str, float], leave_out: Sequence[str] = ()) -> dict[str, float]:

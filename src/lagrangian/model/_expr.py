@@ -79,7 +79,7 @@ from typing import Callable, Mapping, NoReturn, Union
 import sympy
 
 from lagrangian._limits import MAX_EXPONENT
-from lagrangian.errors import ExpressionError, UnknownNameError
+from lagrangian.errors import ExpressionError, ModelError, UnknownNameError
 
 __all__ = [
     "ALLOWED_FUNCTIONS",
@@ -88,6 +88,7 @@ __all__ = [
     "MAX_DEPTH",
     "MAX_LENGTH",
     "MAX_LITERAL_DIGITS",
+    "constant_value",
     "identifiers",
     "parse_expression",
 ]
@@ -1118,6 +1119,26 @@ def parse_expression(text: str, names: Mapping[str, sympy.Basic], *,
                     "quantity; check for a division by zero", None)
     return result
 
+
+
+def constant_value(text: str, where: str, names: Mapping[str, float] | None = None) -> float:
+    """A number, or a constant expression such as pi/2 (parsed safely); with `names` (name -> value,
+    e.g. a model's parameters), also an expression of those, g*l1*(m1/2 + m2), at their values. The
+    value of a numeric option (the CLI's, the playground's); a ModelError says `where` it was given."""
+    try:
+        value = float(text)
+    except ValueError:
+        pass
+    else:
+        if not math.isfinite(value):
+            raise ModelError(f"{where}: '{text}' is not a finite number; write e.g. 0.5 or pi/2")
+        return value
+    try:
+        value = parse_expression(text, {k: sympy.Float(v) for k, v in (names or {}).items()})
+    except ExpressionError as exc:
+        also = f", or an expression of the parameters {', '.join(names)}" if names else ""
+        raise ModelError(f"{where}: '{text}' is not a number ({exc.reason}); write e.g. 0.5 or pi/2{also}") from None
+    return float(value)  # finite and real: the parser refuses every other constant
 
 def identifiers(text: str) -> list[tuple[str, int]]:
     """The names an expression refers to, with their 0-based positions.

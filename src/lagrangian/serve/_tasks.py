@@ -136,10 +136,10 @@ def _number(value, where: str, *, positive: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
         raise BadRequest(f"{where}: expected a number, got {json.dumps(value)}")
     if isinstance(value, str):
-        from ..cli._common import number
+        from ..model._expr import constant_value
 
         try:
-            value = number(value, where)
+            value = constant_value(value, where)
         except ModelError as exc:
             raise BadRequest(str(exc)) from None
     value = float(value)
