@@ -5,25 +5,25 @@ Every ``import`` and ``from ... import`` of every module under src/lagrangian is
 dependency too) and placed in this order, bottom to top:
 
 0. ``errors``, ``_version``: the exceptions and the version, importing nothing of the package.
-1. The floor: ``_util`` (did-you-mean, read-only arrays, named-value checks), ``_limits`` (the
-   bounds on numbers and sizes), ``_progress``, ``_codetext`` (names and text in generated code),
-   ``examples`` (the model zoo's TOML text) and ``io._files`` (atomic, umask-respecting writes for
-   every output).
-2. ``model``: Model, symbols, elements, frames, and the expression language (``model._expr``: it
+1. The floor: ``_limits`` (the bounds on numbers and sizes), ``_progress``, ``_codetext`` (names
+   and text in generated code), ``examples`` (the model zoo's TOML text) and ``io._files`` (atomic,
+   umask-respecting writes for every output).
+2. ``_util``: did-you-mean, read-only arrays and the check of named values (by _limits' bounds).
+3. ``model``: Model, symbols, elements, frames, and the expression language (``model._expr``: it
    is the model's language, so it is not in io/).
-3. ``io`` (model files: TOML read into a Model; above model because it builds Models) and ``plot``
+4. ``io`` (model files: TOML read into a Model; above model because it builds Models) and ``plot``
    (figures and animations of arrays and models; it imports nothing above model, so the results
    that draw themselves, ``Trajectory.plot`` and ``Continuation.plot``, call down into it).
-4. ``equations``: derive, Equations, singularities, and the exact numbers of the symbolic forms
+5. ``equations``: derive, Equations, singularities, and the exact numbers of the symbolic forms
    (``equations._exact``).
-5. ``numeric`` (compiled models, simulation, trajectories) and ``control`` (lqr, place: matrices in,
+6. ``numeric`` (compiled models, simulation, trajectories) and ``control`` (lqr, place: matrices in,
    a feedback law out; ``LinearModel.lqr`` calls down into it).
-6. ``analysis``: equilibria, linearization, modes, steady motions, continuation.
-7. ``reporting`` and ``export``: documents and generated code from the layers below.
-8. ``lagrangian`` itself: the public names, re-exported from the layers below.
-9. ``serve``: the playground (it calls the library as the CLI does, never the CLI).
-10. ``cli``: the command line, which also starts the playground.
-11. ``lagrangian.__main__``: ``python -m lagrangian``, which runs the command line.
+7. ``analysis``: equilibria, linearization, modes, steady motions, continuation.
+8. ``reporting`` and ``export``: documents and generated code from the layers below.
+9. ``lagrangian`` itself: the public names, re-exported from the layers below.
+10. ``serve``: the playground (it calls the library as the CLI does, never the CLI).
+11. ``cli``: the command line, which also starts the playground.
+12. ``lagrangian.__main__``: ``python -m lagrangian``, which runs the command line.
 
 A module may import any module of its own package or of a lower layer; two packages of one layer
 are peers and import neither each other. There are no deliberate exceptions (EXCEPTIONS is empty):
@@ -41,8 +41,9 @@ SOURCE = Path(__file__).resolve().parents[1] / "src" / "lagrangian"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("lagrangian.errors", "lagrangian._version"),
-    ("lagrangian._util", "lagrangian._limits", "lagrangian._progress", "lagrangian._codetext",
-     "lagrangian.examples", "lagrangian.io._files"),
+    ("lagrangian._limits", "lagrangian._progress", "lagrangian._codetext", "lagrangian.examples",
+     "lagrangian.io._files"),
+    ("lagrangian._util",),
     ("lagrangian.model",),
     ("lagrangian.io", "lagrangian.plot"),
     ("lagrangian.equations",),

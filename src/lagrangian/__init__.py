@@ -18,7 +18,7 @@ from .analysis import (Continuation, Equilibria, Equilibrium, LinearModel, Modes
                        continuation, equilibria, linearize, modes, steady_motions)
 from .reporting import Report, report
 
-from ._version import __version__
+from ._version import __version__ as __version__
 
 _LAZY = ("plot",)  # subpackages imported on first use (plot needs Matplotlib)
 

@@ -26,7 +26,8 @@ from ..errors import ModelError
 from ._equilibria import make_equilibrium
 from ._roots import numeric_roots, solve_from
 from ._stationary import StationaryProblem, evaluate_exact, normalized_exact, same_point, stationary_problem
-from ._setting import Setting, read_only, resolve_setting
+from .._util import did_you_mean, read_only
+from ._setting import Setting, resolve_setting
 
 __all__ = ["continuation", "Continuation", "Branch", "BranchPoint"]
 
@@ -173,11 +174,8 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
     equations.require_unconstrained("the continuation of equilibria")
     names = tuple(p.name for p in equations.parameters)
     if parameter not in names:
-        import difflib
-
-        hint = difflib.get_close_matches(str(parameter), names, n=1)
         raise ModelError(f"'{parameter}' is not a parameter of {equations.model.name}"
-                         + (f" (did you mean '{hint[0]}'?)" if hint else "")
+                         + did_you_mean(parameter, names)
                          + f"; the parameters are {', '.join(names) or 'none'}")
     values = np.asarray(values, dtype=float).ravel()
     if values.size < 2 or not np.all(np.isfinite(values)) or not (np.all(np.diff(values) > 0)

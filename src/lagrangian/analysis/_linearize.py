@@ -33,7 +33,8 @@ from ..equations._exact import exact_number
 from ..equations._singular import inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
-from ._setting import Setting, collect_setting, derivatives, read_only
+from .._util import named_values, read_only
+from ._setting import Setting, collect_setting, derivatives
 
 __all__ = ["linearize", "LinearModel", "SymbolicLinearization", "classify", "STABILITY"]
 
@@ -348,9 +349,7 @@ def _point(equations: Equations, at, problems: list[Problem]) -> tuple[dict[str,
                                     f"{2 * equations.n} state values ({', '.join(names)}), got {at!r}", key="at"))
             return values, exact
         return dict(zip(names, map(float, arr))), exact
-    from ._setting import _named
-
-    values.update(_named(at, names, "a coordinate or velocity", "at", problems))
+    values.update(named_values(at, names, "a coordinate or velocity", "at", problems))
     for name, value in at.items():
         name = str(getattr(name, "name", name))
         if isinstance(value, sympy.Basic) and name in values:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._linearize import LinearModel
-from ._setting import read_only
+from .._util import read_only
 
 __all__ = ["modes", "Modes"]
 

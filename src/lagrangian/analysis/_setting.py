@@ -8,9 +8,6 @@ Lambdify (common subexpressions shared), cached per Equations object.
 
 from __future__ import annotations
 
-import difflib
-import math
-import numbers
 import weakref
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -18,39 +15,12 @@ from typing import Mapping
 
 import numpy as np
 import symengine as se
-import sympy
 
 from ..equations import Equations
-from .._limits import value_problem
+from .._util import named_values, real_number
 from ..errors import ModelError, Problem
 
-__all__ = ["Setting", "resolve_setting", "collect_setting", "derivatives", "read_only"]
-
-
-def read_only(a) -> np.ndarray:
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
-
-
-def _closest(name: str, names) -> str:
-    hint = difflib.get_close_matches(name, list(names), n=1, cutoff=0.5)
-    return f" (did you mean '{hint[0]}'?)" if hint else ""
-
-
-def _number(value) -> float | None:
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, numbers.Real):
-        value = float(value)
-    elif isinstance(value, sympy.Basic) and value.is_number:
-        try:
-            value = float(value)
-        except TypeError:
-            return None
-    else:
-        return None
-    return value if math.isfinite(value) else None
+__all__ = ["Setting", "resolve_setting", "collect_setting", "derivatives"]
 
 
 @dataclass(frozen=True)
@@ -75,22 +45,6 @@ class Setting:
         return Setting(MappingProxyType({**self.parameters, name: float(value)}), self.inputs, self.t)
 
 
-def _named(values: Mapping | None, names: tuple[str, ...], what: str, key: str,
-           problems: list[Problem]) -> dict[str, float]:
-    out: dict[str, float] = {}
-    for name, value in (values or {}).items():
-        name = str(getattr(name, "name", name))
-        number = _number(value)
-        if name not in names:
-            problems.append(Problem(f"'{name}' is not {what}{_closest(name, names)}; the choices are "
-                                    f"{', '.join(names) or 'none'}", key=f"{key}.{name}"))
-        elif (why := value_problem(name, value if number is None else number)) is not None:
-            problems.append(Problem(why, key=f"{key}.{name}"))
-        else:
-            out[name] = number
-    return out
-
-
 def resolve_setting(equations: Equations, params: Mapping | None = None, inputs: Mapping | None = None,
                     t: float = 0.0, *, free: tuple[str, ...] = ()) -> Setting:
     """Check and complete the values: parameters default to the model's, inputs to 0.
@@ -102,8 +56,8 @@ def resolve_setting(equations: Equations, params: Mapping | None = None, inputs:
     problems: list[Problem] = []
     pnames = tuple(p.name for p in equations.parameters)
     unames = tuple(u.name for u in equations.inputs)
-    given_p = _named(params, pnames, "a parameter of the model", "params", problems)
-    given_u = _named(inputs, unames, "an input of the model", "inputs", problems)
+    given_p = named_values(params, pnames, "a parameter of the model", "params", problems)
+    given_u = named_values(inputs, unames, "an input of the model", "inputs", problems)
     values: dict[str, float] = {}
     for sym, default in equations.parameters.items():
         v = given_p.get(sym.name, default)
@@ -114,7 +68,7 @@ def resolve_setting(equations: Equations, params: Mapping | None = None, inputs:
                                         "line)", key=f"params.{sym.name}"))
             continue
         values[sym.name] = float("nan") if v is None else float(v)
-    if _number(t) is None:
+    if real_number(t) is None:
         problems.append(Problem(f"the time t must be a finite number, got {t!r}", key="t"))
     if problems:
         raise ModelError(problems)

@@ -24,6 +24,7 @@ from typing import Mapping
 import numpy as np
 import sympy
 
+from .._util import read_only
 from ..errors import ModelError
 from ._setting import Setting, derivatives
 from ._stationary import StationaryProblem, conserved_cyclic, constant_map, state_velocities
@@ -102,9 +103,9 @@ def assess(problem: StationaryProblem, setting: Setting, q: np.ndarray, tangent:
     try:
         lin = linearize_at(eqs, point, setting, exact)
     except SingularMassMatrixError:
-        return Assessment(None, UNDETERMINED, False, _read_only(np.zeros(0, complex)), qd)
+        return Assessment(None, UNDETERMINED, False, read_only(np.zeros(0, complex)), qd)
     except ModelError:
-        return Assessment(None, NOT_FINITE, False, _read_only(np.zeros(0, complex)), qd)
+        return Assessment(None, NOT_FINITE, False, read_only(np.zeros(0, complex)), qd)
     K = routh_stiffness(problem, setting, q, qd)
     P, kept = _basis(problem, tangent)
     stability, stable, degenerate, Cp = classify_across(lin.A, K, lin.C, lin.G, P, kept)
@@ -172,8 +173,4 @@ def _higher_order(problem: StationaryProblem, setting: Setting, tangent: np.ndar
     return DEGENERATE, False
 
 
-def _read_only(a) -> np.ndarray:
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
 

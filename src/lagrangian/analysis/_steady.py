@@ -18,7 +18,6 @@ positive semi-definite.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Mapping
@@ -30,7 +29,8 @@ from ..equations import Equations
 from ..errors import ModelError, Problem
 from ._equilibria import Equilibria, Equilibrium, found_points
 from ..model._kinematics import to_sympy
-from ._setting import _number, collect_setting, derivatives
+from .._util import did_you_mean, real_number
+from ._setting import collect_setting, derivatives
 from ._roots import completeness_notes, free_axes, no_root_reasons
 from ._stability import assess
 from ._stationary import conserved_cyclic, stationary_problem
@@ -136,12 +136,11 @@ def _fixed(equations: Equations, velocities: Mapping | None, momenta: Mapping | 
         for key, value in (given or {}).items():
             key = str(getattr(key, "name", key))
             base = key[len(prefix):len(key) - len(suffix)] if key.startswith(prefix) and key.endswith(suffix) else None
-            number = _number(value)
+            number = real_number(value)
             if base not in names:
                 everything = [f"{prefix}{n}{suffix}" for n in names]
-                hint = difflib.get_close_matches(key, everything, n=1, cutoff=0.5)
                 problems.append(Problem(f"'{key}' is not a {kind} of the model"
-                                        + (f" (did you mean '{hint[0]}'?)" if hint else "")
+                                        + did_you_mean(key, everything, 0.5)
                                         + f"; {choices}", key=key))
                 continue
             i = names.index(base)

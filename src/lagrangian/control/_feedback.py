@@ -26,6 +26,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from .._util import did_you_mean, read_only
 from ..equations._exact import exact_number
 from ..errors import DesignError, ModelError, Problem
 
@@ -33,9 +34,8 @@ __all__ = ["StateFeedback", "DesignError", "lqr", "place", "discretize"]
 
 
 def _frozen(a) -> np.ndarray:
-    a = np.array(a, dtype=complex if np.iscomplexobj(a) else float)
-    a.setflags(write=False)
-    return a
+    """A read-only float array, complex where `a` is (eigenvalues)."""
+    return read_only(a, complex if np.iscomplexobj(a) else float)
 
 
 def _sorted(eigenvalues: np.ndarray) -> np.ndarray:
@@ -266,11 +266,8 @@ def _weights(value, names: tuple[str, ...], what: str, default_missing: float | 
         for name, w in value.items():
             name = getattr(name, "name", name)
             if name not in names:
-                import difflib
-
-                hint = difflib.get_close_matches(str(name), list(names), n=1, cutoff=0.5)
-                problems.append(Problem(f"'{name}' is not one of {', '.join(names)}"
-                                        + (f" (did you mean '{hint[0]}'?)" if hint else ""), key=f"{what}.{name}"))
+                problems.append(Problem(f"'{name}' is not one of {', '.join(names)}" + did_you_mean(name, names, 0.5),
+                                        key=f"{what}.{name}"))
             elif not isinstance(w, numbers.Real) or isinstance(w, bool) or not math.isfinite(w):
                 problems.append(Problem(f"the weight of '{name}' must be a finite number, got {w!r}",
                                         key=f"{what}.{name}"))

@@ -7,7 +7,6 @@ moves no mass, and no solver can find q_ddot there.
 
 from __future__ import annotations
 
-import difflib
 import itertools
 from dataclasses import dataclass, field
 from typing import Mapping
@@ -16,6 +15,7 @@ import numpy as np
 import symengine as se
 import sympy
 
+from .._util import did_you_mean
 from ..errors import ModelError, Problem
 from ..model._elements import Particle, RigidBody, RigidBody3D
 from ._equations import Equations
@@ -204,9 +204,7 @@ def _values(eqs: Equations, parameters: Mapping | None = None) -> dict:
     names = [p.name for p in eqs.parameters]
     unknown = [k for k in given if k not in names]
     if unknown:
-        raise ModelError([Problem(f"'{k}' is not a parameter of the model"
-                                  + (f" (did you mean '{close[0]}'?)" if (close := difflib.get_close_matches(
-                                      str(k), names, n=1)) else "")
+        raise ModelError([Problem(f"'{k}' is not a parameter of the model" + did_you_mean(k, names)
                                   + f"; its parameters are {', '.join(names) or 'none'}", key=f"parameters.{k}")
                           for k in unknown])
     values = {p: given.get(p.name, v) for p, v in eqs.parameters.items()}

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import difflib
 import os
 import re
 from pathlib import Path
 
+from .._util import did_you_mean
 from ..errors import ModelFileError, Problem
 from ..model._expr import parse_expression
 
@@ -49,8 +49,7 @@ def load(source: str | os.PathLike):
         raise ModelFileError([Problem(
             f"'{source}': a {family.group(1)} has 1 to 200 elements; choose n in that range, "
             f"e.g. {family.group(1)}-5")])
-    hint = difflib.get_close_matches(str(source), example_names(), n=1, cutoff=0.5)
-    extra = f" Did you mean '{hint[0]}'?" if hint else ""
+    extra = did_you_mean(source, example_names(), 0.5, sentence=True)
     raise ModelFileError([Problem(
         f"'{source}' is neither a model file nor a built-in example.{extra} "
         "Run `lagrangian examples` to list the examples, or give the path of a .toml model file.")])

@@ -117,17 +117,17 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import difflib
 import math
 import os
 import re
 import sys
 import tomllib
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import sympy
 
+from .._util import closest, did_you_mean
 from ..errors import ExpressionError, ModelError, ModelFileError, Problem, UnknownNameError
 from ..model._elements import Element, shape_problems
 from ..model._model import Model
@@ -295,8 +295,8 @@ def _similar_files(file: Path) -> str:
         names = [p.name for p in folder.iterdir() if p.is_file()]
     except OSError:
         return ""
-    close = difflib.get_close_matches(file.name, names, n=1)
-    return f" (did you mean '{folder / close[0]}'?)" if close else ""
+    close = closest(file.name, names)
+    return f" (did you mean '{folder / close}'?)" if close else ""
 
 
 # --------------------------------------------------------------------------- line finding
@@ -453,12 +453,6 @@ def _describe(value: object) -> str:
     return f"a {type(value).__name__}"  # pragma: no cover - tomllib gives nothing else
 
 
-def _did_you_mean(name: str, candidates: Iterable[str], cutoff: float = 0.6) -> str:
-    """" (did you mean 'x'?)" for the closest of `candidates`, or ""."""
-    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=cutoff)
-    return f" (did you mean '{close[0]}'?)" if close else ""
-
-
 def _is_number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
@@ -481,8 +475,7 @@ def _with_suggestions(exc: UnknownNameError, names: Mapping[str, object]) -> str
     The parser's cutoff misses one-letter slips in short names (``q3`` for ``q2``).
     """
     candidates = [n for n in names if n != "t"]
-    unknown = [(name, position, suggestion or next(
-                iter(difflib.get_close_matches(name, candidates, n=1, cutoff=0.5)), None))
+    unknown = [(name, position, suggestion or closest(name, candidates, 0.5))
                for name, position, suggestion in exc.unknown]
     return UnknownNameError(exc.text, unknown).reason
 
@@ -608,7 +601,7 @@ class _Reader:
             hint = (f"; '{key}' belongs inside an element table: write it after its [[particles]], "
                     "[[bodies]], [[springs]], ... header")
         else:
-            hint = _did_you_mean(key, _TOP_LEVEL)
+            hint = did_you_mean(key, _TOP_LEVEL)
         is_table = isinstance(value, dict) or (
             isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value))
         what = "table" if is_table else "key"
@@ -621,7 +614,7 @@ class _Reader:
             hint = (f"; '{name}' is a top-level key: in TOML every key after a {table} header "
                     "belongs to that table, so move it before the first [table] header")
         else:
-            hint = _did_you_mean(name, allowed)
+            hint = did_you_mean(name, allowed)
         self.problem(key, f"unknown key '{name}' in {table}{hint}; the keys of {table} are: "
                           + ", ".join(allowed))
 
@@ -827,7 +820,7 @@ class _Reader:
             e = self.expr(item, key)
             if name not in coordinates:
                 listed = ", ".join(coordinates) if coordinates else "(none declared)"
-                self.problem(key, f"'{name}' is not a coordinate{_did_you_mean(name, coordinates, 0.5)}: "
+                self.problem(key, f"'{name}' is not a coordinate{did_you_mean(name, coordinates, 0.5)}: "
                                   "[forces] gives generalized forces by coordinate name; use one of "
                                   f"{listed}, or add {name} to coordinates")
                 continue
@@ -893,7 +886,7 @@ class _Reader:
                                                     "write parent = \"world\" or the name of a [[frames]] table")
             elif parent not in named:
                 self.problem(f"{entry.key}.parent", f"no frame is named '{parent}'"
-                             f"{_did_you_mean(parent, [WORLD, *named])}; use \"world\" (the inertial frame) "
+                             f"{did_you_mean(parent, [WORLD, *named])}; use \"world\" (the inertial frame) "
                              "or the name of a [[frames]] table")
             elif _cycle(named, entry.name) and entry.name not in in_reported_cycle:
                 loop = _cycle(named, entry.name)
@@ -986,7 +979,7 @@ class _Reader:
             entry.ok = False
             return None
         known = [WORLD, *(f for f in self.frame_names if f.isidentifier() and f != WORLD)]  # problems or not
-        self.problem(f"{entry.key}.{name}", (f"no frame is named '{value}'{_did_you_mean(value, known)}"
+        self.problem(f"{entry.key}.{name}", (f"no frame is named '{value}'{did_you_mean(value, known)}"
                                              if isinstance(value, str) else f"expected a frame's name, got "
                                              f"{_describe(value)}")
                      + f"; the frames are {', '.join(known)} (add a [[frames]] table with this name)")
@@ -1300,7 +1293,7 @@ class _Reader:
             located = [e.name for e in self.entries.values() if e.kind in _LOCATED]
             if target is None:
                 self.problem(key, f"no point, particle or body is named '{value}'"
-                                  f"{_did_you_mean(value, located)}; use the name of a [[points]], "
+                                  f"{did_you_mean(value, located)}; use the name of a [[points]], "
                                   "[[particles]] or [[bodies]] element, or a position list such as "
                                   "[\"x\", \"0\"]")
                 return None
@@ -1436,7 +1429,7 @@ class _Reader:
             if target is None or target.kind != "bodies":
                 what = f" ('{body}' is a {_SINGULAR[target.kind]})" if target is not None else ""
                 self.problem(f"{entry.key}.body", f"no rigid body is named '{body}'{what}"
-                                                  f"{_did_you_mean(body, bodies)}; use the name of a "
+                                                  f"{did_you_mean(body, bodies)}; use the name of a "
                                                   "[[bodies]] element, or angle = \"...\" for any angle")
                 return
             if target.element is None:
@@ -1537,7 +1530,7 @@ class _Reader:
         for name, item in table.items():
             key = f"operating_point.{name}"
             if name not in allowed:
-                self.problem(key, f"'{name}' is not a coordinate or a velocity{_did_you_mean(name, allowed, 0.5)}")
+                self.problem(key, f"'{name}' is not a coordinate or a velocity{did_you_mean(name, allowed, 0.5)}")
                 continue
             e = self.expr(item, key)
             if e is None:
@@ -1558,7 +1551,7 @@ class _Reader:
             return None
         bad = [v for v in value if v not in names]
         for v in bad:
-            self.problem(f"simulation.{key}", f"'{v}' is not a {what}{_did_you_mean(v, names, 0.5)}; "
+            self.problem(f"simulation.{key}", f"'{v}' is not a {what}{did_you_mean(v, names, 0.5)}; "
                                               f"the {what}s are {', '.join(names)}")
         return None if bad else list(value)
 
@@ -1614,7 +1607,7 @@ class _Reader:
             key = f"simulation.initial.{name}"
             number = self.number(item, key, name, what="initial value")
             if name not in allowed:
-                self.problem(key, f"'{name}' is not a coordinate or a velocity{_did_you_mean(name, allowed, 0.5)}: "
+                self.problem(key, f"'{name}' is not a coordinate or a velocity{did_you_mean(name, allowed, 0.5)}: "
                                   "initial values are given for coordinates and their velocities "
                                   f"(<coordinate>_dot); use one of {', '.join(allowed) or '(none)'}")
             elif number is not None:
@@ -1632,7 +1625,7 @@ class _Reader:
             key = f"simulation.sample_time.{name}"
             if name not in inputs:
                 declared = f"the inputs are {', '.join(inputs)}" if inputs else "no input is declared"
-                self.problem(key, f"'{name}' is not an input{_did_you_mean(name, inputs, 0.5)}: {declared}; "
+                self.problem(key, f"'{name}' is not an input{did_you_mean(name, inputs, 0.5)}: {declared}; "
                                   "sample_time names the inputs that are sampled")
                 continue
             number = self.number(item, key, name, minimum=0.0, strict=True, what="sample time (seconds)")
@@ -1652,7 +1645,7 @@ class _Reader:
             key = f"simulation.inputs.{name}"
             if name not in inputs:
                 declared = f"the inputs are {', '.join(inputs)}" if inputs else "no input is declared"
-                self.problem(key, f"'{name}' is not an input{_did_you_mean(name, inputs, 0.5)}: {declared}; "
+                self.problem(key, f"'{name}' is not an input{did_you_mean(name, inputs, 0.5)}: {declared}; "
                                   f"declare it with inputs = [\"{name}\"] or fix the name")
                 continue
             if self.expr(item, key, names, context="signal") is not None:

@@ -69,7 +69,6 @@ double holds (``exp(exp(exp(100)))``, ``10**400``) or that has no real value (``
 
 from __future__ import annotations
 
-import difflib
 import keyword
 import math
 import re
@@ -79,6 +78,7 @@ from typing import Callable, Mapping, NoReturn, Union
 import sympy
 
 from lagrangian._limits import MAX_EXPONENT
+from lagrangian._util import closest
 from lagrangian.errors import ExpressionError, ModelError, UnknownNameError
 
 __all__ = [
@@ -782,8 +782,7 @@ def _unknown_function_reason(name: str, feedback: bool = False) -> str:
                       "clamp": "clip", "sat": "clip", "saturate": "clip", "fmin": "min",
                       "fmax": "max", "minimum": "min", "maximum": "max"}.get(name.lower())
     if suggestion is None:
-        close = difflib.get_close_matches(name, allowed, n=1, cutoff=0.6)
-        suggestion = close[0] if close else None
+        suggestion = closest(name, allowed)
     hint = f" (did you mean '{suggestion}'?)" if suggestion else ""
     return (f"unknown function '{name}'{hint}: the allowed functions are "
             + ", ".join(allowed))
@@ -1106,8 +1105,7 @@ def parse_expression(text: str, names: Mapping[str, sympy.Basic], *,
             candidates = sorted(set(names) | set(_CONSTANTS))
             unknown: list[tuple[str, int, str | None]] = []
             for name, position in parser.unknown.items():
-                close = difflib.get_close_matches(name, candidates, n=1, cutoff=0.5)
-                unknown.append((name, position, close[0] if close else None))
+                unknown.append((name, position, closest(name, candidates, 0.5)))
             raise UnknownNameError(text, unknown)
         result, _bits = _Evaluator(text, names).build(tree)
         _Constants(text, names).value(tree)

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import copy
 import math
-import difflib
 import numbers
 from typing import Mapping, Sequence
 
 import sympy
 
+from .._util import did_you_mean
 from ..errors import ExpressionError, ModelError, Problem
 from ._constraints import HOLONOMIC, VELOCITY, Constraint
 from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, Shape, Spring,
@@ -186,9 +186,7 @@ class Model:
         """The symbol of a declared name (coordinate, velocity, parameter, input or t)."""
         known = self.names()
         if name not in known:
-            hint = difflib.get_close_matches(name, list(known), n=1)
-            extra = f" (did you mean '{hint[0]}'?)" if hint else ""
-            raise ModelError(f"model '{self.name}' has no symbol '{name}'{extra}")
+            raise ModelError(f"model '{self.name}' has no symbol '{name}'{did_you_mean(name, known)}")
         return known[name]
 
     def names(self, *, accelerations: bool = False) -> dict[str, sympy.Symbol]:
@@ -346,8 +344,7 @@ class Model:
     def _frame_name(self, name, where: str) -> str:
         if name == WORLD or name in self._frames:
             return name
-        hint = difflib.get_close_matches(str(name), [WORLD, *self._frames], n=1)
-        extra = f" (did you mean '{hint[0]}'?)" if hint else ""
+        extra = did_you_mean(name, [WORLD, *self._frames])
         raise ModelError(f"{where}: no frame is named '{name}'{extra}; the frames are "
                          f"{', '.join([WORLD, *self._frames])} (add a frame with m.add_frame(...), or a "
                          "[[frames]] table, before what is placed in it)")
@@ -571,9 +568,7 @@ class Model:
         if body is not None:
             bodies = {e.name: e for e in self._elements if isinstance(e, RigidBody)}
             if body not in bodies:
-                hint = difflib.get_close_matches(body, list(bodies), n=1)
-                extra = f" (did you mean '{hint[0]}'?)" if hint else ""
-                raise ModelError(f"{where}.body: no rigid body is named '{body}'{extra}")
+                raise ModelError(f"{where}.body: no rigid body is named '{body}'{did_you_mean(body, bodies)}")
             a = bodies[body].angle
         else:
             a = self.expr(angle, f"{where}.angle")
@@ -678,8 +673,7 @@ class Model:
         name = coordinate.name if isinstance(coordinate, sympy.Symbol) else coordinate
         matches = [c for c in self._coordinates if c.name == name]
         if not matches:
-            hint = difflib.get_close_matches(str(name), [c.name for c in self._coordinates], n=1)
-            extra = f" (did you mean '{hint[0]}'?)" if hint else ""
+            extra = did_you_mean(name, [c.name for c in self._coordinates])
             raise ModelError(f"forces.{name}: '{name}' is not a coordinate{extra}; "
                              "generalized forces are given by coordinate name")
         q = matches[0]
@@ -732,8 +726,7 @@ class Model:
         for where, e, role in sources:
             free = e.free_symbols
             for s in sorted(free - known - qdd, key=str):
-                hint = difflib.get_close_matches(s.name, [k.name for k in known], n=1)
-                extra = f" Did you mean '{hint[0]}'?" if hint else ""
+                extra = did_you_mean(s.name, [k.name for k in known], sentence=True)
                 problems.append(Problem(
                     f"unknown symbol '{s.name}': it is not a coordinate, velocity, parameter, input or t.{extra} "
                     f"Declare it (m.parameter('{s.name}', value), or under [parameters] in a model file).",

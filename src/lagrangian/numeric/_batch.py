@@ -12,17 +12,12 @@ from typing import Mapping
 
 import numpy as np
 
+from .._util import did_you_mean, read_only
 from ..errors import ModelError, Problem
 from ._kernels import STATUS
 from ._trajectory import Trajectory
 
 __all__ = ["simulate_batch", "BatchResult", "grid"]
-
-
-def _frozen(a, dtype=float) -> np.ndarray:
-    a = np.array(a, dtype=dtype)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,7 +168,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         Arrays: ``x[run, time, state]``; a run that fails does not stop the others: its
         `status` says why and its states are NaN from then on.
     """
-    from ._simulate import (_Names, _as_numeric, _closest, _input_function, _input_programs, _parameters,
+    from ._simulate import (_Names, _as_numeric, _input_function, _input_programs, _parameters,
                             _work_problems, requested_times)
     from ._fast import BACKENDS, CompiledModel
 
@@ -197,7 +192,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         problems.append(Problem(f"lanes must be a positive integer, got {lanes!r}", key="lanes"))
     if backend not in BACKENDS or backend == "scipy":
         problems.append(Problem(f"simulate_batch runs in compiled code: backend must be one of auto, numba, c, "
-                                f"got '{backend}'{_closest(backend, BACKENDS)}", key="backend"))
+                                f"got '{backend}'{did_you_mean(backend, BACKENDS, 0.5)}", key="backend"))
     initial = defaults.get("initial") if initial is None else initial
     params = dict(params or {})
 
@@ -294,9 +289,9 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     for i in np.nonzero(STATUS_ != 0)[0]:
         X[i, STATS[i, 3]:] = np.nan
     stop = np.where(STATUS_ == 0, times[-1], INFO[:, 0])
-    return BatchResult(_frozen(times), _frozen(X), names.state_names, _frozen(P[:, :k]), names.parameter_names,
-                       _frozen(X0), _frozen(STATUS_, np.int64), _frozen(stop), _frozen(STATS[:, 0], np.int64),
-                       cm.backend, eq.model)
+    return BatchResult(read_only(times, float), read_only(X, float), names.state_names, read_only(P[:, :k], float),
+                       names.parameter_names, read_only(X0, float), read_only(STATUS_, np.int64), read_only(stop, float),
+                       read_only(STATS[:, 0], np.int64), cm.backend, eq.model)
 
 
 def default_lanes(n: int, runs: int) -> int:

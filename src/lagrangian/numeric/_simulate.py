@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import weakref
 from decimal import Decimal
 import math
@@ -13,7 +12,8 @@ import numpy as np
 import sympy
 
 from ..equations import Equations, derive, singularities
-from .._limits import MAX_ROWS, MAX_STEPS, number_problem, value_problem
+from .._limits import MAX_ROWS, MAX_STEPS, number_problem
+from .._util import did_you_mean, named_values, read_only
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError
 from ..model import Model
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations
@@ -103,26 +103,11 @@ def _as_numeric(system):
     raise TypeError(f"simulate() expects a Model, Equations or NumericModel, got {type(system).__name__}")
 
 
-def _closest(name, names) -> str:
-    hint = difflib.get_close_matches(str(name), list(names), n=1, cutoff=0.5)
-    return f" (did you mean '{hint[0]}'?)" if hint else ""
-
-
 def _named_values(values: Mapping, names: tuple[str, ...], what: str, key: str,
                   problems: list[Problem]) -> dict[int, float]:
     """{index in `names`: value} for a mapping of names (or symbols) to finite numbers; every bad
-    name or value becomes a problem."""
-    out: dict[int, float] = {}
-    for name, value in values.items():
-        name = getattr(name, "name", name)
-        if name not in names:
-            problems.append(Problem(f"'{name}' is not {what}{_closest(name, names)}; "
-                                    f"the choices are {', '.join(names) or 'none'}", key=f"{key}.{name}"))
-        elif (why := value_problem(name, value)) is not None:
-            problems.append(Problem(why, key=f"{key}.{name}"))
-        else:
-            out[names.index(name)] = float(value)
-    return out
+    name or value becomes a problem (see lagrangian._util.named_values: the analysis' rule)."""
+    return {names.index(name): value for name, value in named_values(values, names, what, key, problems).items()}
 
 
 def _parameters(nm: NumericModel, params: Mapping | None, problems: list[Problem]) -> np.ndarray:
@@ -165,7 +150,7 @@ def _input_function(nm, inputs, pvalues, problems: list[Problem]):
     for name, spec in (inputs or {}).items():
         name = getattr(name, "name", name)
         if name not in nm.input_names:
-            problems.append(Problem(f"'{name}' is not an input of the model{_closest(name, nm.input_names)}; "
+            problems.append(Problem(f"'{name}' is not an input of the model{did_you_mean(name, nm.input_names, 0.5)}; "
                                     f"its inputs are {', '.join(nm.input_names) or 'none'}", key=f"inputs.{name}"))
             continue
         i = nm.input_names.index(name)
@@ -278,7 +263,7 @@ def sample_times(sample_time, input_names: tuple[str, ...], t_end: float, proble
         name = getattr(name, "name", name)
         key = "sample_time" if not isinstance(sample_time, Mapping) else f"sample_time.{name}"
         if name not in input_names:
-            problems.append(Problem(f"'{name}' is not an input of the model{_closest(name, input_names)}; "
+            problems.append(Problem(f"'{name}' is not an input of the model{did_you_mean(name, input_names, 0.5)}; "
                                     f"its inputs are {', '.join(input_names) or 'none'}", key=key))
         elif (not isinstance(value, numbers.Real) or isinstance(value, bool) or not value > 0
               or not math.isfinite(value)):
@@ -418,10 +403,10 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
                                 "that passes through zero cannot be controlled)", key="atol"))
     method = {m.upper(): m for m in METHODS}.get(str(method).upper(), method)
     if method not in METHODS:
-        problems.append(Problem(f"unknown method '{method}'{_closest(method, METHODS)}; "
+        problems.append(Problem(f"unknown method '{method}'{did_you_mean(method, METHODS, 0.5)}; "
                                 f"choose one of {', '.join(METHODS)}", key="method"))
     if backend not in BACKENDS:
-        problems.append(Problem(f"unknown backend '{backend}'{_closest(backend, BACKENDS)}; "
+        problems.append(Problem(f"unknown backend '{backend}'{did_you_mean(backend, BACKENDS, 0.5)}; "
                                 f"choose one of {', '.join(BACKENDS)}", key="backend"))
     elif method == "variational" and backend == "scipy":
         problems.append(Problem("method 'variational' runs in compiled code only: use backend='auto' or "
@@ -754,7 +739,7 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
                      f"no events are given: define it first, e.g. events={{'{name}': 'q1'}} "
                      f"(on the command line: --event {name}=EXPR)")
             problems.append(Problem(f"stop_on names '{name}', which is not one of the events"
-                                    f"{_closest(name, list(events))}; {known}", key="stop_on"))
+                                    f"{did_you_mean(name, list(events), 0.5)}; {known}", key="stop_on"))
     return out
 
 
@@ -797,7 +782,7 @@ def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, a
         keep = raw.event_t <= stop_t
         for k, name in enumerate(names):
             sel = keep & (raw.event_k == k)
-            found[name] = {"t": _readonly(raw.event_t[sel]), "x": _readonly(raw.event_x[sel])}
+            found[name] = {"t": read_only(raw.event_t[sel], float), "x": read_only(raw.event_x[sel], float)}
         if raw.status == 4:
             stats["stopped_by"] = names[int(raw.stop_measure)]
             stats["stop_time"] = raw.stop_t
@@ -873,12 +858,6 @@ def _raise_failure(cm: CompiledModel, raw, p, x0) -> None:
                               f"(state {_state_text(cm, raw.stop_x)}); try a smaller rtol/atol, a stiff method "
                               "such as method='Radau', or check the model's parameters",
                               status=raw.status, time=raw.stop_t)
-
-
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 def _constrained_problems(nm, method, event_exprs, sample_time, problems) -> None:

@@ -9,13 +9,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._util import read_only
+
 __all__ = ["Trajectory"]
-
-
-def _frozen(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,14 +80,14 @@ class Trajectory:
     failure: str | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "t", _frozen(self.t))
-        object.__setattr__(self, "x", _frozen(self.x))
-        object.__setattr__(self, "u", _frozen(np.reshape(self.u, (len(self.t), len(self.input_names)))))
+        object.__setattr__(self, "t", read_only(self.t, float))
+        object.__setattr__(self, "x", read_only(self.x, float))
+        object.__setattr__(self, "u", read_only(np.reshape(self.u, (len(self.t), len(self.input_names))), float))
         if self.energy is not None:
-            object.__setattr__(self, "energy", _frozen(self.energy))
+            object.__setattr__(self, "energy", read_only(self.energy, float))
         if self.multipliers is not None:
-            object.__setattr__(self, "multipliers", _frozen(np.reshape(self.multipliers,
-                                                                       (len(self.t), len(self.multiplier_names)))))
+            object.__setattr__(self, "multipliers", read_only(np.reshape(self.multipliers,
+                                                                       (len(self.t), len(self.multiplier_names))), float))
 
     @property
     def n(self) -> int:
@@ -148,7 +144,7 @@ class Trajectory:
         p = [np.full(len(self.t), float(self.parameters.get(s.name, np.nan))) for s in eqs.parameters]
         u = [self.u[:, k] for k in range(self.u.shape[1])] if self.u.ndim == 2 else []
         values = f(self.t, *self.x.T, *u, *p)
-        return {k: _frozen(np.broadcast_to(v, self.t.shape)) for k, v in zip(quantities, values)}
+        return {k: read_only(np.broadcast_to(v, self.t.shape), float) for k, v in zip(quantities, values)}
 
     def conserved_drift(self) -> dict[str, float]:
         """max |c(t) - c(0)| of each conserved quantity (see :meth:`conserved`)."""

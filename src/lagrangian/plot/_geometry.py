@@ -38,12 +38,12 @@ once (docs/plots.md repeats them):
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass
 
 import numpy as np
 import sympy
 
+from .._util import did_you_mean
 from ..errors import ModelError
 from ..model._constraints import HOLONOMIC
 from ..model._elements import Damper, Particle, Point, RigidBody, RigidBody3D, Spring
@@ -363,8 +363,7 @@ def check_drawable(model, trace=()) -> None:
     names = [e.name for e in elements]
     for name in trace:
         if name not in names:
-            hint = difflib.get_close_matches(str(name), names, n=1)
-            extra = f" (did you mean '{hint[0]}'?)" if hint else ""
+            extra = did_you_mean(name, names)
             raise ModelError(f"trace '{name}': model '{model.name}' has no point, particle or rigid body of that "
                              f"name{extra}; the names are {', '.join(names)}")
 

@@ -320,12 +320,10 @@ class ExamplesHandler(_Base):
 
 
 def unknown_example(name: str) -> str:
-    import difflib
-
+    from .._util import did_you_mean
     from ..examples import example_names
 
-    close = difflib.get_close_matches(name, example_names(), n=1, cutoff=0.5)
-    hint = f" Did you mean '{close[0]}'?" if close else ""
+    hint = did_you_mean(name, example_names(), 0.5, sentence=True)
     return (f"there is no built-in example '{name}'.{hint} Choose one in the Examples menu "
             "(pendulum-chain-<n> and spring-mass-damper-chain-<n> take n from 1 to 200).")
 

@@ -15,7 +15,6 @@ for a fault of ours.
 
 from __future__ import annotations
 
-import difflib
 import html
 import json
 import math
@@ -24,6 +23,7 @@ import re
 import traceback
 from dataclasses import dataclass, field
 
+from .._util import did_you_mean
 from ..errors import ExpressionError, LagrangianError, ModelError, Problem
 
 __all__ = ["Reply", "run", "TASKS", "MAX_ROWS", "MAX_FRAMES", "errors_reply"]
@@ -115,9 +115,7 @@ def _json_object(body: bytes, fields: dict[str, str], problems: list[str] | None
     found = []
     for key in obj:
         if key not in fields:
-            close = difflib.get_close_matches(str(key), fields, n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
-            found.append(f"unknown field '{key}'{hint}; the fields are {', '.join(fields)}")
+            found.append(f"unknown field '{key}'{did_you_mean(key, fields)}; the fields are {', '.join(fields)}")
     if "model" not in obj:
         found.append("the field 'model' is missing: give the model-file text, "
                      "{\"model\": \"coordinates = [\\\"x\\\"] ...\"}")
