@@ -23,7 +23,7 @@ import re
 import traceback
 from dataclasses import dataclass, field
 
-from .._util import did_you_mean
+from .._util import did_you_mean, named_values
 from ..errors import ExpressionError, LagrangianError, ModelError, Problem
 
 __all__ = ["Reply", "run", "TASKS", "MAX_ROWS", "MAX_FRAMES", "errors_reply"]
@@ -373,8 +373,6 @@ def _request_problems(obj: dict, problems: list[str]) -> ModelError:
     """Every problem of a simulation request at once: those of its fields, then those of its model
     text, or, when the model loads, the names in initial, params and inputs that it does not have
     (with simulate's messages)."""
-    from ..numeric._simulate import _named_values
-
     found = [Problem(message) for message in problems]
     if isinstance(obj.get("model"), str):
         try:
@@ -391,7 +389,7 @@ def _request_problems(obj: dict, problems: list[str]) -> ModelError:
             for key, (names, what) in choices.items():
                 raw = obj.get(key)
                 given = {str(name): 0.0 for name in raw} if isinstance(raw, dict) else {}  # values: checked above
-                _named_values(given, names, what, key, found)
+                named_values(given, names, what, key, found)
     return ModelError(found)
 
 
