@@ -80,7 +80,7 @@ def test_compiled_solve_reports_a_singular_mass_matrix(equations, backend):
     assert np.all(np.isnan(nm.rhs(0.0, x, [], nm.parameter_values)[2:]))
     x[q2] = 0.3
     qdd, measure = nm.solve(0.0, x, [], nm.parameter_values)
-    portable = lg.compile(eqs)
+    portable = lg.compile(eqs, backend="scipy")
     assert measure == pytest.approx(portable.singular_ratio(0.0, x, [], nm.parameter_values), rel=1e-12)
     assert nm.singular_ratio(0.0, x, [], nm.parameter_values) == pytest.approx(measure, rel=1e-12)
 
@@ -104,7 +104,9 @@ def test_generated_code_documents_its_argument_order(equations):
 def test_compile_is_cached_per_equations_and_backend(equations):
     eqs = equations["double-pendulum"]
     assert lg.compile(eqs, backend="numba") is lg.compile(eqs, backend="numba")
-    assert lg.compile(eqs) is not lg.compile(eqs, backend="numba")
+    # the default is the fastest backend (simulate(lg.compile(eqs)) was silently about 100x slower on SciPy)
+    assert lg.compile(eqs) is lg.compile(eqs, backend="numba")
+    assert lg.compile(eqs, backend="scipy") is not lg.compile(eqs, backend="numba")
 
 
 def test_a_second_process_compiles_nothing():
@@ -197,3 +199,28 @@ def test_error_variational_with_python_function_or_t_eval():
 def test_error_bad_step():
     with pytest.raises(ModelError, match=r"step must be a positive number, got -0.1"):
         lg.simulate(oscillator(), 1.0, method="variational", step=-0.1)
+
+
+def test_the_default_compile_is_the_compiled_model_that_simulate_runs_compiled(equations):
+    """lg.compile(eqs) defaulted to the SciPy backend while simulate defaulted to numba, so
+    simulate(lg.compile(eqs)) ran on SciPy, about 100x slower; now it is numba's model."""
+    eqs = equations["double-pendulum"]
+    nm = lg.compile(eqs)
+    assert nm.backend == "numba"
+    traj = lg.simulate(nm, 1.0, {"theta1": 0.5})
+    assert traj.stats["backend"] == "numba"
+
+
+def test_every_backend_gives_a_constrained_model_s_state_equations():
+    """NumericModel.rhs of a constrained model was M^-1 f (the bob of the Cartesian pendulum fell
+    freely: y'' = -9.81); now the saddle-point solution, as the compiled model gives it."""
+    eqs = lg.derive(lg.load("cartesian-pendulum"))
+    x = np.array([0.6, -0.8, 0.3, 0.225])
+    portable, compiled = lg.compile(eqs, backend="scipy"), lg.compile(eqs)
+    p = portable.parameter_values
+    a, b = portable.rhs(0.0, x, [], p), compiled.rhs(0.0, x, [], p)
+    assert np.allclose(a, b, rtol=1e-12, atol=1e-12)
+    # on the unit rod from the origin: radial acceleration -|v|^2 (free fall gave +7.848), tangential
+    # gravity's part -g 0.6 along the tangent (0.8, 0.6)
+    assert a[2] * 0.6 - a[3] * 0.8 == pytest.approx(-(0.3**2 + 0.225**2), abs=1e-12)
+    assert a[2] * 0.8 + a[3] * 0.6 == pytest.approx(-9.81 * 0.6, abs=1e-12)

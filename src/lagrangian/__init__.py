@@ -13,7 +13,7 @@ from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileErro
 from .io import load
 from .model import Model, ddot, dot, t
 from .numeric import BatchResult, CompiledModel, NumericModel, Trajectory, grid, simulate, simulate_batch
-from .numeric import compile_equations as compile
+from .numeric import compile
 from .analysis import (Continuation, Equilibria, Equilibrium, LinearModel, Modes, SteadyMotion, SteadyMotions,
                        continuation, equilibria, linearize, modes, steady_motions)
 from .reporting import Report, report

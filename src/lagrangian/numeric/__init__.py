@@ -1,10 +1,10 @@
 """Numerics: the state equations x' = f(t, x, u, p), simulation, batch runs and trajectories."""
 
 from ._batch import BatchResult, grid, simulate_batch
-from ._compiled import NumericModel, compile_equations
+from ._compiled import NumericModel, compile, compile_equations
 from ._fast import BACKENDS, CompiledModel
 from ._simulate import METHODS, output_times, simulate
 from ._trajectory import Trajectory
 
-__all__ = ["NumericModel", "CompiledModel", "compile_equations", "simulate", "simulate_batch", "BatchResult",
+__all__ = ["NumericModel", "CompiledModel", "compile", "compile_equations", "simulate", "simulate_batch", "BatchResult",
            "grid", "Trajectory", "METHODS", "BACKENDS", "output_times"]

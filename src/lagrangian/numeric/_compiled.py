@@ -1,6 +1,7 @@
-"""compile(equations) -> NumericModel: the numerical state equations x' = f(t, x, u, p).
+"""compile(equations) -> CompiledModel or NumericModel: the numerical state equations x' = f(t, x, u, p),
+by the fastest backend (numba) unless another is asked for.
 
-This is the portable backend: SymEngine's Lambdify with common-subexpression elimination
+NumericModel is the portable backend: SymEngine's Lambdify with common-subexpression elimination
 evaluates M and the forcing in one call, and NumPy solves M q_ddot = f (Cholesky, which also
 measures how close M is to singular). Faster backends plug in behind the same interface.
 """
@@ -17,7 +18,7 @@ from ..equations import Equations
 from ..errors import ModelError
 from ..equations._singular import inertia_measure, scaled_cholesky
 
-__all__ = ["NumericModel", "compile_equations", "SINGULAR_RATIO"]
+__all__ = ["NumericModel", "compile", "compile_equations", "SINGULAR_RATIO"]
 
 #: inertia_measure(M) below which the mass matrix counts as singular.
 SINGULAR_RATIO = 1e-12
@@ -89,8 +90,14 @@ class NumericModel:
         return np.linalg.solve(Lc.T, y) * s, measure
 
     def accelerations(self, t, x, u, p) -> np.ndarray:
-        """q_ddot solving M q_ddot = f, shape (n,)."""
-        return self.solve(t, np.asarray(x, float), np.asarray(u, float), np.asarray(p, float))[0]
+        """q_ddot solving M q_ddot = f, shape (n,); for a constrained model the q_ddot of the
+        saddle-point system [M G^T; G 0] [q_ddot; -lambda] = [f; c], as the compiled backends give it."""
+        x, u, p = (np.asarray(v, float) for v in (x, u, p))
+        if self.equations.is_constrained:
+            from ._constrained import constrained_model
+
+            return constrained_model(self.equations, self).solve(t, x, u, p)[0]
+        return self.solve(t, x, u, p)[0]
 
     def rhs(self, t, x, u, p) -> np.ndarray:
         """x' = [q_dot, q_ddot], shape (2n,)."""
@@ -106,6 +113,34 @@ class NumericModel:
         return float(self._energy(np.concatenate(([t], np.asarray(x, float), u, p)))[0])
 
 
+def compile(equations: Equations, backend: str = "auto"):
+    """The numerical state equations of `equations`, x' = f(t, x, u, p), by the fastest backend.
+
+    Parameters
+    ----------
+    equations : Equations
+    backend : {"auto", "numba", "c", "scipy"}
+        "auto" (default): numba's compiled code (:class:`~lagrangian.numeric.CompiledModel`), or
+        the portable :class:`NumericModel` for a model whose expressions numba cannot be given;
+        the others as :func:`compile_equations` (every backend gives the same numbers, constrained
+        models included).
+
+    Returns
+    -------
+    CompiledModel or NumericModel
+        ``rhs``, ``mass_matrix``, ``forcing``, ``accelerations``, ``energy``, all in the argument
+        order (t, x, u, p). :func:`simulate` runs a CompiledModel's integration compiled.
+    """
+    if backend == "auto":
+        from ._codegen import Unsupported
+
+        try:
+            return compile_equations(equations, "numba")
+        except Unsupported:
+            return compile_equations(equations, "scipy")
+    return compile_equations(equations, backend)
+
+
 def compile_equations(equations: Equations, backend: str = "scipy"):
     """The numerical state equations of `equations` (cached per Equations object).
 
@@ -114,6 +149,7 @@ def compile_equations(equations: Equations, backend: str = "scipy"):
     equations : Equations
     backend : {"scipy", "numba", "c"}
         "scipy" (default): a :class:`NumericModel` evaluated by SymEngine and NumPy (portable).
+        :func:`compile`, the public one, takes the fastest by default.
         "numba": a :class:`~lagrangian.numeric.CompiledModel` of generated code compiled by
         numba; "c": the same with the model's functions in C (cffi and a C compiler needed).
         Every backend gives the same numbers; the compiled ones also run the compiled
