@@ -66,7 +66,8 @@ def test_model_file_doc_error_example_is_current(tmp_path):
     assert message.strip() == expected.strip()
 
 
-def test_readme_analysis_example_runs(capsys):
+def test_readme_analysis_example_runs(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # the README's first block writes out.csv: here, not in the checkout
     first, analysis = blocks("README.md", "python")
     namespace = {}
     exec(compile(first + analysis, "README.md", "exec"), namespace)  # our own README, not user input
