@@ -515,7 +515,8 @@ def test_the_server_answers_while_workers_are_busy(server):
     done = {}
     thread = threading.Thread(target=lambda: done.update(r=server.post_json("/api/simulate", slow)))
     thread.start()
-    time.sleep(0.5)
+    # the simulation holds a worker (the server's /api/status says so), then the rest is answered on the other
+    assert wait_until(lambda: server.status()["running"]["long"] == 1, 60), server.status()
     start = time.monotonic()
     assert server.request("GET", "/api/info")[0] == 200
     assert server.request("GET", "/?example=mck")[0] == 200
@@ -545,7 +546,7 @@ def test_a_runaway_request_is_stopped_at_the_time_limit_and_a_crash_is_survived(
         result = {}
         thread = threading.Thread(target=lambda: result.update(r=s.post_json("/api/simulate", slow)))
         thread.start()
-        time.sleep(1.0)
+        assert wait_until(lambda: s.status()["running"]["long"] == 1, 30), s.status()  # in the worker now
         os.kill(after[0], signal.SIGKILL)
         thread.join()
         status, data = result["r"]

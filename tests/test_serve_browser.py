@@ -186,10 +186,13 @@ def test_a_slider_runs_a_new_simulation_and_the_animation_plays(page, server):
     assert status == 200 and shown["columns"] == data["columns"]  # the page shows what the API returns
     # the animation plays: the frame and the picture change as time goes on
     frames, pictures = set(), set()
-    for _ in range(4):
+
+    def played() -> bool:  # seen, not slept on: three frames and three pictures, however loaded the machine
         frames.add(js(page, "return document.getElementById('mechanism').dataset.frame"))
         pictures.add(canvas_png(page))
-        time.sleep(0.4)
+        return len(frames) >= 3 and len(pictures) >= 3
+
+    wait(page, played)
     assert len(frames) >= 3 and len(pictures) >= 3
     # paused, it stays; the time slider moves it
     page.find_element(By.ID, "play").click()
