@@ -1,6 +1,28 @@
 import sympy
 import pytest
 
+pytest_plugins = ["pytester"]  # tests/test_quick_selection.py runs pytest on small projects
+
+# The markers that --quick leaves out (registered, with what each means, in pyproject.toml).
+QUICK_LEAVES_OUT = ("slow", "browser", "network", "subprocess")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--quick", action="store_true", default=False,
+                     help="the quick selection: leave out the tests marked " + ", ".join(QUICK_LEAVES_OUT)
+                          + " (python -m pytest alone runs every test)")
+
+
+def pytest_collection_modifyitems(config, items):
+    if not config.getoption("quick"):
+        return
+    kept, left_out = [], []
+    for item in items:
+        (left_out if any(item.get_closest_marker(m) for m in QUICK_LEAVES_OUT) else kept).append(item)
+    if left_out:
+        config.hook.pytest_deselected(items=left_out)
+        items[:] = kept
+
 
 def assert_same(actual, expected, msg=""):
     """Symbolic equality: the simplified difference is zero (scalars or matrices)."""
