@@ -29,6 +29,7 @@ def _model(name, coords, params):
 
 
 # ----------------------------------------------------------------------------- equilibria
+@pytest.mark.slow
 def test_rotating_pendulum_below_critical_speed_has_two_equilibria(rotating):
     g, l = 9.81, 0.5
     found = equilibria(rotating, params={"Omega": 0.9 * math.sqrt(g / l)})
@@ -56,6 +57,7 @@ def test_rotating_pendulum_above_critical_speed_branch_cos_theta(rotating):
     assert max(z.real for z in bottom.eigenvalues) == pytest.approx(math.sqrt(Omega**2 - g / l), rel=1e-9)
 
 
+@pytest.mark.slow
 def test_energy_form_gives_the_same_equilibria(rotating):
     a = equilibria(rotating, params={"Omega": 6.0})
     b = equilibria(lg.derive(lg.load("rotating-pendulum-energy")), params={"Omega": 6.0})
@@ -191,6 +193,7 @@ def test_gyroscopic_stabilization_is_marginal_not_lagrange_dirichlet():
     assert lin.stability == "marginally stable" and lin.stable and lin.lagrange_dirichlet is False
 
 
+@pytest.mark.slow
 def test_to_control_keeps_names():
     lin = linearize(lg.derive(lg.load("cart-pendulum")), at={"q2": sympy.pi / 2})
     sys = lin.to_control()
@@ -303,6 +306,7 @@ def test_modes_rejects_other_objects():
 
 
 # ----------------------------------------------------------------------------- continuation
+@pytest.mark.slow
 def test_rotating_pendulum_continuation_exact(rotating):
     result = continuation(rotating, "Omega", np.linspace(0, 8, 201))
     assert result.critical_values == pytest.approx((math.sqrt(9.81 / 0.5),))
@@ -317,6 +321,7 @@ def test_rotating_pendulum_continuation_exact(rotating):
     np.testing.assert_allclose(np.cos(side.coordinate("theta")), 9.81 / (0.5 * side.params**2), rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_rotating_pendulum_continuation_numeric_agrees(rotating):
     result = continuation(rotating, "Omega", np.linspace(0, 8, 81), exact=False)
     assert len(result.branches) == 4
@@ -328,6 +333,7 @@ def test_rotating_pendulum_continuation_numeric_agrees(rotating):
             np.testing.assert_allclose(np.cos(theta), 9.81 / (0.5 * b.params**2), rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_saddle_node_located_numerically():
     """V = x^4/4 - a x^2/2 + x/5: two equilibria are born where 4 a^3 = 27 (1/5)^2."""
     m = _model("saddle-node", ["x"], {"a": 1.0})
@@ -353,6 +359,7 @@ def test_continuation_errors(rotating):
         continuation(rotating, "Omega", [1.0])
 
 
+@pytest.mark.slow
 def test_bifurcation_diagram_draws_stable_solid_unstable_dashed(rotating):
     import matplotlib
 
@@ -368,6 +375,7 @@ def test_bifurcation_diagram_draws_stable_solid_unstable_dashed(rotating):
 
 
 # ----------------------------------------------------------------------------- conserved quantities
+@pytest.mark.slow
 def test_conserved_quantities_energy_and_cyclic_momentum():
     m = _model("free-cart", ["x", "th"], {"M": 1.0, "m": 0.5, "l": 1.0, "g": 9.81})
     m.add_particle("M", ["x", "0"], name="cart")
@@ -404,6 +412,7 @@ def run(capsys, *argv):
     return code, out, err
 
 
+@pytest.mark.slow
 def test_cli_equilibria_json_contract(capsys):
     code, out, _ = run(capsys, "equilibria", "rotating-pendulum", "--param", "Omega=6", "--json")
     assert code == 0
@@ -435,6 +444,7 @@ def test_cli_modes_json_contract_and_default_operating_point(capsys):
     assert code == 0 and "about the stable equilibrium q1 = 0, q2 = -1.5708" in out and "rigid" in out
 
 
+@pytest.mark.slow
 def test_cli_sweep_json_and_plot(capsys, tmp_path):
     png = tmp_path / "omega.png"
     code, out, _ = run(capsys, "sweep", "rotating-pendulum", "--param", "Omega", "--from", "0", "--to", "8",
@@ -479,6 +489,7 @@ def _doc_blocks():
     return text, re.findall(r"```(\w*)\n(.*?)```", text, re.S)
 
 
+@pytest.mark.slow
 def test_analysis_doc_examples_run_and_print_what_the_doc_says(capsys, tmp_path, monkeypatch):
     import contextlib
     import io
@@ -504,6 +515,7 @@ def test_analysis_doc_examples_run_and_print_what_the_doc_says(capsys, tmp_path,
             assert code_ == 0 and got == expected
 
 
+@pytest.mark.slow
 def test_rich_display_in_notebooks(rotating):
     lin = linearize(lg.derive(lg.load("cart-pendulum")), at={"q2": sympy.pi / 2})
     latex = lin._repr_latex_()

@@ -53,6 +53,7 @@ def _points(found):
 
 
 # ----------------------------------------------------------------------------- each equilibrium once
+@pytest.mark.slow
 def test_arm2_has_its_four_equilibria_each_once_and_exact(arm2_found):
     found = arm2_found
     assert len(found) == 4
@@ -71,6 +72,7 @@ def test_arm2_numerical_search_alone_finds_the_same_four(arm2):
     assert found.notes[0].startswith("found by a numerical search from")
 
 
+@pytest.mark.slow
 def test_cli_arm2_json_lists_four_distinct_and_is_the_same_twice(capsys, arm2_file, arm2_found):
     code, out, _ = run(capsys, "equilibria", str(arm2_file), "--json")
     assert code == 0  # a second computation (the first: the fixture's) gives the same JSON
@@ -92,6 +94,7 @@ def test_no_clock_decides_anything_in_the_analysis_or_the_equations():
             assert not hits, f"{path.name}: {hits}"
 
 
+@pytest.mark.slow
 def test_exact_solution_depends_on_a_count_of_work(arm2, arm2_found, monkeypatch):
     # the arm needs about 3 million calls of SymPy: within the budget it is exact, on every machine
     assert arm2_found[0].exact is not None
@@ -102,6 +105,7 @@ def test_exact_solution_depends_on_a_count_of_work(arm2, arm2_found, monkeypatch
                            f"equilibria: there may be others",)
 
 
+@pytest.mark.slow
 def test_exact_solution_in_a_worker_thread_is_the_one_of_the_main_thread(arm2, arm2_found):
     # the clock it replaces worked only in the main thread: the playground's workers got numbers only
     out = {}

@@ -204,6 +204,7 @@ def test_without_matplotlib_plots_say_how_to_install_it(cart, monkeypatch):
 
 
 @pytest.mark.skipif(not ffmpeg_available(), reason="ffmpeg is not installed")
+@pytest.mark.subprocess
 def test_mp4(cart, tmp_path):  # pragma: no cover - only where ffmpeg is present
     anim = plot.animate(cart, fps=5, dpi=40)
     anim.save(tmp_path / "cart.mp4")
@@ -220,6 +221,7 @@ def test_mp4(cart, tmp_path):  # pragma: no cover - only where ffmpeg is present
 
 
 @pytest.mark.skipif(not ffmpeg_available(), reason="ffmpeg is not installed")
+@pytest.mark.subprocess
 def test_mp4_ffmpeg_failure_is_reported(cart, tmp_path, monkeypatch):  # pragma: no cover - only with ffmpeg
     monkeypatch.setitem(matplotlib.rcParams, "animation.codec", "no-such-codec")
     with pytest.raises(lg.LagrangianError, match=r"ffmpeg could not write '.*cart.mp4': .*no-such-codec"):
@@ -264,6 +266,8 @@ def test_cli_animate_errors(tmp_path, capsys, args, message):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_cli_animate_mp4_without_ffmpeg(tmp_path):
     # a real run with ffmpeg off PATH: exit 2, one line that says how to install it, before any simulation
     out = tmp_path / "c.mp4"

@@ -109,6 +109,8 @@ def test_compile_is_cached_per_equations_and_backend(equations):
     assert lg.compile(eqs, backend="scipy") is not lg.compile(eqs, backend="numba")
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_second_process_compiles_nothing():
     # a model of its own (a parameter name no other test uses), compiled in one process, then
     # loaded from the disk cache by a second one: numba reports a cache hit for every function

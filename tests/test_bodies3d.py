@@ -41,6 +41,7 @@ def test_heavy_top_from_a_body_in_space_equals_the_textbook_energies():
                                           [0, I3 * sp.cos(th), I3]])
 
 
+@pytest.mark.slow
 def test_heavy_top_against_lagranges_method():
     th, ph, ps = dynamicsymbols("theta phi psi")
     m, l, g, I1, I3 = sp.symbols("m l g I1 I3")
@@ -75,6 +76,7 @@ def _free_body_model(matrix=False):
     return m
 
 
+@pytest.mark.slow
 def test_body_with_a_full_inertia_tensor_against_lagranges_method():
     yaw, pitch, roll = dynamicsymbols("yaw pitch roll")
     m, g, a, b, c = sp.symbols("m g a b c")
@@ -92,6 +94,7 @@ def test_body_with_a_full_inertia_tensor_against_lagranges_method():
           symbolic=False)
 
 
+@pytest.mark.slow
 def test_a_rotation_written_as_a_matrix_gives_the_same_equations():
     a, b = lg.derive(_free_body_model()), lg.derive(_free_body_model(matrix=True))
     f = sp.lambdify(sorted(a.mass_matrix.free_symbols | a.forcing.free_symbols | b.forcing.free_symbols, key=str),
@@ -156,6 +159,7 @@ def test_torque_free_body_conserves_energy_and_angular_momentum():
     assert np.ptp(traj["roll"]) > 0.5  # it does tumble
 
 
+@pytest.mark.slow
 def test_heavy_top_precesses_steadily_as_the_closed_form_says():
     eqs = lg.derive(_top_model())
     found = [s for s in lg.steady_motions(eqs, {"phi_dot": 2.0, "psi_dot": 50.0}) if 0 < s.coordinates["theta"] < 3]
@@ -165,6 +169,7 @@ def test_heavy_top_precesses_steadily_as_the_closed_form_says():
     assert I1 * 4 * math.cos(theta) - I3 * omega3 * 2 + 0.981 == pytest.approx(0, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_robot_arm_with_motor_torques_against_lagranges_method():
     import sys
     from pathlib import Path
@@ -187,6 +192,7 @@ def test_robot_arm_conserves_energy_without_torques():
     assert traj.energy_drift < 1e-8 and np.ptp(traj["q2"]) > 0.1
 
 
+@pytest.mark.slow
 def test_gyroscope_precesses_with_its_axle_level_at_m_g_l_over_its_spin_momentum():
     eqs = lg.derive(lg.load("gyroscope"))
     m, R, l, g, p = 0.5, 0.05, 0.2, 9.81, 2.0

@@ -296,6 +296,8 @@ def server():
     ({"t_end": 1, "inputs": {"F": "acos(2)"}}, "not a real number: acos(2) has no real value"),
     ({"t_end": 1, "initial": {"q2": 1e308}}, "the value of 'q2' is 1e+308, too large: at most 1e+150 in magnitude"),
 ])
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_api_answers_400_with_the_reason(server, fields, message):
     status, data = server.post_json("/api/simulate", json.dumps({"model": example_source("cart-pendulum"), **fields}),
                                     headers={"Content-Type": "application/json"})
@@ -304,6 +306,7 @@ def test_the_api_answers_400_with_the_reason(server, fields, message):
 
 
 @pytest.mark.parametrize("what, text, line, key, message", MODEL_FILES, ids=[m[0] for m in MODEL_FILES])
+@pytest.mark.subprocess
 def test_the_api_answers_400_for_each_bad_model_file(server, what, text, line, key, message):
     status, data = server.post_json("/api/derive", text)
     assert status == 400, data
@@ -311,6 +314,7 @@ def test_the_api_answers_400_for_each_bad_model_file(server, what, text, line, k
     assert (error["line"], error["key"]) == (line, key) and message in error["message"]
 
 
+@pytest.mark.subprocess
 def test_the_api_refuses_an_expansion_past_the_limit(server):
     text = ('name = "p"\ncoordinates = ["x", "y", "z", "w"]\n[energy]\n'
             'T = "(x_dot**2 + y_dot**2 + z_dot**2 + w_dot**2)/2"\nV = "(x + y + z + w)**200"\n')
@@ -347,6 +351,7 @@ def test_a_batch_is_bounded_as_one_simulation_is():
         lg.simulate_batch(lg.derive(lg.load("mck")), 1e300, params={"k1": [1.0, 2.0]})
 
 
+@pytest.mark.slow
 def test_analysis_refuses_a_parameter_value_past_the_magnitude_limit():
     """equilibria with M1 = 1e300 answered 'singular mass matrix' (M1 + M2 overflowed in products);
     the analysis now refuses the value as simulate does."""

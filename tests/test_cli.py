@@ -157,7 +157,9 @@ def test_derive_json_cart_pendulum_matches_textbook(capsys):
     assert q1 not in free and sympy.Symbol("q1_dot") not in free  # cyclic cart position, no velocity term
 
 
-@pytest.mark.parametrize("name", fixed_examples() + ["pendulum-chain-3", "spring-mass-damper-chain-2"])
+# the bicycle takes 25 to 30 s on 2 cores, the other examples 1.3 s together: it is marked slow
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "whipple-bicycle" else n
+                                  for n in fixed_examples() + ["pendulum-chain-3", "spring-mass-damper-chain-2"]])
 def test_every_example_derives_and_equations_equal_M_qddot_minus_forcing(capsys, name):
     d = derive_json(capsys, name)
     coords = d["coordinates"]
@@ -737,6 +739,8 @@ def exe():
     return path
 
 
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_python_m_lagrangian_derive_json():
     p = _run([sys.executable, "-m", "lagrangian", "derive", "cart-pendulum", "--json"])
     assert p.returncode == 0, p.stderr
@@ -744,6 +748,8 @@ def test_python_m_lagrangian_derive_json():
     assert json.loads(p.stdout)["coordinates"] == ["q1", "q2"]
 
 
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_python_m_lagrangian_argparse_error():
     p = _run([sys.executable, "-m", "lagrangian", "simulate", "cart-pendulum", "--bogus"])
     assert p.returncode == 2
@@ -751,6 +757,8 @@ def test_python_m_lagrangian_argparse_error():
     assert "--bogus" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_console_script_readme_flow(exe, tmp_path):
     p = _run([exe, "simulate", "cart-pendulum", "--t-end", "1", "--dt", "0.1", "--output", "out.csv"], cwd=tmp_path)
     assert p.returncode == 0, p.stderr
@@ -759,6 +767,8 @@ def test_console_script_readme_flow(exe, tmp_path):
     assert (tmp_path / "out.csv").read_text().startswith("t,q1,q2,q1_dot,q2_dot")
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_console_script_csv_to_stdout_only(exe):
     p = _run([exe, "simulate", "mck", "--t-end", "0.2", "--dt", "0.1"])
     assert p.returncode == 0 and p.stderr == ""
@@ -766,6 +776,8 @@ def test_console_script_csv_to_stdout_only(exe):
     assert header[0] == "t" and len(body) == 3
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_console_script_bad_input(exe):
     p = _run([exe, "derive", "cart-pendulm"])
     assert p.returncode == 2 and p.stdout == ""
@@ -775,6 +787,8 @@ def test_console_script_bad_input(exe):
     assert "abc" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_console_script_singular_simulation(exe):
     p = _run([exe, "simulate", "cart-pendulum-massless", "--t-end", "5"])
     assert p.returncode == 1
@@ -782,11 +796,15 @@ def test_console_script_singular_simulation(exe):
     assert "singular" in p.stderr and "Fix" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_console_script_help(exe):
     p = _run([exe, "check", "--help"])
     assert p.returncode == 0 and "Example" in p.stdout and p.stderr == ""
 
 
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_console_script_closed_stdout_is_not_bad_input(exe):
     p = subprocess.Popen([exe, "check", "cart-pendulum-massless", "--json"], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)

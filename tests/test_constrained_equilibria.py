@@ -138,6 +138,7 @@ def test_four_bar_rests_where_its_reduced_potential_is_stationary_on_each_assemb
 
 
 # ----------------------------------------------------------------------------- slider-crank
+@pytest.mark.slow
 def test_slider_crank_without_forces_rests_anywhere_on_its_two_assembly_modes():
     eq = lg.derive(lg.load("slider-crank"))
     found = lg.equilibria(eq)
@@ -203,6 +204,7 @@ def test_no_equilibrium_says_why_a_constraint_or_the_forces_rule_it_out():
 
 
 # ----------------------------------------------------------------------------- the commands
+@pytest.mark.slow
 def test_equilibria_modes_and_linearize_commands_on_constrained_models(capsys):
     assert main(["equilibria", "cartesian-pendulum"]) == 0
     out = capsys.readouterr().out

@@ -64,6 +64,7 @@ def test_straight_rolling_is_a_steady_motion_whose_stability_changes_at_v_square
     assert np.allclose(np.sort(np.abs(lam)), [math.sqrt(abs(omega2))] * 2, rtol=1e-8)
 
 
+@pytest.mark.slow
 def test_the_bicycle_runs_straight_as_table_2_says_and_turns_steadily(bicycle):
     rR = 0.3
     found = steady_motions(bicycle, {"thetaR_dot": 5 / rR}, starts=16)
@@ -96,6 +97,7 @@ def _angle(a, b):
     return abs(math.remainder(a - b, 2 * math.pi))
 
 
+@pytest.mark.slow
 def test_a_hands_free_steady_turn_of_the_bicycle_is_kept_by_the_simulation(bicycle):
     # at a given speed, steady turns without steer torque have isolated radii (Basu-Mandal, Chatterjee and
     # Papadopoulos 2007): the search finds one leaning 40 degrees, steering into the turn
@@ -110,6 +112,7 @@ def test_a_hands_free_steady_turn_of_the_bicycle_is_kept_by_the_simulation(bicyc
     assert turn.stability == "unstable"
 
 
+@pytest.mark.slow
 def test_a_speed_and_a_yaw_rate_together_overdetermine_a_hands_free_turn_and_none_is_invented(bicycle):
     # steady turns without steer torque have isolated radii at each speed: 10 m at 5 m/s is not one of them
     found = steady_motions(bicycle, {"thetaR_dot": 5 / 0.3, "psi_dot": 0.5}, starts=16)
@@ -134,6 +137,7 @@ def test_a_conical_pendulum_written_with_a_length_constraint():
     assert s.stability == "marginally stable"  # Routh's theorem is not applied with constraints
 
 
+@pytest.mark.slow
 def test_a_knife_edge_slides_steadily_at_any_heading_a_set_of_steady_motions():
     knife = lg.Model("knife", coordinates=["x", "y", "phi"], parameters={"m": 1.0})
     knife.add_energy(T="m*(x_dot**2 + y_dot**2 + phi_dot**2)/2")
@@ -189,6 +193,8 @@ def test_a_moving_constraint_has_no_steady_motion():
         steady_motions(lg.derive(lift), {"x_dot": 1.0})
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_cli_finds_the_coins_circle_with_its_friction_in_json(tmp_path):
     import json
     import subprocess

@@ -72,6 +72,7 @@ def test_the_four_bar_crank_rocker_has_no_change_point_and_its_crank_no_dead_poi
 
 
 # ------------------------------------------------------------------------------- dead points
+@pytest.mark.slow
 def test_slider_crank_dead_centres_lock_the_piston_and_a_force_on_it_does_not_turn_the_crank():
     eq = lg.derive(lg.load("slider-crank"))
     report = lg.constraint_singularities(eq)
@@ -195,6 +196,7 @@ def test_velocity_constraints_are_rows_of_g_too():
 
 
 # ------------------------------------------------------------------------------------ the CLI
+@pytest.mark.slow
 def test_check_json_adds_constraint_singularities_and_keeps_the_mass_matrix_keys(capsys):
     rc, out, err = run(capsys, "check", "slider-crank", "--json")
     assert rc == 0 and err == ""
@@ -212,6 +214,7 @@ def test_check_json_adds_constraint_singularities_and_keeps_the_mass_matrix_keys
     assert rc == 0 and json.loads(out)["constraint_singularities"] is None
 
 
+@pytest.mark.slow
 def test_check_text_and_the_driver_option(capsys):
     rc, out, _ = run(capsys, "check", "four-bar")
     assert rc == 0

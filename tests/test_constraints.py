@@ -270,6 +270,7 @@ def test_constraint_names_that_clash_and_tables_with_both_kinds(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["four-bar", "slider-crank"])
+@pytest.mark.slow
 def test_eliminated_to_an_ode_in_the_independent_coordinates_the_loop_moves_as_when_projected(name):
     eqs = lg.derive(lg.load(name))
     ode = lg.simulate(eqs, t_end=3.0, rtol=1e-11, atol=1e-11, constraints="eliminate")

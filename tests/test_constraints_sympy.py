@@ -220,6 +220,7 @@ def double_pendulum_cartesian():
                   params={k: POSITIVE for k in ("m1", "m2", "l1", "l2")} | {"g": (5, 12)})
 
 
+@pytest.mark.slow
 def test_double_pendulum_in_cartesian_coordinates_with_two_rods():
     s = double_pendulum_cartesian()
     s.check_matrices()
@@ -389,6 +390,7 @@ def top_with_held_tip():
                   coordinates={"theta": (0.3, 1.3), "phi": (-3.0, 3.0), "psi": (-3.0, 3.0)})
 
 
+@pytest.mark.slow
 def test_heavy_top_as_a_free_body_with_its_tip_held_by_three_constraints():
     s = top_with_held_tip()
     s.check_matrices()

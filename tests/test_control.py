@@ -68,6 +68,7 @@ def test_lqr_gain_is_python_control_s_and_its_law_realizes_the_eigenvalues(cart,
     assert "(q2 - pi/2)" in fb.inputs["F"]
 
 
+@pytest.mark.slow
 def test_closed_loop_settles_with_the_designed_eigenvalues(cart, upright):
     """The nonlinear cart-pendulum under the LQR law, from a small tilt, follows
     exp((A - B K) t) dx0 to second order in dx0, and settles upright."""
@@ -120,6 +121,7 @@ def swing_up_law(upright) -> str:
     return f"where(sin(q2) > 0.9, {catch}, {swing})"
 
 
+@pytest.mark.slow
 def test_swing_up_reaches_the_top_and_stays(cart, upright):
     law = swing_up_law(upright)
     tr = lg.simulate(cart, 20.0, {"q2": -math.pi / 2 + 0.1}, inputs={"F": law}, rtol=1e-10, atol=1e-10)

@@ -10,6 +10,7 @@ numerically at random points as a second, independent check.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import sympy as sp
 from sympy.physics.mechanics import (LagrangesMethod, Lagrangian, Particle, Point, ReferenceFrame,
                                      RigidBody, dynamicsymbols, inertia, msubs)
@@ -174,6 +175,7 @@ def test_sliding_mass_pendulum_with_spring_rest_length_and_radial_damper():
 
 
 # -------------------------------------------------------------------------- 3-link chain
+@pytest.mark.slow
 def test_three_link_chain():
     g = sp.Symbol("g")
     ms, ls = sp.symbols("m1:4"), sp.symbols("l1:4")
@@ -224,6 +226,7 @@ def test_two_mass_spring_damper_with_input():
     check(lg.derive(m), LagrangesMethod(L, [X1, X2], forcelist=forces, frame=N), ["x1", "x2"])
 
 
+@pytest.mark.slow
 def test_double_pendulum_with_damper_from_pivot_to_second_bob():
     # a damper between the fixed pivot and the second bob: its force -c (d|r|/dt) r/|r| acts
     # along a direction that turns with the configuration (a nonlinear D)

@@ -3,6 +3,7 @@
 import re
 from pathlib import Path
 
+import pytest
 import sympy
 
 import lagrangian as lg
@@ -66,6 +67,7 @@ def test_model_file_doc_error_example_is_current(tmp_path):
     assert message.strip() == expected.strip()
 
 
+@pytest.mark.slow
 def test_readme_analysis_example_runs(capsys, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # the README's first block writes out.csv: here, not in the checkout
     first, analysis = blocks("README.md", "python")

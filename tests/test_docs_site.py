@@ -35,6 +35,8 @@ def nav_pages() -> list[str]:
     return re.findall(r"^\s+- [^:]+: (\S+\.md)\s*$", (ROOT / "mkdocs.yml").read_text(), re.M)
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_every_nav_page_is_built(site):
     pages = nav_pages()
     assert {"index.md", "getting-started.md", "model-files.md", "report.md", "api.md"} <= set(pages)
@@ -43,6 +45,7 @@ def test_every_nav_page_is_built(site):
         assert built.is_file(), page
 
 
+@pytest.mark.subprocess
 def test_api_reference_renders_the_public_api(site):
     import lagrangian as lg
 
@@ -61,11 +64,13 @@ def text_of(page: Path) -> str:
     return html.unescape(re.sub(r"<[^>]+>", "", page.read_text()))
 
 
+@pytest.mark.subprocess
 def test_the_report_page_and_its_picture(site):
     assert "lagrangian report cart-pendulum -o cart.html" in text_of(site / "report" / "index.html")
     assert (site / "images" / "report-cart-pendulum.png").stat().st_size > 10_000
 
 
+@pytest.mark.subprocess
 def test_the_gallery_pictures_are_published(site):
     if not (ROOT / "docs" / "gallery.md").is_file():
         pytest.skip("docs/gallery.md is not written yet")

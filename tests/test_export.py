@@ -51,6 +51,7 @@ def _states(result) -> np.ndarray:
 # ------------------------------------------------------------------------------------ FMU
 
 
+@pytest.mark.subprocess
 def test_fmu_archive_and_model_description(fmu, cart):
     with zipfile.ZipFile(fmu) as z:
         names = set(z.namelist())
@@ -172,6 +173,7 @@ def test_co_simulation_step_and_tolerance_are_settable(fmu, cart):
         assert message in messages, messages
 
 
+@pytest.mark.subprocess
 def test_fmu_reports_a_singular_mass_matrix(tmp_path):
     """The massless cart's M is singular with the pendulum upright: the FMU refuses to initialize
     there and says why through the logger."""
@@ -190,6 +192,7 @@ def test_fmu_reports_a_singular_mass_matrix(tmp_path):
     assert any("the mass matrix M is singular" in m for m in messages), messages
 
 
+@pytest.mark.slow
 def test_sources_only_fmu_warns_and_builds_elsewhere(cart, tmp_path, monkeypatch):
     """Without a C compiler the FMU carries its sources only, with a warning that says how to
     build it; fmpy builds it from those sources (with CMake) and it runs as the other one."""
@@ -223,6 +226,7 @@ def test_sources_only_fmu_warns_and_builds_elsewhere(cart, tmp_path, monkeypatch
     assert np.max(np.abs(_states(res) - ours.x)) < 1e-9
 
 
+@pytest.mark.subprocess
 def test_a_failing_compiler_is_said_with_its_status(cart, tmp_path, monkeypatch):
     import lagrangian.numeric._cbackend as cbackend
 
@@ -252,6 +256,7 @@ def test_export_errors(cart, tmp_path):
 
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, where no file can be created")
+@pytest.mark.subprocess
 def test_a_place_that_cannot_be_written_is_named_as_given(capsys):
     """Not the temporary file's name, nor a bare OSError: the option, the path given, the reason."""
     for argv, path in [(["--fmu", "/proc/x.fmu"], "/proc/x.fmu"), (["--modelica", "/proc/x.mo"], "/proc/x.mo"),
@@ -306,6 +311,7 @@ def test_modelica_names_that_are_reserved_words_are_quoted(tmp_path):
 
 
 @needs_cc
+@pytest.mark.subprocess
 def test_c_export_builds_and_gives_the_model_s_numbers(cart, tmp_path):
     """The exported C, built with -Wall -Wextra -pedantic -Werror beside a test program, gives the
     compiled model's right-hand side, M, forcing and energy at random states to rounding."""
@@ -353,6 +359,7 @@ int main(void) {{
 
 
 @needs_cc
+@pytest.mark.subprocess
 def test_c_export_of_models_without_inputs_or_parameters_compiles_without_warnings(tmp_path):
     """A model without inputs (the heavy top, a body in space) or without parameters does not read
     u or p: its C and the example still build with -Wall -Wextra -pedantic -Werror, and the
@@ -372,6 +379,8 @@ def test_c_export_of_models_without_inputs_or_parameters_compiles_without_warnin
 
 
 @needs_cc
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_c_example_built_with_cmake_integrates_the_model(cart, tmp_path):
     if shutil.which("cmake") is None:
         pytest.skip("no cmake to build the C export's CMakeLists.txt")
@@ -394,6 +403,7 @@ def test_c_example_built_with_cmake_integrates_the_model(cart, tmp_path):
 
 
 @needs_cc
+@pytest.mark.subprocess
 def test_export_command(tmp_path, capsys):
     fmu, mo, c = tmp_path / "cart.fmu", tmp_path / "cart.mo", tmp_path / "cart-c"
     assert main(["export", "cart-pendulum", "--fmu", str(fmu), "--modelica", str(mo), "--c", str(c),
@@ -419,6 +429,7 @@ def test_export_command(tmp_path, capsys):
 
 
 @needs_cc
+@pytest.mark.subprocess
 def test_a_body_in_space_exports_the_same_way(tmp_path):
     """The heavy top (a rigid body in space, three Euler angles) through the same writers: its
     FMU validates and its Co-Simulation follows lagrangian to 1e-9; rumoca reads its Modelica."""

@@ -121,6 +121,7 @@ def _build(folder, ident, *extra):
 
 @needs_cc
 @pytest.mark.parametrize("name", ["cartesian-pendulum", "four-bar", "rolling-disk"])
+@pytest.mark.subprocess
 def test_c_of_a_constrained_model_gives_lagrangian_s_numbers(name, tmp_path):
     """Built with -Wall -Wextra -pedantic -Werror: at states 1e-3 off the constraints (and random
     inputs), the saddle-point solve gives numeric._constrained's q_ddot and lambda (np.linalg.solve
@@ -184,6 +185,7 @@ def test_c_of_a_constrained_model_gives_lagrangian_s_numbers(name, tmp_path):
 @needs_cc
 @pytest.mark.parametrize("name, step, states, multipliers", [("cartesian-pendulum", 2.5e-4, 1e-11, 1e-10),
                                                              ("four-bar", 2.5e-4, 2e-8, 5e-7)])
+@pytest.mark.subprocess
 def test_c_example_projects_after_every_step_and_follows_lagrangian(name, step, states, multipliers, tmp_path):
     """The example (RK4 with a fixed step, the state projected after every step), built with
     -Werror, follows lagrangian.simulate (DOP853 at rtol 1e-13, projected after every step) over 2 s:
@@ -210,6 +212,8 @@ def test_c_example_projects_after_every_step_and_follows_lagrangian(name, step, 
 
 
 @needs_cc
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_c_reports_a_singular_saddle_point_system_and_a_failed_projection(tmp_path):
     """Two constraints that say the same (the rod's length twice) make [M G^T; G 0] singular: the
     C right-hand side returns at most 1e-12 and sets nothing; a state that is not finite makes the
@@ -281,6 +285,7 @@ def fmus(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_constrained_fmu_validates_and_has_the_multipliers_as_outputs(fmus):
     """fmpy's validation reports nothing; the multipliers follow the energy as calculated outputs;
     the states are initial="approx" (the FMU makes them consistent), their start values the
@@ -307,6 +312,7 @@ def test_constrained_fmu_validates_and_has_the_multipliers_as_outputs(fmus):
     assert outputs == [1, 2, 3, 4, 5, 6, k + 1, k + 2, k + 3] and initial[:6] == [1, 2, 3, 4, 5, 6]
 
 
+@pytest.mark.subprocess
 def test_constrained_model_exchange_matches_lagrangian_and_drifts(fmus):
     """Model Exchange gives the index-1 form to fmpy's CVode, which integrates it without
     projection: at rtol 1e-12 the Cartesian pendulum follows lagrangian over 2 s to 1e-8
@@ -380,6 +386,7 @@ def _fails(fmpy, path, messages, **kwargs):
         fmpy.simulate_fmu(path, logger=logger, **kwargs)
 
 
+@pytest.mark.slow
 def test_constrained_fmu_errors_are_said_through_the_logger(fmus, tmp_path):
     """Start values that cannot be made consistent (every coordinate of the four-bar changed, so
     held; the pendulum's x_dot changed where only y_dot is free, and the rod leaves y_dot free at
@@ -468,6 +475,7 @@ def test_constrained_modelica_is_the_dae_and_rumoca_simulates_it(name, wrapper, 
 
 
 @needs_cc
+@pytest.mark.slow
 def test_export_command_takes_a_constrained_model(tmp_path, capsys):
     fmu, mo, c = tmp_path / "four.fmu", tmp_path / "four.mo", tmp_path / "four-c"
     assert main(["export", "four-bar", "--fmu", str(fmu), "--modelica", str(mo), "--c", str(c),

@@ -266,6 +266,8 @@ def test_simulate_streams_into_a_fifo(tmp_path, capsys):
     assert os.listdir(tmp_path) == ["f"]
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_simulate_to_dev_null_and_to_dev_stdout(tmp_path):
     run = [sys.executable, "-m", "lagrangian", "simulate", "cart-pendulum", "--t-end", "0.1"]
     p = subprocess.run([*run, "-o", os.devnull], capture_output=True, text=True, timeout=300)

@@ -41,6 +41,7 @@ def riding(bicycle):
     return plot.animate(bicycle, fps=5, trace="B")
 
 
+@pytest.mark.slow
 def test_the_view_follows_the_bicycles_centre_of_mass(bicycle, riding):
     anim = riding
     assert anim.framing.follow and len(anim) == 16
@@ -65,6 +66,7 @@ def test_the_view_follows_the_bicycles_centre_of_mass(bicycle, riding):
     assert anim.framing.centre[-1][0] - anim.framing.centre[0][0] > 13  # it rode about 15 m at 5 m/s
 
 
+@pytest.mark.slow
 def test_the_path_and_the_ground_are_clipped_to_the_moving_box(riding):
     anim = riding
     anim.draw(len(anim) - 1)
@@ -85,6 +87,7 @@ def test_the_path_and_the_ground_are_clipped_to_the_moving_box(riding):
     assert len(lines) // 2 >= 6
 
 
+@pytest.mark.slow
 def test_the_fixed_view_holds_the_whole_ride(bicycle):
     anim = plot.animate(bicycle, fps=5, view="fixed")
     assert not anim.framing.follow
@@ -97,6 +100,7 @@ def test_the_fixed_view_holds_the_whole_ride(bicycle):
     assert np.all(P >= boxes[0][:, 0]) and np.all(P <= boxes[0][:, 1])
 
 
+@pytest.mark.slow
 def test_a_followed_bicycle_stays_as_large_in_the_pictures(bicycle, tmp_path):
     """In the GIF the wheels (orange) keep their size when the view follows; in the fixed view of
     the whole ride they shrink to a few pixels."""

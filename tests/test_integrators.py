@@ -124,6 +124,7 @@ def test_variational_is_second_order():
     assert 1.9 < slope < 2.1, slope
 
 
+@pytest.mark.slow
 def test_variational_energy_error_stays_bounded_over_a_million_steps():
     h = 0.05
     tr = lg.simulate(pendulum(), 5e4, {"theta": 1.0}, method="variational", dt=5.0, step=h)

@@ -208,6 +208,8 @@ def test_singularities_takes_parameter_values():
         lg.singularities(eqs, parameters={"LL": 0})
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_cli_gives_one_answer_for_a_massless_pendulum(tmp_path):
     import subprocess
     import sys
@@ -319,6 +321,7 @@ def test_the_integrators_compiled_are_told_from_those_still_to_compile():
     assert compiled(kernels().dop853)  # compiled in this process, or found in numba's cache on disk
 
 
+@pytest.mark.slow
 def test_a_first_run_says_it_compiles_the_integrators_before_the_bar(capsys):
     import time
 

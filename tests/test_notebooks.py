@@ -17,6 +17,8 @@ def test_the_notebooks_are_there():
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_notebook_runs(path, tmp_path):
     book = nbformat.read(path, as_version=4)
     assert all(not c.get("outputs") for c in book.cells if c.cell_type == "code"), "store notebooks without outputs"

@@ -19,6 +19,8 @@ def cart():
     return lg.simulate(lg.load("cart-pendulum"), t_end=1.0, dt=0.05)
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_import_lagrangian_does_not_import_matplotlib():
     code = "import sys, lagrangian; tr = lagrangian.simulate(lagrangian.load('mck'), t_end=0.1); " \
            "print('matplotlib' in sys.modules)"

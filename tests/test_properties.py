@@ -221,6 +221,7 @@ def model_files(draw) -> str:
 # ------------------------------------------------------------------ properties
 @settings(max_examples=300, **SETTINGS)
 @given(text=expressions(), feedback=st.booleans())
+@pytest.mark.slow
 def test_an_expression_parses_or_is_one_clear_error(text, feedback):
     known = {n: sympy.Symbol(n) for n in ("x", "y", "z", "x_dot", "k", "t")}
     with within(TIME_LIMIT):
@@ -237,6 +238,7 @@ def test_an_expression_parses_or_is_one_clear_error(text, feedback):
 
 @settings(max_examples=120, **SETTINGS)
 @given(text=model_files())
+@pytest.mark.slow
 def test_a_model_file_loads_and_derives_or_is_one_clear_error(text):
     with within(TIME_LIMIT):
         try:
@@ -263,6 +265,7 @@ def test_a_model_file_loads_and_derives_or_is_one_clear_error(text):
                                                          st.one_of(st.floats(), st.integers(), st.none()),
                                                          max_size=3)),
        V=st.one_of(valid_expressions(("x", "y")), expressions(("x", "y"))))
+@pytest.mark.slow
 def test_names_given_to_the_api_make_a_model_or_one_clear_error(name, coordinates, parameters, V):
     with within(TIME_LIMIT):
         try:
@@ -297,6 +300,7 @@ def simulation_options(draw) -> dict[str, str]:
 
 @settings(max_examples=40, **SETTINGS)
 @given(options=simulation_options())
+@pytest.mark.slow
 def test_simulate_options_run_or_exit_2_with_one_clear_error(capsys, options):
     t_end, dt, rtol, atol, initial, param, signal_ = (options[k] for k in ("t_end", "dt", "rtol", "atol", "initial",
                                                                             "param", "input"))

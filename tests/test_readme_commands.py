@@ -340,6 +340,7 @@ def results(venv, tmp_path_factory):
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+@pytest.mark.subprocess
 def test_command_runs_on_the_default_install(case, results):
     code, stdout, stderr, seconds = results[case.id]
     what = (f"{case.page}:{case.line}: {case.shown}\n(exit status {code} after {seconds:.1f} s)\n"

@@ -52,6 +52,7 @@ def cart_html(cart) -> str:
 
 
 # ----------------------------------------------------------------- content
+@pytest.mark.slow
 def test_sections_follow_the_recipe(cart):
     assert [s.key for s in cart.sections] == [
         "bodies", "coordinates", "kinematics", "energies", "dissipation", "forces", "lagrangian",
@@ -88,6 +89,7 @@ def test_each_lagrange_equation_step_by_step(cart):
     assert same(cart.expression("dL/dq1_dot"), (M1 + M2) * q1d - M2 * L * sin(q2) * q2d)
 
 
+@pytest.mark.slow
 def test_matrix_form_is_slide_14_and_state_form_solves_it(cart):
     assert same(cart.expression("M"), SLIDE_H)
     assert same(cart.expression("C"), SLIDE_C)
@@ -118,6 +120,7 @@ def test_equilibria_and_their_stability(cart):
     assert "unstable" not in stability[-float(sympy.pi / 2)] and "unstable" in stability[float(sympy.pi / 2)]
 
 
+@pytest.mark.slow
 def test_a_model_without_equilibrium_says_why_in_its_report():
     texts = [b.text() for b in lg.report("kepler").section("equilibria").blocks if isinstance(b, Paragraph)]
     assert texts[:3] == ["There is no equilibrium (with the inputs at zero and the parameter values):",
@@ -166,6 +169,7 @@ def test_dampers_springs_bodies_and_the_linear_form():
     assert same(disk.expression("length[spring]"), sympy.sqrt(S("q1") ** 2))
 
 
+@pytest.mark.slow
 def test_a_too_large_expression_is_reported_not_printed():
     x = S("x")
     V = sympy.Add(*(i * x**i * sin(x) for i in range(1, 450)))
@@ -215,6 +219,7 @@ def test_markdown_has_the_latex_of_each_equation(cart):
     assert "\\ddot{q}_{2}" in md and "\\frac{\\partial L}{\\partial \\dot{q}_{1}}" in md
 
 
+@pytest.mark.subprocess
 def test_latex_is_a_complete_document_that_compiles(cart, tmp_path):
     tex = cart.to_latex()
     assert tex.startswith("\\documentclass") and tex.rstrip().endswith("\\end{document}")
@@ -243,6 +248,7 @@ def test_save_by_suffix(cart, tmp_path):
         cart.render("docx")
 
 
+@pytest.mark.slow
 def test_pendulum_chain_4_finishes_and_prints_everything():
     rep = lg.report("pendulum-chain-4")
     page = rep.to_html()
@@ -252,6 +258,7 @@ def test_pendulum_chain_4_finishes_and_prints_everything():
 
 
 # ---------------------------------------------------------------------- CLI
+@pytest.mark.slow
 def test_cli_report_writes_each_format(tmp_path, capsys):
     for suffix in ("html", "md", "tex"):
         out = tmp_path / f"cart.{suffix}"
@@ -330,6 +337,9 @@ def run_chromium(chromium, tmp_path, *args):
     return run.stdout
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_browser_lays_out_the_mathml_and_the_screenshot_shows_equations(chromium, cart_html, tmp_path):
     from PIL import Image
 
@@ -401,6 +411,9 @@ ACCENT_PROBE = """<script>
 </script>"""
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_browser_draws_the_dots_large_enough_to_see(chromium, cart_html, tmp_path):
     # Latin Modern Math's dot accent is two pixels high at text size: the velocities looked
     # like the coordinates. The report's style sheet draws it larger.

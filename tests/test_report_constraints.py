@@ -49,6 +49,7 @@ def pendulum():
 
 
 # ----------------------------------------------------------------------------- the Cartesian pendulum
+@pytest.mark.slow
 def test_a_constrained_report_has_a_constraints_section_and_numbers_its_sections_in_order(pendulum):
     assert [s.key for s in pendulum.sections] == [
         "bodies", "coordinates", "kinematics", "energies", "dissipation", "forces", "constraints", "lagrangian",
@@ -133,6 +134,7 @@ def test_the_equilibria_section_gives_the_multipliers(pendulum):
 
 
 # ----------------------------------------------------------------------------- the four-bar
+@pytest.mark.slow
 def test_four_bar_report_shows_its_loop_its_independent_crank_and_its_equilibria():
     rep = lg.report("four-bar")
     eq = lg.derive(lg.load("four-bar"))
@@ -157,6 +159,7 @@ def test_four_bar_report_shows_its_loop_its_independent_crank_and_its_equilibria
     assert "there may be others" in text_of(rep.section("equilibria"))
 
 
+@pytest.mark.slow
 def test_a_velocity_constraint_is_shown_and_its_equilibria_are_not_invented():
     knife = lg.Model("knife", coordinates=["x", "y", "phi"], parameters={"m": 1.0, "J": 0.1})
     knife.add_energy(T="m*(x_dot**2 + y_dot**2)/2 + J*phi_dot**2/2")
@@ -174,6 +177,7 @@ def test_a_velocity_constraint_is_shown_and_its_equilibria_are_not_invented():
 
 
 # ----------------------------------------------------------------------------- frames and bodies in space
+@pytest.mark.slow
 def test_heavy_top_report_derives_its_frame_rotation_and_angular_velocity():
     rep = lg.report("heavy-top", equilibria=False)
     builds(rep)
@@ -223,6 +227,7 @@ def test_chained_frames_compose_their_rotations_origins_and_angular_velocities()
     assert same(rep.expression("omega[rotor]"), rep.expression("frame-omega[ring]"))
 
 
+@pytest.mark.slow
 def test_the_report_command_writes_constrained_reports(tmp_path, capsys):
     out = tmp_path / "four-bar.html"
     assert main(["report", "four-bar", "-o", str(out), "--no-equilibria"]) == 0
@@ -233,6 +238,8 @@ def test_the_report_command_writes_constrained_reports(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("name", ["cartesian-pendulum", "four-bar", "heavy-top"])
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_latex_of_constrained_and_spatial_reports_compiles(name, tmp_path):
     import shutil
     import subprocess

@@ -30,6 +30,7 @@ def disk():
     return lg.derive(lg.load("rolling-disk"))
 
 
+@pytest.mark.slow
 def test_a_disk_on_its_contact_point_gets_the_textbook_no_slip_conditions_and_no_contact_condition(disk):
     x_dot, y_dot, th_dot, psi, r = sp.symbols("x_dot y_dot theta_dot psi r")
     cons = {c.name: c for c in disk.model.constraints}
@@ -201,6 +202,7 @@ def test_the_bicycle_coefficient_matrices_are_the_papers(bicycle):
     assert np.allclose(K2, [[0, 76.59734589573222], [0, 2.65431523794604]], rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_lagrangian_linearize_whipple_bicycle_at_5_m_s_from_the_cli(capsys):
     assert main(["linearize", "whipple-bicycle", "--param", "v=5", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
@@ -218,6 +220,7 @@ def test_lagrangian_linearize_whipple_bicycle_at_5_m_s_from_the_cli(capsys):
     assert "-0.775342-4.46487j" in out and "-14.0784" in out
 
 
+@pytest.mark.slow
 def test_the_nonlinear_bicycle_follows_its_linearization_and_keeps_its_energy(bicycle):
     v, eps = 5.0, 1e-3
     tr = lg.simulate(bicycle, t_end=3.0, dt=0.01, initial={"phi_dot": eps, "thetaR_dot": v / 0.3},
@@ -327,6 +330,7 @@ def test_modes_of_a_gyroscopic_steady_motion_say_that_the_eigenvalues_decide(dis
 
 @pytest.mark.parametrize("name, t_end", [("cartesian-pendulum", 20.0), ("four-bar", 5.0), ("slider-crank", 5.0),
                                          ("whipple-bicycle", 3.0), ("rolling-disk", 5.0)])
+@pytest.mark.slow
 def test_the_compiled_constrained_integration_takes_scipys_steps_and_holds_the_constraints(name, t_end):
     eqs = lg.derive(lg.load(name))
     fast = lg.simulate(eqs, t_end=t_end, rtol=1e-10, atol=1e-10)
@@ -352,6 +356,7 @@ def test_the_c_backend_refuses_constraints_with_a_fix():
         lg.simulate(compile_equations(eqs, backend="c"), t_end=1.0)  # a C model passed in
 
 
+@pytest.mark.slow
 def test_check_of_the_bicycle_finishes_and_names_the_gimbal_lock_of_its_angles(bicycle):
     report = lg.singularities(bicycle)  # M of 8 coordinates: searched numerically (it used to hang)
     assert report.singular

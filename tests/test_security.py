@@ -175,6 +175,8 @@ def _c_code(path: Path) -> str:
 
 
 @needs_cc
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_c_sources_of_hostile_names_are_the_plain_sources(tmp_path):
     """The C backend's source and the C export's four files: with comments taken out, the same as
     those of a model named by the identifier the hostile name maps to; CMakeLists.txt without its
@@ -198,6 +200,8 @@ def test_c_sources_of_hostile_names_are_the_plain_sources(tmp_path):
 
 
 @needs_cc
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_fmu_sources_of_hostile_names_are_the_plain_sources(tmp_path):
     """The FMU's C (fmu.c, where the name stood in a comment) and the model's C in it: without
     comments, those of the model named by the identifier; its modelDescription.xml differs only in
@@ -239,6 +243,8 @@ def test_modelica_of_hostile_names_declares_what_the_plain_model_declares(tmp_pa
 @needs_cc
 @pytest.mark.parametrize("key, about", [("python-docstring", "c-comment"), ("c-splice", "xml"),
                                         ("cmake", "modelica")])
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_hostile_names_run_no_code_in_any_backend_and_give_the_closed_form(key, about, tmp_path, monkeypatch):
     """The model named (and described) by the payload: simulated by the numba, C and SciPy
     backends, exported as C (built with -Wall -Werror and with CMake, and run), as an FMU (loaded
@@ -287,6 +293,8 @@ def test_hostile_names_run_no_code_in_any_backend_and_give_the_closed_form(key, 
 
 @needs_cc
 @pytest.mark.parametrize("name", ["main", "fmu", "math", "Real"])
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_model_names_that_are_the_targets_own_build(name, tmp_path):
     """A model named main keeps its C source (main_model.c beside the example's main.c), fmu its
     model in the FMU, math does not shadow <math.h>, Real is a Modelica class: each builds and
@@ -355,6 +363,8 @@ def _cli(args, cwd, cache):
                           text=True, timeout=600)
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_issue_s_model_file_runs_no_code_and_cannot_poison_the_cache(tmp_path):
     """`lagrangian simulate evil.toml` creates no PWNED; the innocent model with the same equations
     has its own cache entry (the key is the hash of the exact source); an entry changed on disk
@@ -416,6 +426,7 @@ TEX = "\\input{/etc/hostname} \\immediate\\write18{touch LG_PWNED} $x$ # & % ~ ^
 HTML = "<script>alert(1)</script> <img src=x onerror=alert(1)> [link](javascript:alert(1)) **bold**\n# heading"
 
 
+@pytest.mark.subprocess
 def test_reports_show_hostile_names_as_text(tmp_path):
     """The report's title and description are text in every format: HTML escaped, Markdown without a
     tag, a link or a second heading, LaTeX that pdflatex compiles (when installed) without reading a
@@ -465,6 +476,7 @@ def test_pictures_show_hostile_names_as_text(tmp_path):
 
 
 @pytest.mark.parametrize("backend", ["numba", "c"])
+@pytest.mark.slow
 def test_names_of_the_generators_own_variables_are_the_user_s_symbols(backend):
     """Parameters named like the placeholders (__lg_s0), the sin/cos pairs (__lg_sn0), the locals
     (v_x), SymEngine's CSE names (x1), the generated temporaries (c0, m0_0, f0, d0, r, sn0) and the

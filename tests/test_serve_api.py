@@ -41,6 +41,8 @@ def server():
 
 
 # ------------------------------------------------------------------ derive
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_derive_returns_the_json_of_derive_json(server):
     text = example_source("cart-pendulum")
     status, headers, body = server.request("POST", "/api/derive", text)
@@ -51,6 +53,7 @@ def test_derive_returns_the_json_of_derive_json(server):
     assert json.loads(body)["mass_matrix"] == [["M1 + M2", "-L*M2*sin(q2)"], ["-L*M2*sin(q2)", "L**2*M2"]]
 
 
+@pytest.mark.subprocess
 def test_derive_reports_every_problem_at_its_line_with_the_cli_message(server):
     status, data = server.post_json("/api/derive", BAD)
     assert status == 400
@@ -69,12 +72,14 @@ def test_derive_reports_every_problem_at_its_line_with_the_cli_message(server):
     (b"\xff\xfe not text", "the request body is not UTF-8 text (the byte at offset 0 cannot be decoded)"),
     (b"coordinates = [", "line 1"),
 ])
+@pytest.mark.subprocess
 def test_derive_refuses_bodies_that_are_not_model_files(server, body, message):
     status, data = server.post_json("/api/derive", body)
     assert status == 400
     assert message in data["errors"][0]["message"] or data["errors"][0]["line"] == 1, data
 
 
+@pytest.mark.subprocess
 def test_a_body_over_the_size_limit_is_refused_with_413(server):
     status, data = server.post_json("/api/derive", "#" * (1024 * 1024 + 10))
     assert status == 413
@@ -88,6 +93,7 @@ def test_a_body_over_the_size_limit_is_refused_with_413(server):
     assert server.request("GET", "/api/info")[0] == 200  # still serving
 
 
+@pytest.mark.subprocess
 def test_a_foreign_host_header_is_refused(server):
     status, data = server.post_json("/api/derive", OSCILLATOR, headers={"Host": "evil.example:80"})
     assert status == 403
@@ -117,6 +123,7 @@ def _no_cors(headers):
     ("https://127.0.0.1:{port}", "it comes from the web page at 'https://127.0.0.1:{port}' (its Origin header)"),
     ("http://127.0.0.1:{port}/x", "it comes from the web page at 'http://127.0.0.1:{port}/x' (its Origin header)"),
 ])
+@pytest.mark.subprocess
 def test_a_request_from_another_web_page_is_refused_before_any_work(server, origin, why):
     """A page elsewhere (another site, a sandboxed frame, another port of this machine, the other
     loopback name) gets 403 for any API request, JSON or not, and no CORS permission."""
@@ -131,6 +138,8 @@ def test_a_request_from_another_web_page_is_refused_before_any_work(server, orig
         _no_cors(got)
 
 
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_the_page_s_own_origin_is_served_by_the_name_it_was_opened_with(server):
     """The page's own requests (Origin = http://HOST:PORT as the browser addressed the server: any
     loopback name, a port forwarded by a tunnel) are answered, JSON bodies for every endpoint:
@@ -167,6 +176,7 @@ def test_the_page_s_own_origin_is_served_by_the_name_it_was_opened_with(server):
                                                 ("application/x-www-form-urlencoded",
                                                  "not 'application/x-www-form-urlencoded'"),
                                                 (None, "but it declares none")])
+@pytest.mark.subprocess
 def test_a_post_from_a_page_must_be_json(server, content_type, said):
     """From a page (Origin present, its own), a body that is not application/json is refused with 415:
     the forms a page elsewhere could send without a preflight never reach a worker."""
@@ -181,6 +191,7 @@ def test_a_post_from_a_page_must_be_json(server, content_type, said):
     _no_cors(got)
 
 
+@pytest.mark.subprocess
 def test_scripts_without_an_origin_send_the_model_text_as_they_like(server):
     """curl --data-binary (form-urlencoded), text/plain, or no content type: as documented."""
     raw = server.request("POST", "/api/derive", OSCILLATOR)[2]
@@ -194,6 +205,7 @@ def test_scripts_without_an_origin_send_the_model_text_as_they_like(server):
     assert status == 200 and data["columns"]["t"] == [0.0, 0.5, 1.0]
 
 
+@pytest.mark.subprocess
 def test_a_preflight_gets_no_permission(server):
     status, headers, data = server.request("OPTIONS", "/api/simulate", headers={
         "Origin": "http://evil.example", "Access-Control-Request-Method": "POST",
@@ -206,6 +218,7 @@ def test_a_preflight_gets_no_permission(server):
     _no_cors(headers)
 
 
+@pytest.mark.subprocess
 def test_a_browser_request_marked_cross_site_is_refused_without_an_origin(server):
     status, headers, data = server.request("POST", "/api/derive", OSCILLATOR, headers={"Sec-Fetch-Site": "cross-site"})
     assert status == 403 and json.loads(data)["errors"][0]["message"] == _refusal(
@@ -213,6 +226,7 @@ def test_a_browser_request_marked_cross_site_is_refused_without_an_origin(server
     assert server.request("POST", "/api/derive", OSCILLATOR, headers={"Sec-Fetch-Site": "same-origin"})[0] == 200
 
 
+@pytest.mark.subprocess
 def test_the_page_itself_may_be_linked_from_anywhere(server):
     """A link on a lecture's slides opens the page (it computes nothing); its API calls are its own."""
     status, headers, body = server.request("GET", "/?example=mck", headers={"Sec-Fetch-Site": "cross-site"})
@@ -220,6 +234,7 @@ def test_the_page_itself_may_be_linked_from_anywhere(server):
     _no_cors(headers)
 
 
+@pytest.mark.subprocess
 def test_unknown_endpoints_and_methods_answer_json(server):
     status, data = server.post_json("/api/solve", OSCILLATOR)
     assert status == 404 and data["errors"][0]["message"].startswith("no such API endpoint: POST /api/solve")
@@ -233,6 +248,7 @@ def _simulate_body(**kw):
             "inputs": {"F": "0.5*sin(3*t)"}, "params": {"M1": 2.0}, **kw}
 
 
+@pytest.mark.subprocess
 def test_simulate_returns_the_trajectory_of_simulate(server):
     status, data = server.post_json("/api/simulate", _simulate_body(initial={"q2": 1.0, "q2_dot": -0.5}))
     assert status == 200
@@ -250,6 +266,7 @@ def test_simulate_returns_the_trajectory_of_simulate(server):
     assert g["positions"][20][1] == pytest.approx([q1 + __import__("math").cos(q2), 1 + __import__("math").sin(q2)])
 
 
+@pytest.mark.subprocess
 def test_simulate_takes_a_feedback_law_as_simulate_does(server):
     """An input may be a law of the state (here a saturated LQR with a switch), as on the command
     line; a comparison outside where is refused with the CLI's message."""
@@ -268,6 +285,8 @@ def test_simulate_takes_a_feedback_law_as_simulate_does(server):
                                                    "the condition of where(q1 > 0, a, b)")
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_simulate_csv_is_the_csv_of_lagrangian_simulate(server, tmp_path):
     status, headers, body = server.request("POST", "/api/simulate?format=csv", _simulate_body())
     assert status == 200 and headers["Content-Type"].startswith("text/csv")
@@ -279,6 +298,8 @@ def test_simulate_csv_is_the_csv_of_lagrangian_simulate(server, tmp_path):
     assert body.decode() == out.read_text()
 
 
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_simulate_draws_bodies_in_space_and_follows_a_rolling_disk(server):
     """The page's canvas gets what `lagrangian animate` draws: each body's frame (origin, rotation)
     and link at every frame, the axes' length, the ground under the wheel, and the framing that
@@ -313,6 +334,8 @@ def test_simulate_draws_bodies_in_space_and_follows_a_rolling_disk(server):
     assert len(top["geometry"]["framing"]["centre"]) == 1 and top["geometry"]["ground"] is None
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_closed_loop_simulates_from_the_values_the_page_sends(server):
     """The analysis says which initial values a simulation takes as given (the four-bar's crank
     angle and speed; its other angles are guesses that the loop corrects), and sent so, the
@@ -331,6 +354,7 @@ def test_a_closed_loop_simulates_from_the_values_the_page_sends(server):
     assert data["errors"][0]["message"].startswith("the initial coordinates do not meet constraint 'loop_x'")
 
 
+@pytest.mark.subprocess
 def test_a_model_with_energies_only_simulates_and_says_why_it_is_not_drawn(server):
     status, data = server.post_json("/api/simulate", {"model": OSCILLATOR, "t_end": 1, "initial": {"x": 1}})
     assert status == 200 and data["geometry"] is None
@@ -357,12 +381,14 @@ def test_a_model_with_energies_only_simulates_and_says_why_it_is_not_drawn(serve
     ({"model": OSCILLATOR}, 400, "t_end is needed"),
     ({"model": BAD, "t_end": 1}, 400, "expected a number, got the string '2'"),
 ])
+@pytest.mark.subprocess
 def test_simulate_errors(server, body, status, message):
     got, data = server.post_json("/api/simulate", body)
     assert got == status, data
     assert any(message in e["message"] for e in data["errors"]), data
 
 
+@pytest.mark.subprocess
 def test_every_problem_of_a_request_is_reported_at_once(server):
     body = {"model": OSCILLATOR, "t_ned": 1, "t_end": -1, "dt": "soon", "initial": {"x": True, "x_dot": [1]},
             "inputs": {"F": [1]}, "method": 3}
@@ -383,6 +409,7 @@ def test_every_problem_of_a_request_is_reported_at_once(server):
 
 @pytest.mark.parametrize("path, body", [("/api/derive", "cart-pendulum\n"),
                                         ("/api/simulate", {"model": "pendulum-chain-3", "t_end": 1})])
+@pytest.mark.subprocess
 def test_an_example_s_name_instead_of_its_text_says_how_to_get_the_text(server, path, body):
     status, data = server.post_json(path, body)
     name = "cart-pendulum" if path == "/api/derive" else "pendulum-chain-3"
@@ -391,6 +418,7 @@ def test_an_example_s_name_instead_of_its_text_says_how_to_get_the_text(server, 
         f"(GET /api/examples/{name} gives it, as {{\"name\", \"text\"}})")}]
 
 
+@pytest.mark.subprocess
 def test_a_simulation_that_reaches_a_singular_mass_matrix_is_a_422_with_the_diagnosis(server):
     status, data = server.post_json("/api/simulate", {"model": example_source("cart-pendulum-massless"), "t_end": 5})
     assert status == 422
@@ -399,12 +427,14 @@ def test_a_simulation_that_reaches_a_singular_mass_matrix_is_a_422_with_the_diag
     assert "det M = L**2*M**2*cos(q2)**2" in message
 
 
+@pytest.mark.subprocess
 def test_simulate_format_must_be_json_or_csv(server):
     status, data = server.post_json("/api/simulate?format=xml", _simulate_body())
     assert status == 400 and data["errors"][0]["message"] == "format 'xml': choose json (the default) or csv"
 
 
 # ------------------------------------------------------------------ analysis, equilibria, report
+@pytest.mark.subprocess
 def test_analysis_gives_the_reports_sections_as_mathml(server):
     status, data = server.post_json("/api/analysis", example_source("double-pendulum"))
     assert status == 200
@@ -416,6 +446,8 @@ def test_analysis_gives_the_reports_sections_as_mathml(server):
     assert data["drawable"] and data["parameters"] == {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "g": 9.81}
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_equilibria_with_slider_values_and_the_modes_of_the_stable_ones(server):
     status, data = server.post_json("/api/equilibria", {"model": example_source("rotating-pendulum"),
                                                         "params": {"Omega": 6.0}})
@@ -429,6 +461,7 @@ def test_equilibria_with_slider_values_and_the_modes_of_the_stable_ones(server):
     assert data["html"].count("Modes about equilibrium") == 2
 
 
+@pytest.mark.subprocess
 def test_a_model_without_equilibrium_says_why(server):
     status, data = server.post_json("/api/equilibria", {"model": example_source("kepler")})
     assert status == 200 and data["equilibria"] == []
@@ -436,6 +469,7 @@ def test_a_model_without_equilibrium_says_why(server):
 
 
 @pytest.mark.parametrize("fmt", ["html", "md", "tex"])
+@pytest.mark.subprocess
 def test_report_is_the_cli_report(server, fmt):
     status, headers, body = server.request("POST", f"/api/report?format={fmt}", example_source("mck"))
     assert status == 200
@@ -443,11 +477,13 @@ def test_report_is_the_cli_report(server, fmt):
     assert body.decode() == lg.report("mck").render(fmt)  # what `lagrangian report mck -o mck.FMT` writes
 
 
+@pytest.mark.subprocess
 def test_report_format_is_checked(server):
     status, data = server.post_json("/api/report?format=pdf", OSCILLATOR)
     assert status == 400 and data["errors"][0]["message"] == "format 'pdf': choose html, md or tex"
 
 
+@pytest.mark.subprocess
 def test_fmu_is_the_exported_fmu_with_the_sliders_values_as_start_values(server):
     import io
     import shutil as sh
@@ -473,6 +509,7 @@ def test_fmu_is_the_exported_fmu_with_the_sliders_values_as_start_values(server)
 
 
 # ------------------------------------------------------------------ the page and the examples
+@pytest.mark.subprocess
 def test_examples(server):
     status, headers, body = server.request("GET", "/api/examples")
     assert status == 200 and json.loads(body) == example_descriptions()
@@ -485,6 +522,7 @@ def test_examples(server):
                                                    "'double-pendulum'?")
 
 
+@pytest.mark.subprocess
 def test_the_page_opens_with_an_example_and_ships_its_assets(server):
     status, headers, body = server.request("GET", "/?example=mck")
     page = body.decode()
@@ -501,6 +539,7 @@ def test_the_page_opens_with_an_example_and_ships_its_assets(server):
     assert status == 404 and b"there is no built-in example 'nope'." in body
 
 
+@pytest.mark.subprocess
 def test_info_says_the_limits(server):
     status, headers, body = server.request("GET", "/api/info")
     assert json.loads(body) == {"version": lg.__version__, "workers": 2, "time_limit_s": 60.0,
@@ -509,6 +548,8 @@ def test_info_says_the_limits(server):
 
 
 # ------------------------------------------------------------------ robustness
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_server_answers_while_workers_are_busy(server):
     slow = {"model": example_source("double-pendulum"), "t_end": 20, "dt": 0.01, "method": "RK45", "rtol": 1e-11,
             "atol": 1e-11}
@@ -526,6 +567,8 @@ def test_the_server_answers_while_workers_are_busy(server):
     assert done["r"][0] == 200
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_runaway_request_is_stopped_at_the_time_limit_and_a_crash_is_survived():
     s = Server(workers=1, time_limit=3)
     try:
@@ -559,6 +602,8 @@ def test_a_runaway_request_is_stopped_at_the_time_limit_and_a_crash_is_survived(
     assert wait_until(lambda: not s.worker_pids(), 10)
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_request_past_the_memory_limit_is_a_422_and_the_server_goes_on():
     """The worker's data segment is capped (RLIMIT_DATA) at its footprint plus --memory-limit: a
     simulation whose output (99,901 rows of 41 columns, about 470 MB as JSON) does not fit in 256 MiB
@@ -584,6 +629,8 @@ def test_a_request_past_the_memory_limit_is_a_422_and_the_server_goes_on():
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the processes in /proc")
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_time_out_ends_the_compiler_and_removes_the_request_s_temporary_files(tmp_path):
     """/api/fmu runs the C compiler ($CC: here a stand-in that writes into its temporary folder, starts
     a child and waits); when the request's time is up, the worker, the compiler and its child are
@@ -618,6 +665,8 @@ def test_a_time_out_ends_the_compiler_and_removes_the_request_s_temporary_files(
     assert code == 0 and "Traceback" not in err, err
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_slow_requests_leave_a_worker_to_short_ones():
     """Two workers: simulations take at most one, so that with two slow simulations in flight (one
     running, one waiting: the server's /api/status says so) a derivation is answered at once."""
@@ -689,6 +738,8 @@ def test_the_lanes_serve_in_order_of_arrival_and_keep_a_worker_for_short_request
 
 
 # ------------------------------------------------------------------ the command
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_serve_stops_cleanly_on_ctrl_c_and_takes_its_workers_along():
     s = Server("double-pendulum", workers=1)
     assert s.first_line == f"lagrangian serve: the playground is at {s.url} (press Ctrl-C to stop)\n"
@@ -702,6 +753,8 @@ def test_serve_stops_cleanly_on_ctrl_c_and_takes_its_workers_along():
 
 
 @pytest.mark.skipif(os.name != "posix", reason="the stand-in browser is a shell script")
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_serve_opens_the_page_in_the_browser_unless_told_not_to(tmp_path):
     """Without --no-browser the page opens in the default browser (Python's webbrowser, which
     honours $BROWSER: here a script that writes down the address it was given)."""
@@ -722,6 +775,8 @@ def test_serve_opens_the_page_in_the_browser_unless_told_not_to(tmp_path):
     assert process.returncode == 0 and out == "lagrangian serve: stopped\n" and "Traceback" not in err
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_serve_reads_a_model_file_anew_at_each_visit(tmp_path):
     path = tmp_path / "osc.toml"
     path.write_text(OSCILLATOR)
@@ -746,6 +801,8 @@ def test_serve_reads_a_model_file_anew_at_each_visit(tmp_path):
     (["--memory-limit", "0"], "lagrangian serve: error: --memory-limit must be at least 64, got 0; for example "
                               "--memory-limit 2048"),
 ])
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_serve_errors(argv, message, tmp_path):
     run = subprocess.run([sys.executable, "-m", "lagrangian", "serve", "--no-browser", *argv], capture_output=True,
                          text=True, timeout=60, cwd=tmp_path)
@@ -767,6 +824,8 @@ def test_serve_run_checks_its_arguments_before_listening(kwargs, message):
         run(open_browser=False, **kwargs)
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_port_in_use_is_an_error_that_says_what_to_do():
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
@@ -779,6 +838,8 @@ def test_a_port_in_use_is_an_error_that_says_what_to_do():
                           "serve`?): choose another with --port, or --port 0 for a free one\n")
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_another_host_needs_saying_so_and_prints_a_warning():
     s = Server("--host", "0.0.0.0", workers=1)
     try:

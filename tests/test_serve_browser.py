@@ -116,6 +116,9 @@ def page(server, browser):
     return browser
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_an_example_opens_derived_with_the_apis_equations_as_mathematics(page, server):
     assert editor_text(page) == example_source("double-pendulum")
     assert text_equations(page) == api_equations(server, example_source("double-pendulum"))
@@ -130,6 +133,9 @@ def test_an_example_opens_derived_with_the_apis_equations_as_mathematics(page, s
     page.find_element(By.CSS_SELECTOR, '.tabs button[data-tab="motion"]').click()
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_editing_the_model_changes_the_equations(page, server):
     before = text_equations(page)
     line = line_of(editor_text(page), 'g = "g"')
@@ -146,6 +152,9 @@ def test_editing_the_model_changes_the_equations(page, server):
     page.find_element(By.CSS_SELECTOR, '.tabs button[data-tab="motion"]').click()
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_an_error_appears_at_its_line_with_the_clis_message(page, server):
     line = line_of(editor_text(page), 'mass = "m2"')
     put_caret(page, line, len('mass = "m2'))
@@ -172,6 +181,9 @@ def canvas_png(driver) -> bytes:
                             .split(",", 1)[1])
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_a_slider_runs_a_new_simulation_and_the_animation_plays(page, server):
     old = js(page, "return window.lagrangianPlayground.state.simulation.columns.theta1[0]")
     js(page, "const box = document.getElementById('value-theta1'); box.value = '0.75';"
@@ -206,6 +218,9 @@ def test_a_slider_runs_a_new_simulation_and_the_animation_plays(page, server):
     page.find_element(By.ID, "play").click()
 
 
+@pytest.mark.browser
+@pytest.mark.subprocess
+@pytest.mark.slow
 def test_the_downloaded_csv_is_simulates(page, server):
     for old in page.downloads.iterdir():
         old.unlink()
@@ -218,6 +233,9 @@ def test_the_downloaded_csv_is_simulates(page, server):
     assert path.read_text() == traj.to_csv()
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_the_fmu_downloads_with_the_sliders_values(page):
     import xml.etree.ElementTree as ET
     import zipfile
@@ -230,6 +248,8 @@ def test_the_fmu_downloads_with_the_sliders_values(page):
     assert starts["theta1"] == 0.75  # the slider's value, set above
 
 
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_the_file_is_highlighted_and_the_states_and_energy_plotted(page):
     """The editor's highlighting (the expressions' functions, feedback laws' included) and the
     three plots drawn in their first color (the coordinates', the velocities', the energy's)."""
@@ -248,6 +268,9 @@ def test_the_file_is_highlighted_and_the_states_and_energy_plotted(page):
     assert min(drawn) > 100, drawn
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_the_model_file_and_the_report_download(page, server):
     for old in page.downloads.iterdir():
         old.unlink()
@@ -262,6 +285,8 @@ def test_the_model_file_and_the_report_download(page, server):
     assert status == 200 and md.read_bytes() == body
 
 
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_an_unknown_example_says_so(server, browser):
     browser.get(server.url + "?example=double-pendulm")
     wait(browser, lambda: browser.find_elements(By.CSS_SELECTOR, "#errors li"))
@@ -282,6 +307,9 @@ def colour_counts(driver, colours) -> list[int]:
 ORANGE, RED, GREEN, BLUE, GROUND = (255, 127, 14), (214, 39, 40), (44, 160, 44), (31, 119, 180), (184, 188, 196)
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_a_body_in_space_is_drawn_and_the_view_follows_it(server, browser):
     """The rolling disk: its rim (orange), its frame's axes (red, green, blue) and the ground's grid;
     it rolls about 4 m away in 10 s, and the view follows it, so at the end it is as large as at
@@ -301,6 +329,9 @@ def test_a_body_in_space_is_drawn_and_the_view_follows_it(server, browser):
     browser.find_element(By.ID, "play").click()
 
 
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
 def test_a_closed_loop_simulates_with_the_dependent_values_completed(server, browser):
     """The four-bar: the page sends the crank's angle and speed (the given values), the loop
     completes the other angles, and their boxes show the completed values, in grey; moving the

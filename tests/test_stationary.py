@@ -73,6 +73,7 @@ def test_cli_equilibria_of_the_atwood_machine(tmp_path, capsys):
 
 
 # ----------------------------------------------------------------------------- roots at infinity
+@pytest.mark.slow
 def test_kepler_problem_has_no_equilibrium_and_reports_no_runaway_point():
     eqs = lg.derive(lg.load("kepler"))
     for exact in (True, False):
@@ -84,6 +85,7 @@ def test_kepler_problem_has_no_equilibrium_and_reports_no_runaway_point():
     assert "SymPy finds no solution of -m*mu/r**2 = 0" in equilibria(eqs).notes
 
 
+@pytest.mark.slow
 def test_forces_that_vanish_only_at_infinity():
     assert not equilibria(derived("drift", ["x"], "x_dot**2/2", "exp(-x)"))
     # -2 x exp(-x**2) underflows to 0 (and so does its derivative) for |x| > 27: not roots
@@ -106,12 +108,14 @@ def test_mexican_hat_ring_is_one_set_of_equilibria():
     assert ring.to_dict()["isolated"] is False and ring.to_dict()["dimension"] == 1
 
 
+@pytest.mark.slow
 def test_a_parabola_of_equilibria_is_not_any_x():
     (e,) = equilibria(derived("valley", ["x", "y"], "(x_dot**2 + y_dot**2)/2", "(y - x**2)**2"))
     assert e.dimension == 1 and e.along == ()  # tangent to the x axis at 0, but y = x**2 elsewhere
     assert e.coordinates["y"] == pytest.approx(e.coordinates["x"] ** 2, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_a_sphere_of_equilibria_is_one_set_of_dimension_two():
     found = equilibria(derived("shell", ["x", "y", "z"], "(x_dot**2 + y_dot**2 + z_dot**2)/2",
                                "(x**2 + y**2 + z**2 - 1)**2"))
@@ -141,6 +145,7 @@ def test_degenerate_equilibrium_without_exact_root_is_undetermined_not_unstable(
     assert e.linear_model.stability == "unstable"
 
 
+@pytest.mark.slow
 def test_rotating_pendulum_at_its_critical_speed_is_stable_at_the_bottom():
     eqs = lg.derive(lg.load("rotating-pendulum"))
     bottom = next(e for e in equilibria(eqs, params={"Omega": math.sqrt(9.81 / 0.5)}) if e.coordinates["theta"] == 0)
@@ -154,6 +159,7 @@ def test_origin_of_polar_coordinates_is_a_singular_point():
     assert not e.stable and e.linear_model is None
 
 
+@pytest.mark.slow
 def test_the_zoo_has_no_notes_and_the_same_answers():
     for name, count in [("double-pendulum", 4), ("rotating-pendulum", 2), ("mck", 1), ("cart-pendulum", 2),
                         ("sliding-mass-pendulum", 4), ("pendulum-chain-3", 8), ("spherical-pendulum", 2)]:

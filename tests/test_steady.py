@@ -35,6 +35,7 @@ def _imag_parts(motion):
 
 # ----------------------------------------------------------------------------- the spherical pendulum
 @pytest.mark.parametrize("Omega", [3.5, 4.0, 7.0])
+@pytest.mark.slow
 def test_conical_pendulum_closed_form(spherical, Omega):
     g, l = 9.81, 1.0
     found = lg.steady_motions(spherical, {"phi_dot": Omega})
@@ -52,6 +53,7 @@ def test_conical_pendulum_closed_form(spherical, Omega):
         assert s.stability == "stable" and s.stable  # Routh: the amended potential has a minimum
 
 
+@pytest.mark.slow
 def test_below_the_critical_rate_only_the_poles_remain(spherical):
     found = lg.steady_motions(spherical, {"phi_dot": 2.0})  # 4 < g/l: no cone
     assert [s.coordinates["theta"] for s in found] == [0.0, pytest.approx(math.pi)]
@@ -59,6 +61,7 @@ def test_below_the_critical_rate_only_the_poles_remain(spherical):
     assert all(s.stability == "undetermined (singular mass matrix)" for s in found)
 
 
+@pytest.mark.slow
 def test_the_rotating_pendulum_seen_from_its_spin(spherical):
     """The seed's rotating pendulum (Preumont Fig. 1.9) turns at the prescribed rate Omega; with the
     rotation free, the spherical pendulum turning at that rate has its equilibria as steady motions."""
@@ -70,6 +73,7 @@ def test_the_rotating_pendulum_seen_from_its_spin(spherical):
         assert free == pytest.approx(prescribed, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_a_steady_motion_stays_steady_when_simulated(spherical):
     (cone,) = [s for s in lg.steady_motions(spherical, {"phi_dot": 5.0}) if 0 < s.coordinates["theta"] < 3]
     traj = lg.simulate(spherical, t_end=5.0, initial={**cone.coordinates, **cone.velocities}, rtol=1e-12, atol=1e-12)
@@ -88,6 +92,7 @@ def test_circular_kepler_orbits(kepler, omega):
     assert orbit.stability == "stable"
 
 
+@pytest.mark.slow
 def test_circular_orbit_at_a_fixed_angular_momentum(kepler):
     m, mu, h = 2.0, 3.0, 1.5
     (orbit,) = lg.steady_motions(kepler, momenta={"p_phi": h}, params={"m": m, "mu": mu})
@@ -99,6 +104,7 @@ def test_circular_orbit_at_a_fixed_angular_momentum(kepler):
     assert sympy.simplify(orbit.exact_velocities["phi_dot"] - S("m") ** 3 * S("mu") ** 2 / S("p_phi") ** 3) == 0
 
 
+@pytest.mark.slow
 def test_no_angular_momentum_no_orbit(kepler):
     found = lg.steady_motions(kepler, momenta={"p_phi": 0.0})
     assert not found and any("ran away towards r" in n for n in found.notes)
@@ -110,6 +116,7 @@ def _precession_residual(top_params, theta, Omega, omega3):
     return I1 * Omega**2 * math.cos(theta) - I3 * omega3 * Omega + m * g * l
 
 
+@pytest.mark.slow
 def test_heavy_top_steady_precession_at_given_rates(top):
     params = {k.name: v for k, v in top.parameters.items()}
     Omega, spin = 2.0, 50.0
@@ -123,6 +130,7 @@ def test_heavy_top_steady_precession_at_given_rates(top):
         assert s.momenta["p_psi"] == pytest.approx(params["I3"] * omega3, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_heavy_top_steady_precession_at_a_given_spin_momentum(top):
     params = {k.name: v for k, v in top.parameters.items()}
     Omega, p_psi = 2.0, 0.5  # I3 omega3 = p_psi: cos(theta) = (p_psi Omega - m g l) / (I1 Omega**2)
@@ -138,6 +146,7 @@ def test_heavy_top_steady_precession_at_a_given_spin_momentum(top):
         assert np.abs(traj["theta"] - s.coordinates["theta"]).max() < 1e-8
 
 
+@pytest.mark.slow
 def test_eigenvalues_agree_with_finite_differences_of_the_state_equations(top):
     (s, *_) = [s for s in lg.steady_motions(top, {"phi_dot": 2.0, "psi_dot": 50.0}) if 0 < s.coordinates["theta"] < 3]
     f = lg.compile(top)  # x' = f(t, x, u, p), independent of the analysis' symbolic derivatives
@@ -159,6 +168,7 @@ def test_eigenvalues_agree_with_finite_differences_of_the_state_equations(top):
 
 
 # ----------------------------------------------------------------------------- CLI and errors
+@pytest.mark.slow
 def test_cli_steady_json_contract(capsys):
     assert main(["steady", "spherical-pendulum", "--velocity", "phi_dot=4", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
@@ -172,6 +182,7 @@ def test_cli_steady_json_contract(capsys):
     assert cones[0]["exact"]["theta"] == "-acos(g/(l*phi_dot**2))"
 
 
+@pytest.mark.slow
 def test_cli_steady_text_and_momentum(capsys):
     assert main(["steady", "kepler", "--momentum", "p_phi=1"]) == 0
     assert capsys.readouterr().out == (
