@@ -340,6 +340,8 @@ def results(venv, tmp_path_factory):
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+@pytest.mark.slow
+@pytest.mark.network
 @pytest.mark.subprocess
 def test_command_runs_on_the_default_install(case, results):
     code, stdout, stderr, seconds = results[case.id]
