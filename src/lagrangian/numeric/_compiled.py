@@ -91,7 +91,7 @@ class NumericModel:
 
     def accelerations(self, t, x, u, p) -> np.ndarray:
         """q_ddot solving M q_ddot = f, shape (n,); for a constrained model the q_ddot of the
-        saddle-point system [M G^T; G 0] [q_ddot; -lambda] = [f; c], as the compiled backends give it."""
+        saddle-point system ``[M G^T; G 0] [q_ddot; -lambda] = [f; c]``, as the compiled backends give it."""
         x, u, p = (np.asarray(v, float) for v in (x, u, p))
         if self.equations.is_constrained:
             from ._constrained import constrained_model
