@@ -31,7 +31,7 @@ import re
 from xml.sax.saxutils import quoteattr
 
 __all__ = ["IDENTIFIER", "COMMENT_MAX", "check_identifier", "local_name", "module_identifier", "comment_text",
-           "c_string", "c_strings", "modelica_string", "xml_attribute", "plot_text", "RESERVED"]
+           "c_string", "c_strings", "modelica_string", "xml_attribute", "plot_text", "without_controls", "RESERVED"]
 
 #: The one rule for a name that enters generated code.
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -101,6 +101,11 @@ def module_identifier(name: str, target: str = "c") -> str:
     return ident
 
 
+def without_controls(text: object) -> str:
+    """`text` with every control character (a newline, a NUL, DEL) as a space."""
+    return "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in str(text))
+
+
 def comment_text(text: object, limit: int = COMMENT_MAX) -> str:
     """`text` as it may stand in a comment or docstring of any target: printable ASCII of a safe
     set only (every other character, a newline and a NUL included, becomes ``_``), runs of
@@ -129,15 +134,14 @@ def c_strings(texts) -> str:
 def modelica_string(text: str) -> str:
     """A Modelica string literal of `text`: ``\\`` and ``"`` escaped, control characters (a newline,
     a NUL) as spaces."""
-    text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in str(text))
+    text = without_controls(text)
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 def plot_text(text: object) -> str:
     """`text` as Matplotlib shows it literally: ``$`` escaped (no mathtext parsed from a model's
     name), control characters as spaces."""
-    text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in str(text))
-    return text.replace("$", "\\$")
+    return without_controls(text).replace("$", "\\$")
 
 
 _XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff\ud800-\udfff]")

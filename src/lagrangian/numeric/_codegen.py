@@ -15,13 +15,13 @@ import importlib.util
 import os
 import re
 import sys
-import tempfile
 from pathlib import Path
 
 import symengine as se
 
 from .._codetext import comment_text, local_name
 from ..equations import Equations
+from ..io._files import write_atomically
 from ._kernels import SINGULAR_RATIO as SINGULAR
 
 __all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "model_module", "numba_source",
@@ -716,25 +716,14 @@ def _stores(n: int, exprs, names: tuple[str, str], end: str = "") -> list[str]:
 
 def store(path: Path, text: str) -> None:
     """Make the cache entry `path` hold exactly `text`: written when missing or different (a
-    truncated, broken or tampered entry is replaced, never reused), atomically (another process
-    may be reading the same cache), with the user's umask."""
+    truncated, broken or tampered entry is replaced, never reused), atomically and with the
+    user's umask (lagrangian.io._files.write_atomically: another process may be reading it)."""
     try:
         if path.read_bytes() == text.encode("utf-8"):
             return
     except OSError:
         pass
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=path.suffix, dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_atomically(path, text)
 
 
 def _numba_key(source: str) -> str:

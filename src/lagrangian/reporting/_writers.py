@@ -10,6 +10,7 @@ import html
 
 import sympy
 
+from .._codetext import without_controls
 from ._document import Math, Paragraph, Report, Table
 from ._printing import MAX_NODES, latex, math_element, mathml, too_large
 
@@ -130,7 +131,7 @@ def _md_text(text: str) -> str:
     """Text as Markdown that shows it as it is: Markdown's punctuation escaped, HTML's special
     characters as entities (a description cannot become a tag or a link), no line break or control
     character (a heading stays one line)."""
-    text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in text)
+    text = without_controls(text)
     return "".join(_MD_HTML.get(c) or ("\\" + c if c in _MD_SPECIAL else c) for c in text)
 
 
@@ -192,7 +193,7 @@ _TEX_ESCAPES = {"\\": "\\textbackslash{}", "&": "\\&", "%": "\\%", "$": "\\$", "
 def _tex_text(text: str) -> str:
     """Text as LaTeX that typesets it: TeX's special characters as commands, control characters
     (a NUL, a form feed; newlines too) as spaces, other non-ASCII characters as ?."""
-    text = "".join(" " if (ord(c) < 32 or ord(c) == 127) else c for c in text)
+    text = without_controls(text)
     out = "".join(_TEX_ESCAPES.get(c, c) for c in text)
     return out.encode("ascii", "replace").decode("ascii") if not out.isascii() else out
 
