@@ -291,13 +291,14 @@ def test_simulate_cart_pendulum_csv_header_rows_and_initial(capsys):
     assert body[0][1:5] == [0.0, 0.5, 0.0, 0.0]
 
 
-def test_simulate_initial_values_not_given_are_zero(capsys):
-    # the model file's [simulation] has q2 = 1.4; once --initial is given, the others are 0
+def test_simulate_initial_values_not_given_keep_the_model_files(capsys):
+    # the model file's [simulation] has q2 = 1.4; --initial changes the values it names and keeps the others
+    # (one rule for the API, the CLI, the exports and the playground; before issue 20 the others were 0 here)
     rc, out, err = run_cli(capsys, "simulate", "cart-pendulum", "--t-end", "0.1", "--dt", "0.1",
                            "--initial", "q1_dot=0.25")
     assert rc == 0, err
     header, body = read_csv(out)
-    assert body[0][1:5] == [0.0, 0.0, 0.25, 0.0]
+    assert body[0][1:5] == [0.0, 1.4, 0.25, 0.0]
 
 
 def test_simulate_without_initial_uses_the_model_defaults(capsys):

@@ -9,7 +9,7 @@ from sympy import (Abs, acos, asin, atan, atan2, cos, cosh, exp, log, pi, sign, 
 from .equations import (ConstraintConfiguration, ConstraintSingularityReport, DeadPoints, Equations, LinearSystem,
                         SingularConfiguration, SingularityReport, constraint_singularities, derive, singularities)
 from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileError, OutputFileError, SimulationError,
-                     SingularMassMatrixError, UnknownNameError)
+                     SingularMassMatrixError, Status, UnknownNameError)
 from .io import load
 from .model import Model, ddot, dot, t
 from .numeric import BatchResult, CompiledModel, NumericModel, Trajectory, grid, simulate, simulate_batch
@@ -37,7 +37,7 @@ __all__ = [
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate", "simulate_batch", "BatchResult", "grid", "Trajectory", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
-    "SingularMassMatrixError", "SimulationError", "OutputFileError",
+    "SingularMassMatrixError", "SimulationError", "Status", "OutputFileError",
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp", "log",
     "sqrt", "Abs", "sign", "pi",
 ]

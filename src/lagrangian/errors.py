@@ -7,6 +7,7 @@ A message says what is wrong, where (file, key, symbol), what was expected and h
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -19,6 +20,7 @@ __all__ = [
     "UnknownNameError",
     "SingularMassMatrixError",
     "SimulationError",
+    "Status",
     "OutputFileError",
     "DesignError",
 ]
@@ -153,13 +155,68 @@ class SingularMassMatrixError(LagrangianError, ArithmeticError):
         super().__init__(message)
 
 
+class Status(enum.IntEnum):
+    """How a simulation ended: the one enumeration of the integrators' status codes (the compiled
+    kernels return these integers, SciPy's solve_ivp its own 0, 1 and -1, read as these members).
+
+    A member is an int (``status == -1`` holds for STEP_TOO_SMALL) and carries its ``message``
+    (what happened, as the integrator says it) and its ``fix`` (what to do about it; "" for a run
+    that ended as asked). :class:`SimulationError`, ``BatchResult.statuses`` and
+    ``Trajectory.stats["status"]`` hold members.
+    """
+
+    def __new__(cls, value: int, message: str, fix: str):
+        member = int.__new__(cls, value)
+        member._value_ = value
+        member.message = message
+        member.fix = fix
+        return member
+
+    SUCCESS = (0, "The solver successfully reached the end of the integration interval.", "")
+    SINGULAR_EVENT = (1, "A termination event occurred.",
+                      "the mass matrix became singular: see the error's diagnosis (where det M vanishes and why)")
+    SINGULAR_MASS_MATRIX = (2, "The mass matrix is singular at a stage of a step.",
+                            "the mass matrix is singular there: see the error's diagnosis (where det M vanishes "
+                            "and why)")
+    FORCING_NOT_FINITE = (3, "The forcing f is not finite.",
+                          "check the model's parameters and expressions (a division by zero, a log or sqrt of a "
+                          "negative number)")
+    STEP_TOO_SMALL = (-1, "Required step size is less than spacing between numbers.",
+                      "try a smaller rtol/atol, a stiff method such as method='Radau', or check the model's "
+                      "parameters")
+    SOLUTION_NOT_FINITE = (-2, "The solution is not finite (NaN or infinity).",
+                           "check the model's parameters and initial state")
+    VARIATIONAL_NOT_CONVERGED = (-3, "The implicit midpoint step of the variational integrator did not converge.",
+                                 "try a smaller step")
+    EVENT_STOP = (4, "An event stopped the integration.", "")
+    CHATTERING = (5, "The inputs switch at every step (chattering: a sliding mode).",
+                  "smooth the switch with a boundary layer, e.g. clip(s/0.01, -1, 1) instead of sign(s), or "
+                  "sample the law (sample_time=...)")
+    SINGULAR_CONSTRAINTS = (6, "The constraints are singular (their Jacobian G has lost rank: a dead point).",
+                            "see the error's message: where G loses rank, and which coordinates to drive instead")
+
+    @property
+    def ok(self) -> bool:
+        """Whether the run ended as asked: at t_end, or stopped by one of its events."""
+        return self in (Status.SUCCESS, Status.EVENT_STOP)
+
+    @classmethod
+    def of(cls, code) -> "Status | int":
+        """The member of an integer status code; the integer itself when no member has it."""
+        try:
+            return cls(int(code))
+        except ValueError:
+            return int(code)
+
+
 class SimulationError(LagrangianError, RuntimeError):
-    """The integrator failed. `status` is the integrator's status code, `time` where it stopped,
-    `partial` the Trajectory of the output rows computed before the failure (marked as partial:
-    ``partial.failure`` holds this message), or None when there are none."""
+    """The integrator failed. `status` is the member of :class:`Status` saying why (an int: the
+    integrator's status code), `time` where it stopped, `partial` the Trajectory of the output rows
+    computed before the failure (marked as partial: ``partial.failure`` holds this message), or None
+    when there are none."""
 
     def __init__(self, message: str, *, status: int | None = None, time: float | None = None, partial=None):
-        self.status = status
+        self.status = None if status is None else Status.of(status)
         self.time = time
         self.partial = partial
         super().__init__(message)

@@ -423,6 +423,22 @@ class Equations:
         return (not self.explicit_time and self.core.D == 0 and all(Qi == 0 for Qi in self.core.Q)
                 and self._constraints_scleronomic)
 
+    @property
+    def energy_name(self) -> str | None:
+        """The name of h = T2 - T0 + V along a trajectory: "energy" when T* = T2 (no terms of degree
+        1 or 0 in the velocities, so h = T* + V), "jacobi_integral" otherwise; None when L depends
+        explicitly on t (h is then not computed)."""
+        if self.explicit_time:
+            return None
+        return "energy" if self._natural else "jacobi_integral"
+
+    @cached_property
+    def _natural(self) -> bool:
+        """T* = T2: no terms of degree 1 or 0 in the velocities."""
+        zero = {v: 0 for v in self.core.qd}
+        T = self.core.T
+        return bool(T.subs(zero) == 0 and all(T.diff(v).subs(zero) == 0 for v in self.core.qd))
+
     @cached_property
     def cyclic_coordinates(self) -> tuple[sympy.Symbol, ...]:
         """Coordinates whose momentum p_i = dL/dq_dot_i is conserved: L does not contain q_i, and

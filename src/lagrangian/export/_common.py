@@ -139,9 +139,7 @@ def consistent_start(eq: Equations, x0, initial: Mapping | None, p) -> list[floa
 
 def energy_name(eq: Equations) -> str:
     """"energy" when T* = T2 (h = T* + V), "jacobi_integral" otherwise; a name the model does not use."""
-    from ..numeric._simulate import _is_natural
-
-    name = "energy" if _is_natural(eq) else "jacobi_integral"
+    name = "energy" if eq._natural else "jacobi_integral"  # Equations.energy_name, also where L depends on t
     taken = set(eq.state_names) | {u.name for u in eq.inputs} | {p.name for p in eq.parameters}
     while name in taken:
         name += "_"

@@ -25,6 +25,8 @@ dense output) are read from SciPy's table at generation time, so that this integ
 
 from __future__ import annotations
 
+from ..errors import Status
+
 __all__ = ["kernel_source", "STATUS", "OPCODES", "SWITCH_OPCODES", "SINGULAR_RATIO", "EVENT_RATIO"]
 
 #: inertia measure of M at or below which the mass matrix counts as singular (stops at once).
@@ -32,17 +34,9 @@ SINGULAR_RATIO = 1e-12
 #: the singular-mass-matrix event: the inertia measure crossing this value downwards.
 EVENT_RATIO = 1e-9
 
-#: Status codes returned by the compiled integrators.
-STATUS = {
-    0: "The solver successfully reached the end of the integration interval.",
-    1: "A termination event occurred.",
-    2: "The mass matrix is singular at a stage of a step.",
-    3: "The forcing f is not finite.",
-    -1: "Required step size is less than spacing between numbers.",
-    -3: "The implicit midpoint step of the variational integrator did not converge.",
-    4: "An event stopped the integration.",
-    5: "The inputs switch at every step (chattering: a sliding mode).",
-}
+#: Status codes returned by the compiled integrators: their messages, from the one enumeration
+#: (lagrangian.errors.Status, whose members also carry the fix).
+STATUS = {int(s): s.message for s in Status}
 #: Consecutive steps, each ended by a switch and shorter than CHATTER_STEP of the time span, that
 #: stop the integration as chattering (status 5).
 CHATTER_STEPS = 100

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import weakref
+from dataclasses import dataclass
 from decimal import Decimal
 import math
 import numbers
@@ -14,19 +14,16 @@ import sympy
 from ..equations import Equations, derive, singularities
 from .._limits import MAX_ROWS, MAX_STEPS, number_problem
 from .._util import did_you_mean, named_values, read_only
-from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError
+from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError, Status
 from ..model import Model
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations
 from ._fast import BACKENDS, CompiledModel
-from ._trajectory import Trajectory
+from ._options import SimulationOptions
+from ._solvers import METHODS, Solver, Variational, solver_of
+from ._trajectory import Trajectory, run_trajectory
 
 __all__ = ["simulate", "output_times", "METHODS"]
 
-#: Integrators accepted by ``method``: DOP853 (compiled by default, or SciPy's), SciPy's other
-#: solve_ivp methods, and "variational" (the compiled midpoint variational integrator, fixed step).
-METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA", "variational")
-#: Methods that run in compiled code.
-COMPILED_METHODS = ("DOP853", "variational")
 #: Event threshold on the inertia measure of M (see inertia_measure): closer to singular than this stops the simulation.
 _EVENT_RATIO = 1e-9
 #: An integrator whose step size collapsed where M has kept less of its inertia at the start than this
@@ -299,11 +296,17 @@ def held_inputs(sampling, values: np.ndarray, times: np.ndarray) -> np.ndarray:
 
 def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mapping | None = None,
              params: Mapping | None = None, dt: float | None = None, t_eval=None,
-             rtol: float | None = None, atol: float | None = None, method: str = "DOP853",
-             max_step: float = math.inf, backend: str = "auto", step: float | None = None,
-             events: Mapping[str, str] | None = None, stop_on=(), progress: bool | None = None,
-             sample_time: float | Mapping[str, float] | None = None, constraints: str = "project") -> Trajectory:
+             rtol: float | None = None, atol: float | None = None, method: "str | Solver | None" = None,
+             max_step: float | None = None, backend: str | None = None, step: float | None = None,
+             events: Mapping[str, str] | None = None, stop_on=None, progress: bool | None = None,
+             sample_time: float | Mapping[str, float] | None = None, constraints: str | None = None,
+             options: SimulationOptions | None = None) -> Trajectory:
     """Integrate x' = f(t, x, u, p) from t = 0 to `t_end`.
+
+    Every option not given (None) is the model file's ([simulation]) or the default; a mapping
+    given (`initial`, `inputs`, `params`, `events`, a `sample_time` mapping) updates the model's
+    name by name (see :class:`~lagrangian.numeric._options.SimulationOptions`: the one merge rule of
+    the API, the command line, the exports and the playground).
 
     Parameters
     ----------
@@ -312,12 +315,14 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         Final time (default: the model's [simulation] t_end).
     initial : mapping of str to float, or array_like, shape (2n,)
         Initial coordinates and velocities by name (``{"q2": 0.5, "q2_dot": 0}``); those not
-        given are 0. Default: the model's [simulation] initial values.
+        given keep the model's [simulation] initial values (0 where it has none). An array is the
+        whole initial state.
     inputs : mapping of str to float, str or callable
         Each input as a constant, an expression of t, the coordinates, velocities and parameters
         (``"1.5*sin(3*t)"``, or a feedback law ``"-20*(q2 - pi/2) - 5*q2_dot"``, which may
         switch with ``where``, ``min``, ``max``, ``clip``), or a Python function ``u(t)`` or
-        ``u(t, x)`` (x the state [q, q_dot]; these run on the SciPy path). Inputs not given are 0.
+        ``u(t, x)`` (x the state [q, q_dot]; these run on the SciPy path). Inputs not given keep
+        the model's [simulation] inputs (0 where it has none).
     params : mapping of str to float
         Parameter values that override the model's.
     dt : float
@@ -325,15 +330,16 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     t_eval : array_like, optional
         Explicit output times instead of `dt`.
     rtol, atol : float
-        Tolerances of the adaptive integrator (default 1e-9 both).
-    method : str
-        One of METHODS: DOP853 (default, an explicit Runge-Kutta method of order 8 with error
-        control and dense output), "variational" (the midpoint variational integrator: a fixed
-        step, an energy error that stays bounded over long runs of a conservative model), or
-        another of SciPy's solve_ivp methods (RK45, RK23, Radau, BDF, LSODA; these always run in
-        SciPy).
+        Tolerances of the adaptive integrator (default: the model's, or 1e-9 both).
+    method : str or Solver
+        A solver object (``lagrangian.numeric.DOP853()``, ``Variational(step=...)``,
+        ``SciPyMethod("Radau")``: each says what it supports) or its name, one of METHODS:
+        DOP853 (default, an explicit Runge-Kutta method of order 8 with error control and dense
+        output), "variational" (the midpoint variational integrator: a fixed step, an energy error
+        that stays bounded over long runs of a conservative model), or another of SciPy's
+        solve_ivp methods (RK45, RK23, Radau, BDF, LSODA; these always run in SciPy).
     max_step : float
-        Largest step the integrator may take.
+        Largest step the integrator may take (default: no limit, math.inf).
     backend : {"auto", "numba", "c", "scipy"}
         Where the integrator runs. "auto" (default): compiled by numba when the method is
         DOP853 or variational and every input is a constant or an expression, else SciPy.
@@ -360,16 +366,19 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         in between (zero-order hold); a number samples every input, a mapping only the named
         ones (``{"F": 0.01}``; the others stay continuous). Default: the model's [simulation]
         sample_time, or none.
-
     constraints : {"project", "eliminate"}
         For a model with holonomic constraints: "project" (default) integrates all coordinates and
         projects onto the constraints after every step (compiled when it can); "eliminate" integrates
         an ODE in the independent coordinates ([simulation] independent), the others found by Newton on
         g = 0 at every evaluation (SciPy's integrators; no drift by construction).
+    options : SimulationOptions, optional
+        The options to start from instead of the model file's (``SimulationOptions.from_model``);
+        the keywords given are merged onto them by the same rule.
 
     Returns
     -------
     Trajectory
+        ``stats["status"]`` is its :class:`~lagrangian.errors.Status`.
 
     Raises
     ------
@@ -379,101 +388,92 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         The motion reached a configuration where M is singular; names the time, the state
         and the diagnosis.
     SimulationError
-        The integrator failed for another reason.
+        The integrator failed for another reason (``status``: a member of Status).
     """
     nm = _as_numeric(system)
-    defaults = nm.equations.model.simulation
-    problems: list[Problem] = []
-    t_end = defaults.get("t_end") if t_end is None else t_end
-    if t_end is None:
-        problems.append(Problem("t_end is needed: pass t_end=... (--t-end on the command line) or set "
-                                "t_end under [simulation] in the model file", key="t_end"))
-    elif number_problem(t_end, "t_end", positive=True):  # the CLI's rule (lagrangian._limits), as for every number
-        problems.append(Problem(number_problem(t_end, "t_end", positive=True), key="t_end"))
-    dt = defaults.get("dt", 0.01) if dt is None else dt
-    if number_problem(dt, "dt", positive=True):
-        problems.append(Problem(number_problem(dt, "dt", positive=True), key="dt"))
-    rtol = defaults.get("rtol", 1e-9) if rtol is None else rtol
-    atol = defaults.get("atol", 1e-9) if atol is None else atol
-    rtol_problem = number_problem(rtol, "rtol", positive=True, maximum=1.0, example="rtol=1e-9 (--rtol 1e-9)")
-    if rtol_problem:
-        problems.append(Problem(rtol_problem, key="rtol"))
-    if number_problem(atol, "atol", positive=True):
-        problems.append(Problem(number_problem(atol, "atol", positive=True) + " (with atol = 0 a state component "
-                                "that passes through zero cannot be controlled)", key="atol"))
-    method = {m.upper(): m for m in METHODS}.get(str(method).upper(), method)
-    if method not in METHODS:
-        problems.append(Problem(f"unknown method '{method}'{did_you_mean(method, METHODS, 0.5)}; "
-                                f"choose one of {', '.join(METHODS)}", key="method"))
-    if backend not in BACKENDS:
-        problems.append(Problem(f"unknown backend '{backend}'{did_you_mean(backend, BACKENDS, 0.5)}; "
-                                f"choose one of {', '.join(BACKENDS)}", key="backend"))
-    elif method == "variational" and backend == "scipy":
-        problems.append(Problem("method 'variational' runs in compiled code only: use backend='auto' or "
-                                "'numba' (--backend numba), or a SciPy method with backend='scipy'", key="backend"))
-    if step is not None and number_problem(step, "step", positive=True):
-        problems.append(Problem(number_problem(step, "step", positive=True), key="step"))
-    if max_step != math.inf and number_problem(max_step, "max_step", positive=True):  # inf: no limit (the default)
-        problems.append(Problem(number_problem(max_step, "max_step", positive=True) + " (or math.inf: no limit)",
-                                key="max_step"))
-    p = _parameters(nm, params, problems)
-    x0 = _initial_state(nm, defaults.get("initial") if initial is None else initial, problems)
-    u_of, u_exprs = _input_function(nm, defaults.get("inputs") if inputs is None else inputs, p, problems)
-    sample_time = defaults.get("sample_time") if sample_time is None else sample_time
-    sampling = sample_times(sample_time, nm.input_names, t_end if isinstance(t_end, numbers.Real) else None,
-                            problems)
-    if sample_time is not None and method == "variational":
-        problems.append(Problem("method 'variational' does not sample inputs: use method='DOP853' with "
-                                "sample_time", key="sample_time"))
-    if method == "variational":
-        if t_eval is not None:
-            problems.append(Problem("method 'variational' outputs every dt: pass dt=... (--dt) instead of "
-                                    "t_eval", key="t_eval"))
-        if u_exprs is None:
-            problems.append(Problem("method 'variational' runs in compiled code, which cannot call a Python "
-                                    "function: give each input as an expression string such as "
-                                    "'1.5*sin(3*t)'", key="inputs"))
-        if any(set(e.free_symbols) & set(nm.equations.core.qd) for e in nm.equations.core.M):
-            problems.append(Problem("method 'variational' needs T* quadratic in the velocities (M free of "
-                                    "q_dot); use method='DOP853'", key="method"))
-    event_exprs = _event_expressions(nm, events, stop_on, problems)
-    if constraints not in ("project", "eliminate"):
-        problems.append(Problem(f"constraints must be 'project' or 'eliminate', got {constraints!r}",
-                                key="constraints"))
-    elif constraints == "eliminate":
-        _elimination_problems(nm.equations, method, problems)
-    if nm.equations.is_constrained:
-        _constrained_problems(nm, method, event_exprs, sample_time, problems)
-    if event_exprs and method != "DOP853":
-        problems.append(Problem(f"events are watched by the compiled DOP853 only, not by method '{method}'",
-                                key="events"))
-    problems += _work_problems(t_end, dt, t_eval, step, method)
-    if problems:
-        raise ModelError(problems)
-
-    times = requested_times(t_end, dt, t_eval)
     eq = nm.equations
+    opts = (options or SimulationOptions.from_model(eq.model)).merged(
+        t_end=t_end, initial=initial, inputs=inputs, params=params, dt=dt, t_eval=t_eval, rtol=rtol, atol=atol,
+        method=method, max_step=max_step, backend=backend, step=step, events=events, stop_on=stop_on,
+        progress=progress, sample_time=sample_time, constraints=constraints)
+    run = _prepare(nm, opts)
     if eq.is_constrained:
-        return _simulate_constrained(nm, x0, times, p, u_of, float(rtol), float(atol), max_step, method,
-                                     initial, defaults.get("initial"), backend, u_exprs, progress, constraints)
-    fast = _compiled_model(nm, backend, method, u_exprs)
+        return _simulate_constrained(nm, run.x0, run.times, run.p, run.u_of, float(opts.rtol), float(opts.atol),
+                                     opts.max_step, run.solver.name, opts.given,
+                                     (eq.model.simulation or {}).get("initial"), opts.backend, run.u_exprs,
+                                     opts.progress, opts.constraints)
+    fast = _compiled_model(nm, opts.backend, run.solver, run.u_exprs)
     if fast is not None:
-        return _simulate_compiled(fast, method, x0, times, p, u_exprs, float(rtol), float(atol), max_step,
-                                  float(dt), step, event_exprs, tuple(stop_on), progress, sampling)
-    if event_exprs:
+        return _simulate_compiled(fast, run, opts)
+    if run.event_exprs:
         raise ModelError("events are watched by the compiled integrators: give inputs as expression strings "
                          "and use backend='auto', 'numba' or 'c'")
-    if not isinstance(nm, NumericModel):
-        nm = compile_equations(eq)
-    from scipy.integrate import solve_ivp
-    nfev = 0
+    return _simulate_scipy(nm if isinstance(nm, NumericModel) else compile_equations(eq), run, opts)
 
-    last = [None, None, 1.0]  # t, x and inertia measure of the latest right-hand side
+
+@dataclass(frozen=True)
+class _Run:
+    """What simulate() runs, checked against the model: the solver, the output times, the parameter
+    values, the initial state, the inputs (a Python function and, for compiled code, expressions),
+    the sampled inputs and the event functions."""
+
+    solver: Solver
+    times: np.ndarray
+    p: np.ndarray
+    x0: np.ndarray
+    u_of: Callable
+    u_exprs: list | None
+    sampling: object
+    event_exprs: dict
+
+
+def _prepare(nm, opts: SimulationOptions) -> _Run:
+    """The options checked against the model, every problem at once (ModelError), as a _Run."""
+    eq = nm.equations
+    problems = opts.problems()
+    solver = solver_of(opts.method, opts.step, problems)
+    if opts.backend not in BACKENDS:
+        problems.append(Problem(f"unknown backend '{opts.backend}'{did_you_mean(str(opts.backend), BACKENDS, 0.5)}; "
+                                f"choose one of {', '.join(BACKENDS)}", key="backend"))
+    problems += opts.step_problems()
+    p = _parameters(nm, opts.params, problems)
+    x0 = _initial_state(nm, opts.initial, problems)
+    u_of, u_exprs = _input_function(nm, opts.inputs, p, problems)
+    t_end = opts.t_end if isinstance(opts.t_end, numbers.Real) else None
+    sampling = sample_times(opts.sample_time, nm.input_names, t_end, problems)
+    event_exprs = _event_expressions(nm, opts.events, opts.stop_on, problems)
+    name = solver.name if solver is not None else str(opts.method)
+    if solver is not None:
+        problems += solver.problems(
+            backend=opts.backend if opts.backend in BACKENDS else "auto", sample_time=opts.sample_time,
+            t_eval=opts.t_eval, callable_inputs=u_exprs is None, events=bool(event_exprs),
+            velocity_dependent_mass=isinstance(solver, Variational) and any(
+                set(e.free_symbols) & set(eq.core.qd) for e in eq.core.M))
+    constraint_problems = opts.constraints_problems()
+    problems += constraint_problems
+    if not constraint_problems and opts.constraints == "eliminate":
+        _elimination_problems(eq, name, problems)
+    if eq.is_constrained and not constraint_problems:
+        _constrained_problems(nm, name, event_exprs, opts.sample_time, problems)
+    problems += _work_problems(opts.t_end, opts.dt, opts.t_eval, opts.step, name)
+    if problems:
+        raise ModelError(problems)
+    return _Run(solver, requested_times(opts.t_end, opts.dt, opts.t_eval), p, x0, u_of, u_exprs, sampling,
+                event_exprs)
+
+
+def _simulate_scipy(nm: NumericModel, run: _Run, opts: SimulationOptions) -> Trajectory:
+    """The run on SciPy's solve_ivp calling the portable NumPy functions, the singular-mass-matrix
+    event watched (and the sampled inputs held, one solve_ivp from one sample instant to the next)."""
+    from scipy.integrate import solve_ivp
+
     from .._progress import Progress
 
-    bar = Progress(1000, "simulating", enabled=progress)
+    times, p, x0, u_of, sampling = run.times, run.p, run.x0, run.u_of, run.sampling
+    nfev = 0
+    last = [None, None, 1.0]  # t, x and inertia measure of the latest right-hand side
+    bar = Progress(1000, "simulating", enabled=opts.progress)
     per_time = 1000 / float(times[-1]) if times[-1] > 0 else 0.0
-
     m = len(nm.input_names)
     held = np.zeros(m)
     hold = sampling.hold[:m].astype(bool) if sampling is not None else np.zeros(m, bool)
@@ -500,6 +500,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     near_singular.terminal = True
     near_singular.direction = -1
     history = np.zeros((len(sampling.samples) if sampling is not None else 0, m))
+    method, rtol, atol, max_step = run.solver.name, opts.rtol, opts.atol, opts.max_step
     try:
         if times[-1] == 0:  # t_end < dt: the initial state is the whole output
             if sampling is not None:
@@ -513,56 +514,45 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
             sol = _solve_sampled(solve_ivp, rhs, near_singular, u_of, held, history, sampling, x0, times,
                                  method=method, rtol=rtol, atol=atol, max_step=max_step)
     except _Singular as s:
-        raise _singular_error(nm, s.t, s.x, s.ratio, p) from None
+        raise failure(nm, Status.SINGULAR_MASS_MATRIX, s.t, s.x, s.ratio, p) from None
     except _NotFinite as s:
-        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {float(s.t):.6g} in the state "
-                              f"{_state_text(nm, s.x)}: check the model's parameters and expressions "
-                              "(a division by zero, a log or sqrt of a negative number)", status=-1,
-                              time=float(s.t)) from None
+        raise failure(nm, Status.FORCING_NOT_FINITE, s.t, s.x, None, p) from None
     finally:
         bar.close()
-    def trajectory(t, x, failure=None) -> Trajectory:
+
+    def trajectory(t, x, status, failure=None) -> Trajectory:
         U = np.array([u_of(ti, xi) for ti, xi in zip(t, x)]).reshape(len(t), m)
         if sampling is not None:
             U[:, hold] = held_inputs(sampling, history, t)[:, hold]
-        energy = name = None
-        if not eq.explicit_time:
-            energy = np.array([nm.energy(ti, xi, ui, p) for ti, xi, ui in zip(t, x, U)])
-            name = "energy" if _is_natural(eq) else "jacobi_integral"
+        energy = None if nm.equations.explicit_time else [nm.energy(ti, xi, ui, p) for ti, xi, ui in zip(t, x, U)]
         stats = {"backend": "scipy", "method": method, "nfev": nfev}
         if sampling is not None:
             stats["samples"] = int(np.searchsorted(sampling.samples, t[-1], side="right"))
-        return Trajectory(t, x, nm.state_names, U, nm.input_names, energy, name,
-                          eq.is_conservative, dict(zip(nm.parameter_names, map(float, p))), nfev, sol.message,
-                          stats=stats, model=eq.model, failure=failure)
+        return run_trajectory(nm.equations, t, x, U, p, energy=energy, stats=stats, status=status,
+                              message=sol.message, failure=failure)
 
-    try:
-        if sol.status == -1 and last[0] is not None:  # where the step size collapsed: M lost its inertia?
-            kept = _inertia_kept(nm, x0, last[0], last[1], p)
-            if kept < _KEPT_INERTIA:
-                raise _singular_error(nm, last[0], last[1], last[2], p, kept=kept)
-        if sol.status == 1 or (sol.status == -1 and len(sol.t) and _last_ratio(nm, sol, u_at, p) < 1e-6):
-            if sol.status == 1 and len(sol.t_events[0]):
-                te, xe = sol.t_events[0][0], sol.y_events[0][0]
-            else:
-                te, xe = _last_state(sol)
-            raise _singular_error(nm, te, xe, nm.singular_ratio(te, xe, u_at(te, xe), p), p)
-        if sol.status != 0:  # (no output yet when the first step failed: the start)
+    error = None
+    if sol.status == -1 and last[0] is not None:  # where the step size collapsed: M lost its inertia?
+        kept = _inertia_kept(nm, x0, last[0], last[1], p)
+        if kept < _KEPT_INERTIA:
+            error = failure(nm, Status.STEP_TOO_SMALL, last[0], last[1], last[2], p, kept=kept)
+    if error is None and sol.status != 0:
+        if sol.status == 1 and len(sol.t_events[0]):
+            te, xe = sol.t_events[0][0], sol.y_events[0][0]
+        else:  # (no output yet when the first step failed: the start)
             te, xe = _last_state(sol) if len(sol.t) else (float(times[0]), x0)
-            raise SimulationError(f"the integrator stopped at t = {te:.6g}: {sol.message} "
-                                  f"(state {_state_text(nm, xe)}); try a smaller rtol/atol, a stiff method "
-                                  "such as method='Radau', or check the model's parameters",
-                                  status=sol.status, time=te)
-    except (SimulationError, SingularMassMatrixError) as exc:
+        measure = nm.singular_ratio(te, xe, u_at(te, xe), p) if sol.status == 1 or len(sol.t) else None
+        error = failure(nm, sol.status, te, xe, measure, p, message=sol.message)
+    if error is not None:
         # the output times reached: solve_ivp's t_eval points before the failure (none when its first step failed)
         reached = _finite_rows(sol.y.T) if len(sol.t) else 0
         if reached:
-            exc.partial = trajectory(sol.t[:reached], sol.y.T[:reached], failure=str(exc))
-        raise
+            error.partial = trajectory(sol.t[:reached], sol.y.T[:reached], error.status if isinstance(
+                error, SimulationError) else Status.SINGULAR_MASS_MATRIX, failure=str(error))
+        raise error
     if not np.all(np.isfinite(sol.y)):
-        raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
-                              "and initial state", status=-1)
-    return trajectory(sol.t, sol.y.T)
+        raise failure(nm, Status.SOLUTION_NOT_FINITE, None, None, None, p)
+    return trajectory(sol.t, sol.y.T, Status.SUCCESS)
 
 
 def _solve_sampled(solve_ivp, rhs, near_singular, u_of, held, history, sampling, x0, times, **options):
@@ -616,26 +606,9 @@ class _Initial:
         self.t_events = [np.zeros(0)]
 
 
-_NATURAL: "weakref.WeakKeyDictionary[Equations, bool]" = weakref.WeakKeyDictionary()
-
-
-def _is_natural(eq: Equations) -> bool:
-    """T* = T2: no terms of degree 1 or 0 in the velocities."""
-    if eq not in _NATURAL:
-        zero = {v: 0 for v in eq.core.qd}
-        T = eq.core.T
-        _NATURAL[eq] = T.subs(zero) == 0 and all(T.diff(v).subs(zero) == 0 for v in eq.core.qd)
-    return _NATURAL[eq]
-
-
 def _last_state(sol):
     # solve_ivp's t_eval output may stop short of where the integrator failed; use its last point.
     return float(sol.t[-1]), sol.y[:, -1]
-
-
-def _last_ratio(nm, sol, u_at, p) -> float:
-    te, xe = _last_state(sol)
-    return nm.singular_ratio(te, xe, u_at(te, xe), p)
 
 
 def _state_text(nm: NumericModel, x) -> str:
@@ -677,11 +650,13 @@ def _singular_error(nm: NumericModel, t, x, ratio, p, kept: float | None = None)
     return SingularMassMatrixError(msg, time=float(t), state=state, diagnosis=diagnosis)
 
 
-def _compiled_model(nm, backend: str, method: str, u_exprs):
-    """The CompiledModel to integrate with, or None for the SciPy path."""
+def _compiled_model(nm, backend: str, method: "str | Solver", u_exprs):
+    """The CompiledModel to integrate with, or None for the SciPy path (a solver that does not
+    run compiled, backend "scipy", or "auto" with inputs compiled code cannot take)."""
+    solver = solver_of(method)
     if isinstance(nm, NumericModel) or backend == "scipy":
         return None
-    if method not in COMPILED_METHODS:
+    if not solver.compiled:
         return None  # SciPy's other methods
     if isinstance(nm, CompiledModel):
         if backend in ("auto", nm.backend):
@@ -690,7 +665,7 @@ def _compiled_model(nm, backend: str, method: str, u_exprs):
             return nm
         nm = _Names(nm.equations)
     from ._codegen import Unsupported
-    from ._inputs import NotCompilable, programs
+    from ._inputs import NotCompilable
 
     try:
         if u_exprs is None:
@@ -698,7 +673,7 @@ def _compiled_model(nm, backend: str, method: str, u_exprs):
         _input_programs(nm.equations, u_exprs)
         return compile_equations(nm.equations, backend="numba" if backend == "auto" else backend)
     except (Unsupported, NotCompilable) as exc:
-        if backend == "auto" and method != "variational":
+        if backend == "auto" and solver.scipy:
             return None
         raise ModelError(f"backend '{backend}' cannot run this model: {exc}; use backend='scipy'") from None
 
@@ -743,56 +718,53 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
     return out
 
 
-def _simulate_compiled(cm: CompiledModel, method, x0, times, p, u_exprs, rtol, atol, max_step, dt,
-                       step, event_exprs=None, stop_on=(), progress=None, sampling=None) -> Trajectory:
+def _simulate_compiled(cm: CompiledModel, run: _Run, opts: SimulationOptions) -> Trajectory:
+    """The run in compiled code: DOP853 (events and sampled inputs included) or the variational
+    integrator."""
     from ._fast import run_dop853, run_variational
     from ._inputs import programs
 
     eq = cm.equations
-    prog = _input_programs(eq, u_exprs)
-    if method == "variational":
-        every = max(1, math.ceil(dt / (step if step is not None else min(dt, 1e-3)) - 1e-9))
-        h = dt / every
-        raw = run_variational(cm, x0, h, every * (len(times) - 1), every, p, prog)
+    solver, times, p, x0, sampling, event_exprs = run.solver, run.times, run.p, run.x0, run.sampling, run.event_exprs
+    prog = _input_programs(eq, run.u_exprs)
+    if isinstance(solver, Variational):
+        every = solver.steps(float(opts.dt))
+        raw = run_variational(cm, x0, float(opts.dt) / every, every * (len(times) - 1), every, p, prog)
     else:
         eprog, terminal = None, ()
         if event_exprs:
             eprog = programs(list(event_exprs.values()), eq.t, list(eq.parameters),
                              states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs, switches=False)
-            terminal = [int(name in stop_on) for name in event_exprs]
-        raw = run_dop853(cm, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal,
-                         progress=progress, sampling=sampling)
-    try:
-        _raise_failure(cm, raw, p, x0)
-    except (SimulationError, SingularMassMatrixError) as exc:
+            terminal = [int(name in opts.stop_on) for name in event_exprs]
+        raw = run_dop853(cm, x0, times, p, prog, float(opts.rtol), float(opts.atol), opts.max_step, events=eprog,
+                         terminal=terminal, progress=opts.progress, sampling=sampling)
+    error = failure(cm, raw.status, raw.stop_t, raw.stop_x, raw.stop_measure, p, x0=x0)
+    if error is not None:
         reached = _finite_rows(raw.x[:len(raw.t)])
         if reached:
-            exc.partial = _compiled_trajectory(cm, method, times[:reached], raw, p, prog, sampling,
-                                               {"backend": cm.backend, "method": method, "nfev": raw.nfev},
-                                               failure=str(exc))
-        raise
-    stats = {"backend": cm.backend, "method": method, "nfev": raw.nfev, "nstep": raw.nstep,
+            error.partial = _compiled_trajectory(cm, solver.name, times[:reached], raw, p, prog, sampling,
+                                                 {"backend": cm.backend, "method": solver.name, "nfev": raw.nfev},
+                                                 failure=str(error))
+        raise error
+    stats = {"backend": cm.backend, "method": solver.name, "nfev": raw.nfev, "nstep": raw.nstep,
              "nreject": raw.nreject}
     if prog.nswitch:
         stats["switches"] = raw.nswitch
     found = {}
     if event_exprs:
         names = list(event_exprs)
-        stop_t = raw.stop_t if raw.status == 4 else math.inf
+        stop_t = raw.stop_t if raw.status == Status.EVENT_STOP else math.inf
         keep = raw.event_t <= stop_t
         for k, name in enumerate(names):
             sel = keep & (raw.event_k == k)
             found[name] = {"t": read_only(raw.event_t[sel], float), "x": read_only(raw.event_x[sel], float)}
-        if raw.status == 4:
+        if raw.status == Status.EVENT_STOP:
             stats["stopped_by"] = names[int(raw.stop_measure)]
             stats["stop_time"] = raw.stop_t
             times = times[: len(raw.t)]
-    elif raw.status == 4:  # pragma: no cover - no events, no event stop
-        raise SimulationError("an event stopped the integration", status=4, time=raw.stop_t)
     if not np.all(np.isfinite(raw.x)):
-        raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
-                              "and initial state", status=-1)
-    return _compiled_trajectory(cm, method, times, raw, p, prog, sampling, stats, found)
+        raise failure(cm, Status.SOLUTION_NOT_FINITE, None, None, None, p)
+    return _compiled_trajectory(cm, solver.name, times, raw, p, prog, sampling, stats, found)
 
 
 def _compiled_trajectory(cm: CompiledModel, method, times, raw, p, prog, sampling, stats, events=None,
@@ -800,9 +772,7 @@ def _compiled_trajectory(cm: CompiledModel, method, times, raw, p, prog, samplin
     """The Trajectory of a compiled run's output rows at `times` (all of them, or those before a
     failure, whose message is `failure`)."""
     from ._fast import inputs_and_energy
-    from ._kernels import STATUS
 
-    eq = cm.equations
     held = None
     if sampling is not None:
         U0 = np.zeros((len(times), len(cm.input_names)))
@@ -810,14 +780,8 @@ def _compiled_trajectory(cm: CompiledModel, method, times, raw, p, prog, samplin
         held = (sampling.hold, U0)
         stats["samples"] = int(np.searchsorted(sampling.samples, times[-1], side="right"))
     U, energy = inputs_and_energy(cm, times, raw.x[:len(times)], p, prog, held)
-    name = None
-    if eq.explicit_time:
-        energy = None
-    else:
-        name = "energy" if _is_natural(eq) else "jacobi_integral"
-    return Trajectory(times, raw.x[:len(times)], cm.state_names, U, cm.input_names, energy, name, eq.is_conservative,
-                      dict(zip(cm.parameter_names, map(float, p))), raw.nfev, STATUS[raw.status], stats=stats,
-                      model=eq.model, events=events or {}, failure=failure)
+    return run_trajectory(cm.equations, times, raw.x[:len(times)], U, p, energy=energy, stats=stats,
+                          status=raw.status, events=events, failure=failure)
 
 
 def _finite_rows(x: np.ndarray) -> int:
@@ -826,38 +790,46 @@ def _finite_rows(x: np.ndarray) -> int:
     return int(np.argmax(bad)) if bad.any() else len(x)
 
 
-def _raise_failure(cm: CompiledModel, raw, p, x0) -> None:
-    """The error of a compiled run that stopped before its end (nothing for a complete run or an
-    event's stop)."""
-    from ._kernels import STATUS
+def failure(nm, status, t, x, measure, p, *, x0=None, kept: float | None = None,
+            message: str | None = None) -> SimulationError | SingularMassMatrixError | None:
+    """The error of a run that ended with `status` (a Status member or its code) at time `t` in the
+    state `x` with the inertia measure `measure` of M there (None: unknown); None for a run that
+    ended as asked (SUCCESS, EVENT_STOP). The one map from a status to an error, for every path:
+    compiled, SciPy (its status 1 is the singular-mass-matrix event, -1 a failed step; `message` its
+    own words) and constrained.
 
-    if raw.status in (1, 2):
-        raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure, p)
-    if raw.status == 3:
-        raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the state "
-                              f"{_state_text(cm, raw.stop_x)}: check the model's parameters and expressions "
-                              "(a division by zero, a log or sqrt of a negative number)", status=-1,
-                              time=raw.stop_t)
-    if raw.status == -3:
-        raise SimulationError(f"the variational integrator stopped at t = {raw.stop_t:.6g}: its implicit midpoint "
-                              f"step did not converge (state {_state_text(cm, raw.stop_x)}); try a smaller step",
-                              status=-1, time=raw.stop_t)
-    if raw.status == 5:
-        raise SimulationError(f"the inputs switch at every step near t = {raw.stop_t:.6g} (the last steps shorter than "
-                              f"{raw.stop_measure:.2g} s, state {_state_text(cm, raw.stop_x)}): the motion slides on a "
-                              "switching surface of the law (a sliding mode, which only infinitely fast switching "
-                              "follows); smooth the switch with a boundary layer, e.g. clip(s/0.01, -1, 1) instead of "
-                              "sign(s), or sample the law (sample_time=...)", status=5, time=raw.stop_t)
-    if raw.status not in (0, 4):
-        if raw.stop_measure < 1e-6:
-            raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure, p)
-        kept = _inertia_kept(cm, x0, raw.stop_t, raw.stop_x, p)
-        if raw.status == -1 and kept < _KEPT_INERTIA:  # the step size collapsed where M lost its inertia
-            raise _singular_error(cm, raw.stop_t, raw.stop_x, raw.stop_measure, p, kept=kept)
-        raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
-                              f"(state {_state_text(cm, raw.stop_x)}); try a smaller rtol/atol, a stiff method "
-                              "such as method='Radau', or check the model's parameters",
-                              status=raw.status, time=raw.stop_t)
+    A failed step where M has (nearly) lost its inertia is the singular-mass-matrix error: the
+    inertia measure below 1e-6, or `kept` (the least inertia M has kept of the start's, computed from
+    `x0` when not given) below _KEPT_INERTIA."""
+    status = Status.of(status)
+    if status in (Status.SUCCESS, Status.EVENT_STOP):
+        return None
+    if status in (Status.SINGULAR_EVENT, Status.SINGULAR_MASS_MATRIX):
+        return _singular_error(nm, t, x, measure, p)
+    if status == Status.SOLUTION_NOT_FINITE:
+        return SimulationError(f"the solution is not finite (NaN or infinity): {status.fix}", status=status)
+    t = float(t)
+    where = f"state {_state_text(nm, x)}"
+    if status == Status.FORCING_NOT_FINITE:
+        return SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {t:.6g} in the {where}: "
+                               f"{status.fix}", status=status, time=t)
+    if status == Status.VARIATIONAL_NOT_CONVERGED:
+        return SimulationError(f"the variational integrator stopped at t = {t:.6g}: its implicit midpoint step did "
+                               f"not converge ({where}); {status.fix}", status=status, time=t)
+    if status == Status.CHATTERING:
+        return SimulationError(f"the inputs switch at every step near t = {t:.6g} (the last steps shorter than "
+                               f"{measure:.2g} s, {where}): the motion slides on a switching surface of the law (a "
+                               f"sliding mode, which only infinitely fast switching follows); {status.fix}",
+                               status=status, time=t)
+    if measure is not None and measure < 1e-6:
+        return _singular_error(nm, t, x, measure, p)
+    if kept is None and x0 is not None and status == Status.STEP_TOO_SMALL:
+        kept = _inertia_kept(nm, x0, t, x, p)
+    if kept is not None and kept < _KEPT_INERTIA:  # the step size collapsed where M lost its inertia
+        return _singular_error(nm, t, x, measure, p, kept=kept)
+    text = message or (status.message if isinstance(status, Status) else f"status {status}")
+    return SimulationError(f"the integrator stopped at t = {t:.6g}: {text} ({where}); {Status.STEP_TOO_SMALL.fix}",
+                           status=status, time=t)
 
 
 def _constrained_problems(nm, method, event_exprs, sample_time, problems) -> None:
@@ -955,15 +927,12 @@ def _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p, failur
     """The Trajectory of a constrained run's output rows at `times` (all of them, or those before a
     failure, whose message is `failure`)."""
     eq = nm.equations
-    energy = name = None
-    if not eq.explicit_time:
-        energy = np.array([nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)])
-        name = "energy" if _is_natural(eq) else "jacobi_integral"
+    energy = None if eq.explicit_time else [nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)]
     stats = {"backend": "scipy" if fast is None else fast.backend, "method": method, **stats}
-    return Trajectory(times, X, nm.state_names, U, nm.input_names, energy, name, eq.is_conservative,
-                      dict(zip(nm.parameter_names, map(float, p))), stats["nfev"], "constrained integration finished"
-                      if failure is None else "stopped", stats=stats, model=eq.model, multipliers=Lam,
-                      multiplier_names=tuple(m.name for m in eq.multipliers), failure=failure)
+    return run_trajectory(eq, times, X, U, p, energy=energy, stats=stats,
+                          status=Status.SUCCESS if failure is None else None,
+                          message="constrained integration finished" if failure is None else "stopped",
+                          failure=failure, multipliers=Lam)
 
 
 def _constrained_partial(nm, cm, fast, method, times, rows, u_of, p, failure: str) -> Trajectory | None:

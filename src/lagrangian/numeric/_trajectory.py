@@ -241,3 +241,27 @@ class Trajectory:
     def __repr__(self) -> str:
         return (f"<Trajectory: {len(self.t)} samples, t in [{self.t[0]:g}, {self.t[-1]:g}], "
                 f"states {', '.join(self.state_names)}>") if len(self.t) else "<Trajectory: empty>"
+
+
+def run_trajectory(equations, t, x, u, p, *, energy=None, stats: dict, status, message: str | None = None,
+                   events: dict | None = None, failure: str | None = None, multipliers=None) -> Trajectory:
+    """The one builder of a simulation's Trajectory: the names, the energy's name (``Equations.
+    energy_name``; no energy column where it is None), whether it is conserved, the parameters by
+    name and ``stats["status"]`` (a :class:`~lagrangian.errors.Status`) from `equations`, the
+    parameter values `p` and the run's `status`; `message` defaults to the status's."""
+    from ..errors import Status
+
+    status = None if status is None else Status.of(status)  # None: a failed run's rows (see `failure`)
+    name = equations.energy_name
+    stats = {**stats, "status": status} if status is not None else dict(stats)
+    return Trajectory(
+        t=t, x=x, state_names=tuple(equations.state_names), u=u,
+        input_names=tuple(s.name for s in equations.inputs),
+        energy=None if name is None or energy is None else np.asarray(energy, float), energy_name=name,
+        conservative=equations.is_conservative,
+        parameters=dict(zip((s.name for s in equations.parameters), map(float, p))),
+        nfev=int(stats.get("nfev", 0)),
+        message=message if message is not None else getattr(status, "message", f"status {status}"),
+        stats=stats, events=events or {}, model=equations.model, multipliers=multipliers,
+        multiplier_names=tuple(m.name for m in equations.multipliers) if multipliers is not None else (),
+        failure=failure)

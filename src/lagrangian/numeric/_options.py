@@ -1,0 +1,178 @@
+"""SimulationOptions: the options of one simulation, built once from the model file and merged with
+the caller's by one rule.
+
+The same rule serves the API (:func:`lagrangian.simulate`, :func:`lagrangian.simulate_batch`), the
+command line (``lagrangian simulate``, ``animate``, ``export``...), the exports and the playground:
+
+* The model file's ``[simulation]`` table gives the defaults (``t_end``, ``dt``, ``rtol``,
+  ``atol``, ``initial``, ``inputs``, ``sample_time``; ``independent`` and ``independent_speeds``
+  for a constrained model); without it, dt = 0.01, rtol = atol = 1e-9 and every initial value and
+  input is 0.
+* **A single value given replaces the model's** (``t_end``, ``dt``, ``rtol``, ``method``...); a
+  value not given (None) keeps it.
+* **A mapping given updates the model's name by name**: ``initial={"th2": 0.5}`` (``--initial
+  th2=0.5``) sets th2 and keeps the model file's other initial values; ``inputs``, ``params``,
+  ``events`` and a ``sample_time`` mapping likewise. A full state array for ``initial`` (shape
+  (2n,)) replaces all of them; a number for ``sample_time`` replaces the model's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace
+from types import MappingProxyType
+from typing import Mapping
+
+from .._limits import number_problem
+from ..errors import Problem
+
+__all__ = ["SimulationOptions", "BY_NAME"]
+
+#: The options whose mappings update the model's name by name (see the module's docstring).
+BY_NAME = ("initial", "inputs", "params", "sample_time", "events")
+#: The defaults when neither the model file nor the caller gives a value.
+DEFAULTS = {"dt": 0.01, "rtol": 1e-9, "atol": 1e-9}
+
+
+def _name(key):
+    return getattr(key, "name", key)
+
+
+def _frozen(mapping: Mapping) -> Mapping:
+    return MappingProxyType({_name(k): v for k, v in mapping.items()})
+
+
+@dataclass(frozen=True)
+class SimulationOptions:
+    """What one simulation is asked to do (see the module's docstring for the merge rule).
+
+    Attributes
+    ----------
+    t_end : float or None
+        Final time (None: not given, an error when simulating).
+    dt : float
+        Output interval, unless `t_eval` gives the output times.
+    t_eval : array_like or None
+        Explicit output times.
+    initial : mapping of str to float, or array_like, shape (2n,)
+        Initial coordinates and velocities by name (others 0), or the whole state.
+    given : mapping, array_like or None
+        The initial values the caller gave on top of the model file's (None: none): a constrained
+        model's consistent initial state keeps these.
+    inputs, params, events : mapping of str
+        Inputs (constants, expressions or functions), parameter values, event functions, by name.
+    sample_time : float, mapping of str to float, or None
+    stop_on : tuple of str
+    method : str or Solver
+    rtol, atol, max_step : float
+    step : float or None
+        The fixed step of method "variational".
+    backend : str
+    constraints : str
+        "project" or "eliminate".
+    progress : bool or None
+    independent, independent_speeds : tuple of str
+        [simulation] independent and independent_speeds of a constrained model.
+    """
+
+    t_end: float | None = None
+    dt: float = DEFAULTS["dt"]
+    t_eval: object = None
+    initial: object = field(default_factory=lambda: MappingProxyType({}))
+    given: object = None
+    inputs: Mapping = field(default_factory=lambda: MappingProxyType({}))
+    params: Mapping = field(default_factory=lambda: MappingProxyType({}))
+    sample_time: object = None
+    events: Mapping = field(default_factory=lambda: MappingProxyType({}))
+    stop_on: tuple = ()
+    method: object = "DOP853"
+    rtol: float = DEFAULTS["rtol"]
+    atol: float = DEFAULTS["atol"]
+    max_step: float = math.inf
+    step: float | None = None
+    backend: str = "auto"
+    constraints: str = "project"
+    progress: bool | None = None
+    independent: tuple = ()
+    independent_speeds: tuple = ()
+
+    @classmethod
+    def from_model(cls, model) -> "SimulationOptions":
+        """The options of the model file's [simulation] table (``model.simulation``), the defaults
+        for what it does not give."""
+        sim = getattr(model, "simulation", None) or {}
+        known = {f.name for f in fields(cls)}
+        values = {k: v for k, v in sim.items() if k in known and v is not None}
+        for key in ("initial", "inputs"):
+            values[key] = _frozen(values.get(key) or {})
+        for key in ("independent", "independent_speeds"):
+            values[key] = tuple(str(v) for v in values.get(key, ()))
+        if isinstance(values.get("sample_time"), Mapping):
+            values["sample_time"] = _frozen(values["sample_time"])
+        return cls(**values)
+
+    def merged(self, **overrides) -> "SimulationOptions":
+        """These options with the caller's: a value given replaces this one, a mapping given for
+        initial, inputs, params, events or sample_time updates this one's name by name (see the
+        module's docstring); None keeps this one. An unknown option is a TypeError."""
+        known = {f.name for f in fields(self)}
+        unknown = sorted(set(overrides) - known)
+        if unknown:
+            raise TypeError(f"unknown simulation option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
+                            f"the options are {', '.join(sorted(known - {'given'}))}")
+        changes = {}
+        for key, value in overrides.items():
+            if value is None:
+                continue
+            if key in BY_NAME and isinstance(value, Mapping):
+                mine = getattr(self, key)
+                base = dict(mine) if isinstance(mine, Mapping) else {}
+                changes[key] = _frozen({**base, **{_name(k): v for k, v in value.items()}})
+                if key == "initial":
+                    given = self.given if isinstance(self.given, Mapping) else {}
+                    changes["given"] = _frozen({**given, **value})
+            elif key == "stop_on":
+                changes[key] = (value,) if isinstance(value, str) else tuple(value)
+            else:
+                changes[key] = value
+                if key == "initial":
+                    changes["given"] = value
+        return replace(self, **changes) if changes else self
+
+    def problems(self) -> list[Problem]:
+        """The problems of the single values (t_end, dt, rtol, atol, step, max_step, constraints),
+        every one at once; the names (initial, inputs, params, events...) are checked against the
+        model by :func:`lagrangian.simulate`."""
+        out = []
+        t_end = self.t_end
+        if t_end is None:
+            out.append(Problem("t_end is needed: pass t_end=... (--t-end on the command line) or set "
+                               "t_end under [simulation] in the model file", key="t_end"))
+        elif number_problem(t_end, "t_end", positive=True):  # the CLI's rule (lagrangian._limits)
+            out.append(Problem(number_problem(t_end, "t_end", positive=True), key="t_end"))
+        if number_problem(self.dt, "dt", positive=True):
+            out.append(Problem(number_problem(self.dt, "dt", positive=True), key="dt"))
+        rtol_problem = number_problem(self.rtol, "rtol", positive=True, maximum=1.0,
+                                      example="rtol=1e-9 (--rtol 1e-9)")
+        if rtol_problem:
+            out.append(Problem(rtol_problem, key="rtol"))
+        if number_problem(self.atol, "atol", positive=True):
+            out.append(Problem(number_problem(self.atol, "atol", positive=True) + " (with atol = 0 a state "
+                               "component that passes through zero cannot be controlled)", key="atol"))
+        return out
+
+    def step_problems(self) -> list[Problem]:
+        """The problems of step and max_step (after the method's and the backend's, as reported)."""
+        out = []
+        if self.step is not None and number_problem(self.step, "step", positive=True):
+            out.append(Problem(number_problem(self.step, "step", positive=True), key="step"))
+        if self.max_step != math.inf and number_problem(self.max_step, "max_step", positive=True):
+            out.append(Problem(number_problem(self.max_step, "max_step", positive=True) + " (or math.inf: no limit)",
+                               key="max_step"))
+        return out
+
+    def constraints_problems(self) -> list[Problem]:
+        if self.constraints not in ("project", "eliminate"):
+            return [Problem(f"constraints must be 'project' or 'eliminate', got {self.constraints!r}",
+                            key="constraints")]
+        return []
