@@ -180,8 +180,11 @@ def test_errors_of_constrained_models():
     with pytest.raises(lg.ModelError, match=r"the configuration x = 1, y = 0 is not at rest: the constrained "
                                             r"accelerations there are .*y_ddot"):
         lg.linearize(cartesian, {"x": 1.0, "y": 0.0})
-    with pytest.raises(lg.ModelError, match=r"events are not watched in a constrained model's simulation"):
-        lg.simulate(cartesian, t_end=1.0, events={"e": "x"})
+    # events are watched (tests/test_constrained_simulation.py): the bob crosses x = 0 every half period
+    tr = lg.simulate(cartesian, t_end=3.0, initial={"x": 0.6}, events={"e": "x"}, rtol=1e-11, atol=1e-11)
+    crossings = tr.events["e"]["t"]
+    assert len(crossings) == 2 and np.allclose(tr.events["e"]["x"][:, 0], 0.0, atol=1e-12)
+    assert crossings[1] - crossings[0] == pytest.approx(2 * crossings[0], rel=1e-8)  # from x = 0.6 at rest: T/4, 3T/4
     with pytest.raises(lg.ModelError, match=r"the initial coordinates do not meet constraint 'rod' .*give fewer "
                                             r"coordinates"):
         lg.simulate(cartesian, t_end=1.0, initial={"x": 2.0, "y": 0.0})
@@ -219,15 +222,15 @@ def test_every_refusal_of_a_constrained_model_says_what_to_do_instead(tmp_path):
         lg.steady_motions(cartesian, {"x_dot": 1.0})  # steady motions are searched; x cannot move steadily
     with pytest.raises(lg.ModelError, match=r"the continuation of equilibria " + says):
         lg.continuation(cartesian, "g", [1.0, 2.0])
-    with pytest.raises(lg.ModelError, match=r"simulate_batch " + says + r"simulate its runs one by one"):
-        lg.simulate_batch(cartesian, 1.0, params={"g": [9.0, 10.0]})
+    batch = lg.simulate_batch(cartesian, 1.0, params={"g": [9.0, 10.0]})  # no refusal: projected per run
+    assert batch.ok.all() and np.max(np.abs(np.hypot(batch["x"], batch["y"]) - 1.0)) < 1e-12
     with pytest.raises(lg.ModelError, match=r"the exact \(symbolic\) linearization " + says + "its numeric"):
         lg.linearize(cartesian, {"x": 0.0, "y": -1.0}).symbolic()
     with pytest.raises(lg.ModelError, match=r"method 'variational' does not integrate constrained models: use "
                                             r"method='DOP853'"):
         lg.simulate(cartesian, t_end=1.0, method="variational")
-    with pytest.raises(lg.ModelError, match=r"sampled inputs \(sample_time\) are not held in a constrained model's "
-                                            r"simulation"):
+    # sampled inputs are held (tests/test_constrained_simulation.py); this model has no input to sample
+    with pytest.raises(lg.ModelError, match=r"sample_time is given but the model has no inputs to sample"):
         lg.simulate(cartesian, t_end=1.0, sample_time=0.1)
 
 

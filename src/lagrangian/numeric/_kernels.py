@@ -629,8 +629,8 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
     held = np.zeros(max(1, nin))
     stack = np.empty(nstack)
     work = np.empty(max(nwork, n * n + 2 * n))
-    drift = np.zeros(2)
-    pdr = _ptr(drift, 0)
+    drift = np.zeros(2)  # (passed as _ptr(drift, 0) at each call: a pointer taken once does not keep the array
+    # alive, and numba frees an array after its last use, so the projection wrote into whatever reused it)
     nsw = switch_count(ops, args)
     modes = np.zeros(max(1, nsw))
     mlive = np.zeros(max(1, nsw))
@@ -902,13 +902,13 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
             for jj in range(j0, j):
                 for i in range(nx):
                     xs[i] = X_out[jj, i]
-                _vf(proj, t_out[jj], pxs, pu, pp, pw, pdr)
+                _vf(proj, t_out[jj], pxs, pu, pp, pw, _ptr(drift, 0))
                 for i in range(nx):
                     X_out[jj, i] = xs[i]
             # the next step starts from the projected state with the derivative of the step's end (first
             # same as last): they differ by the projection's correction, of the size of the local error,
             # so the stale derivative adds an error h L |correction|, of higher order than the step's
-            _vf(proj, tnew, _ptr(ynew, 0), pu, pp, pw, pdr)
+            _vf(proj, tnew, _ptr(ynew, 0), pu, pp, pw, _ptr(drift, 0))
         stats[3] = j  # outputs done so far: read by a progress bar while this runs without the GIL
         if si < ns and tnew >= samples[si]:  # a sample instant: new held inputs, a new f there
             _sample(tnew, ynew, p, ops, args, starts, stack, u, modes, hold, held, which, hist, si)
@@ -940,8 +940,9 @@ def dop853(rc, n, x0, t0, t_out, p, ops, args, starts, nstack, rtol, atol, max_s
 
 @njit(cache=True, parallel=True)
 def dop853_batch(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol, max_step, X_out,
-                 INFO, STATS, STATUS, aptr, aidx, aval, cc):
-    """dop853 for each row of X0 (initial states) and P (parameters), in parallel."""
+                 INFO, STATS, STATUS, aptr, aidx, aval, cc, proj=0, nwork=0):
+    """dop853 for each row of X0 (initial states) and P (parameters), in parallel; `proj`, `nwork`:
+    a constrained model's projection and work size, as dop853 takes them."""
     for b in prange(X0.shape[0]):
         ei = np.zeros(1, np.int64)
         ef = np.zeros(1)
@@ -949,7 +950,7 @@ def dop853_batch(rc, n, X0, t0, t_out, P, ops, args, starts, nstack, rtol, atol,
                            max_step, 0.0, X_out[b], INFO[b], STATS[b], aptr, aidx, aval, cc, ei, ef, ei, ei,
                            ef, ei, np.zeros((1, 2 * n)), np.zeros(1, np.int64),
                            np.zeros(max(1, starts.shape[0] - 1), np.int64), np.zeros(0), np.zeros((1, 1), np.int64),
-                           np.zeros((1, max(1, starts.shape[0] - 1))), 0, 0)
+                           np.zeros((1, max(1, starts.shape[0] - 1))), proj, nwork)
 
 
 @njit(cache=True)
