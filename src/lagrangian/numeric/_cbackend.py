@@ -1,4 +1,5 @@
-"""The C backend: the model's functions generated in C (see _codegen.c_source), compiled by the
+"""The C backend: the model's functions generated in C (see _codegen.c_source; a constrained
+model's saddle-point right-hand side and projection from _codegen_constrained), compiled by the
 system's C compiler into a shared library in the cache directory, and loaded with cffi. The
 compiled integrators (the same numba kernels as the numba backend) call them through their
 addresses, so no Python runs per step either way.
@@ -50,7 +51,13 @@ def compile_c(equations: Equations):
     cc = c_compiler()
     if cc is None:
         raise ModelError("backend 'c' needs a C compiler: install gcc (or set $CC), or use backend='numba'")
-    source = c_source(equations)
+    source, declarations = c_source(equations), C_DECLARATIONS
+    if equations.is_constrained:  # the saddle-point rhs and the projection, from numba's template
+        from ._codegen_constrained import C_DECLARATIONS as constrained_declarations
+        from ._codegen_constrained import constrained_c
+
+        source += "\n" + constrained_c(equations)
+        declarations += constrained_declarations
     key = source_key(source, "c", cc, *_FLAGS)
     folder = cache_dir()
     src = folder / f"lagrangian_c_{key}.c"
@@ -67,7 +74,7 @@ def compile_c(equations: Equations):
                              "use backend='numba'")
         os.replace(tmp, lib_path)
     ffi = cffi.FFI()
-    ffi.cdef(C_DECLARATIONS)
+    ffi.cdef(declarations)
     try:
         lib = ffi.dlopen(str(lib_path))
     except OSError:  # a broken entry is removed, never reused
@@ -76,7 +83,8 @@ def compile_c(equations: Equations):
     values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
     cm = CompiledModel(equations, "c", equations.state_names, tuple(u.name for u in equations.inputs),
                        tuple(p.name for p in equations.parameters), values, str(src), key,
-                       lib.lg_rhs, lib.lg_energy)
+                       lib.lg_constrained_rhs if equations.is_constrained else lib.lg_rhs, lib.lg_energy,
+                       lib.lg_project if equations.is_constrained else None)
     per["c-second"] = types.SimpleNamespace(mass_forcing=lib.lg_mass_forcing,
                                             lagrange_parts=lib.lg_lagrange_parts, _keep=(ffi, lib))
     with _LOCK:

@@ -1,373 +1,525 @@
-"""The compiled functions of a constrained model (numba): the saddle-point right-hand side and the
-projection onto the constraints, for the DOP853 kernel of _kernels.py.
+"""The saddle-point solve and the projection onto the constraints, written once and emitted for
+numba and for C (the numba module's ``rhs`` and ``project``, the C backend's and export_c's);
+:class:`lagrangian.numeric._constrained.ConstrainedModel` transcribes the same steps in NumPy.
 
-``rhs(t, x, u, p, dx, work)`` evaluates M (lower triangle), f, the constraint Jacobian G and c of
-G q_ddot = c, and solves M q_ddot = f + G^T lambda, G q_ddot = c by the Schur complement: the LDL^T
-factors of M give a = M^-1 f and Y = M^-1 G^T, then S = G Y (m x m, symmetric positive definite while
-G has full rank) is factorized by Cholesky and S lambda = c - G a gives lambda, q_ddot = a + Y lambda.
-It returns min(the inertia measure of M, sqrt of the smallest pivot of S relative to its diagonal):
-near 0 where M is singular or the constraints become dependent (a dead point), which the kernel
-stops at as it does for a singular M.
+The algorithm (the range-space method, Nocedal and Wright 16.2; Golub and Van Loan 12.1).
+M q_ddot = f + G^T lambda, G q_ddot = c, that is
 
-``project(t, x, u, p, work, drift)`` moves x onto the constraints as ConstrainedModel.project does:
-the coordinates onto the holonomic g = 0 by Gauss-Newton steps with the smallest change
-(q -= G^T (G G^T)^-1 g), the velocities onto G q_dot + b = 0 with the smallest change of kinetic
-energy (q_dot -= M^-1 G^T (G M^-1 G^T)^-1 w); drift[0], drift[1] receive the largest |g| and |w|
-met before projecting. The kernel calls it after every accepted step.
+    [ M   G^T ] [ q_ddot  ]   [ f ]
+    [ G    0  ] [ -lambda ] = [ c ],
 
-The work array holds, in order: M (n*n, lower triangle row-major), f (n), G (m*n), c (m), the
-factor's diagonal (n), a (n), Y (n*m), S (m*m), the right-hand side of S (m), and scratch (n + m).
+with M symmetric positive definite on a mechanism (the kinetic energy):
+
+1. M = L D L^T (unit lower L, no pivoting: M is positive definite). Its *inertia measure*
+   r_M = min_j D_j / M_jj is 1 for a diagonal M and 0 for a singular one: the unconstrained solve's.
+2. Z = L^-1 G^T, and the QR factorization Z = Q R by modified Gram-Schmidt in the metric D^-1
+   (Q^T D^-1 Q = I), so that R^T R = Z^T D^-1 Z = G M^-1 G^T = S, the Schur complement, without
+   forming S: its *rank measure* rho_G = min_k R_kk / max_k |z_k| (|z_k| the length of column k
+   before orthogonalization) is the sine of the angle between a constraint's direction and those
+   of the constraints before it, in the kinetic-energy metric: 1 for independent orthogonal
+   constraints, 0 for dependent ones (a dead point) or a constraint whose gradient vanishes while
+   another's does not. S's own Cholesky pivots are its square (their cosine is lost to round-off
+   at rho_G ~ 1e-8), rho_G is resolved down to round-off (1e-16): the thresholds below sit four
+   orders of magnitude above it, so that every backend decides the same way.
+3. a = M^-1 f (L, D), w = R^-T (c - G a), lambda = R^-1 w, q_ddot = a + L^-T D^-1 Q w.
+
+The *measure* is min(r_M, rho_G) (r_M alone at m = 0: then steps 2 and 3 vanish and this is the
+unconstrained solve). The compiled DOP853 stops at once where it is at most SINGULAR_RATIO and
+locates the crossing of EVENT_RATIO (numeric._kernels); the SciPy path does the same. Which of the
+two measures fell tells a singular M from dependent constraints.
+
+The projection after a step: the coordinates onto the holonomic g(q, t) = 0 by at most
+PROJECTION_STEPS Gauss-Newton steps of the smallest change, q -= G_h^T (G_h G_h^T)^-1 g = Q R^-T g
+with G_h^T = Q R (the same QR in the identity metric), until max|g| <= PROJECTION_TOL (1 + max|q|),
+or after the step that started from max|g| <= NEWTON_EXIT (1 + max|q|) (its residual is then of
+the order of the square); the velocities onto G q_dot + b = 0 with the smallest change of kinetic
+energy, q_dot -= M^-1 G^T S^-1 w = L^-T D^-1 Q R^-T w (steps 1 and 2 again). Where the QR's
+measure is at most SINGULAR_RATIO the step is not taken (the result code says SINGULAR).
+
+The work array holds, in order: M (n*n, its lower triangle row-major, L below the diagonal after
+the factorization), f (n), G (m*n), c (m), D (n), a (n), Z then Q (m columns of n), R (m*m, upper),
+lambda (m), w (m), v (n), and the holonomic g (m) and G_h (m*n) of the projection.
 """
 
 from __future__ import annotations
 
+import re
+from contextlib import contextmanager
+
+import numpy as np
+
 from ..equations import Equations
 from ..model._constraints import HOLONOMIC
-from ._codegen import SINGULAR, UNROLL_MAX, _cfunc_head, _ldl, _Printer
+from ._codegen import _cfunc_head, _Printer
+from ._kernels import EVENT_RATIO, SINGULAR_RATIO
 
-__all__ = ["constrained_main", "work_size"]
+__all__ = ["C_DECLARATIONS", "EVENT_RATIO", "MET", "NEWTON_EXIT", "NOT_FINITE", "PROJECTION_STEPS", "PROJECTION_TOL", "SINGULAR", "SINGULAR_RATIO", "compiled_project", "compiled_solve", "constrained_c", "constrained_main", "layout", "work_size"]
+
+#: Gauss-Newton steps of one projection of the coordinates (each converges quadratically from a
+#: step's error).
+PROJECTION_STEPS = 4
+#: The coordinates are on the constraints when max|g| <= PROJECTION_TOL * (1 + max|q|).
+PROJECTION_TOL = 1e-14
+#: A Gauss-Newton step from max|g| <= NEWTON_EXIT * (1 + max|q|) is the last: the residual after
+#: it is of the order of the square.
+NEWTON_EXIT = 1e-8
+#: The projection's result codes (export_c's <ID>_MET, <ID>_SINGULAR, <ID>_NOT_FINITE).
+MET, SINGULAR, NOT_FINITE = 0, 3, 4
+
+
+def layout(n: int, m: int) -> dict[str, int]:
+    """The offsets of the work array's parts (see the module) and its size, "size"."""
+    out, at = {}, 0
+    for name, size in (("F0", 0), ("G0", n), ("C0", m * n), ("D0", m), ("A0", n), ("Q0", n), ("R0", n * m),
+                       ("L0", m * m), ("W0", m), ("V0", m), ("P0", n), ("H0", m), ("size", m * n)):
+        at += size if name != "F0" else n * n
+        out[name] = at
+    return out
 
 
 def work_size(n: int, m: int) -> int:
-    return n * n + n + m * n + m + n + n + n * m + m * m + m + n + m + 2 * n
+    """The length of the work array of rhs and project."""
+    return layout(n, m)["size"]
 
 
-_LINEAR = """
-
-@njit(cache=True)
-def _ldl(work, n):
-    \"\"\"LDL^T of M (lower triangle of work[:n*n]) in place, D in work[D0:D0+n]; returns the inertia
-    measure min_j D_j / M_jj (0.0 when M is not positive definite).\"\"\"
-    D0 = @D0@
-    r = 1.0
-    for j in range(n):
-        mjj = work[j * n + j]
-        d = mjj
-        for k in range(j):
-            d -= work[j * n + k] * work[j * n + k] * work[D0 + k]
-        if not (d > 0.0 and d < math.inf):
-            return 0.0
-        r = min(r, d / mjj)
-        work[D0 + j] = d
-        inv = 1.0 / d
-        for i in range(j + 1, n):
-            s = work[i * n + j]
-            for k in range(j):
-                s -= work[i * n + k] * work[j * n + k] * work[D0 + k]
-            work[i * n + j] = s * inv
-    return r
-
-
-@njit(cache=True)
-def _ldl_solve(work, n, b, out, stride):
-    \"\"\"out[k*stride] = (M^-1 b)[k], with M's factors in work (b and out may be the same array).\"\"\"
-    D0 = @D0@
-    for i in range(n):
-        s = b[i * stride]
-        for k in range(i):
-            s -= work[i * n + k] * out[k * stride]
-        out[i * stride] = s
-    for i in range(n - 1, -1, -1):
-        s = out[i * stride] / work[D0 + i]
-        for k in range(i + 1, n):
-            s -= work[k * n + i] * out[k * stride]
-        out[i * stride] = s
-
-
-@njit(cache=True)
-def _schur(work, n, m, G0, S0):
-    \"\"\"Y = M^-1 G^T (columns in work[Y0:], n x m row-major) and S = G Y (work[S0:], m x m) factorized
-    by Cholesky in place; returns the smallest pivot of S relative to its diagonal (0.0 if not
-    positive definite).\"\"\"
-    Y0 = @Y0@
-    for k in range(m):
-        for i in range(n):
-            work[Y0 + i * m + k] = work[G0 + k * n + i]
-        _ldl_solve(work, n, work[Y0 + k:], work[Y0 + k:], m)
-    for a in range(m):
-        for b in range(m):
-            s = 0.0
-            for i in range(n):
-                s += work[G0 + a * n + i] * work[Y0 + i * m + b]
-            work[S0 + a * m + b] = s
-    r = 1.0
-    for j in range(m):
-        sjj = work[S0 + j * m + j]
-        d = sjj
-        for k in range(j):
-            d -= work[S0 + j * m + k] ** 2
-        if not (d > 0.0 and d < math.inf) or not (sjj > 0.0):
-            return 0.0
-        r = min(r, d / sjj)
-        d = math.sqrt(d)
-        work[S0 + j * m + j] = d
-        for i in range(j + 1, m):
-            s = work[S0 + i * m + j]
-            for k in range(j):
-                s -= work[S0 + i * m + k] * work[S0 + j * m + k]
-            work[S0 + i * m + j] = s / d
-    return r
-
-
-@njit(cache=True)
-def _chol_solve(work, m, S0, b):
-    \"\"\"b <- S^-1 b with S's Cholesky factor in work[S0:].\"\"\"
-    for i in range(m):
-        s = b[i]
-        for k in range(i):
-            s -= work[S0 + i * m + k] * b[k]
-        b[i] = s / work[S0 + i * m + i]
-    for i in range(m - 1, -1, -1):
-        s = b[i]
-        for k in range(i + 1, m):
-            s -= work[S0 + k * m + i] * b[k]
-        b[i] = s / work[S0 + i * m + i]
-
-
-@njit(cache=True)
-def _saddle(work, x, dx):
-    \"\"\"q_ddot of M q_ddot = f + G^T lambda, G q_ddot = c (M, f, G, c in work) into dx[n:];
-    lambda into work[L0:L0+m]; returns the measure (see the module).\"\"\"
-    n = @N@
-    m = @M@
-    F0, G0, C0, A0, Y0, S0, L0 = @F0@, @G0@, @C0@, @A0@, @Y0@, @S0@, @L0@
-    r = _ldl(work, n)
-    if r <= @SINGULAR@:
-        return r
-    for i in range(n):
-        if not math.isfinite(work[F0 + i]):
-            return -1.0
-    _ldl_solve(work, n, work[F0:], work[A0:], 1)
-    rs = _schur(work, n, m, G0, S0)
-    if rs <= 0.0:
-        return 0.0
-    for k in range(m):
-        s = work[C0 + k]
-        for i in range(n):
-            s -= work[G0 + k * n + i] * work[A0 + i]
-        work[L0 + k] = s
-    _chol_solve(work, m, S0, work[L0:])
-    for i in range(n):
-        s = work[A0 + i]
-        for k in range(m):
-            s += work[Y0 + i * m + k] * work[L0 + k]
-        dx[n + i] = s
-        dx[i] = x[n + i]
-    return min(r, math.sqrt(rs))
-
-
-@njit(cache=True)
-def _spd_solve(A, k, b):
-    \"\"\"b <- A^-1 b by Cholesky of the k x k A (in place); False if A is not positive definite.\"\"\"
-    for j in range(k):
-        d = A[j * k + j]
-        for q in range(j):
-            d -= A[j * k + q] ** 2
-        if not d > 0.0:
-            return False
-        d = math.sqrt(d)
-        A[j * k + j] = d
-        for i in range(j + 1, k):
-            s = A[i * k + j]
-            for q in range(j):
-                s -= A[i * k + q] * A[j * k + q]
-            A[i * k + j] = s / d
-    for i in range(k):
-        s = b[i]
-        for q in range(i):
-            s -= A[i * k + q] * b[q]
-        b[i] = s / A[i * k + i]
-    for i in range(k - 1, -1, -1):
-        s = b[i]
-        for q in range(i + 1, k):
-            s -= A[q * k + i] * b[q]
-        b[i] = s / A[i * k + i]
-    return True
-
-
-@njit(cache=True)
-def _u(u_):
-    return carray(u_, (@NU1@,))
-
-
-@njit(cache=True)
-def _p(p_):
-    return carray(p_, (@NP1@,))
+#: The declarations (cffi cdef) of constrained_c's two functions, with the default prefix.
+C_DECLARATIONS = """
+double lg_constrained_rhs(double t, double *x, double *u, double *p, double *dx, double *work);
+void lg_project(double t, double *x, double *u, double *p, double *work, double *drift);
 """
 
 
-def constrained_main(equations: Equations) -> list[str]:
-    """The lines of the numba module's constrained part: helpers, ``rhs``, ``project``."""
+# ------------------------------------------------------------------------------- one text, two languages
+_TO_PY = [(r"&&", "and"), (r"\|\|", "or"), (r"!(?!=)", "not "), (r"\bfmin\(", "min("), (r"\bfmax\(", "max("),
+          (r"\bfabs\(", "abs("), (r"\bsqrt\(", "math.sqrt("), (r"\bisfinite\(", "math.isfinite("),
+          (r"\bINFINITY\b", "math.inf")]
+
+
+class _Emit:
+    """Statements of the algorithm in numba's Python or in C99, from one description: expressions
+    are written in the C subset both read (+ - * /, comparisons, && || !(...), fmin fmax fabs sqrt
+    isfinite, INFINITY, a[i]) and translated word by word for Python."""
+
+    def __init__(self, lang: str, consts: dict[str, int | float]):
+        self.lang, self.consts, self.lines, self.depth = lang, consts, [], 0
+
+    def x(self, expr: str) -> str:
+        for name, value in self.consts.items():
+            expr = re.sub(rf"\b{name}\b", repr(value), expr)
+        if self.lang == "py":
+            for pattern, repl in _TO_PY:
+                expr = re.sub(pattern, repl, expr)
+        return expr
+
+    def line(self, text: str) -> None:
+        self.lines.append("    " * self.depth + text)
+
+    def do(self, stmt: str) -> None:
+        """An assignment or a call."""
+        self.line(self.x(stmt) + (";" if self.lang == "c" else ""))
+
+    def ret(self, expr: str = "") -> None:
+        self.line(("return " + self.x(expr)).rstrip() + (";" if self.lang == "c" else ""))
+
+    def stop(self) -> None:
+        self.line("break;" if self.lang == "c" else "break")
+
+    @contextmanager
+    def block(self, head_py: str, head_c: str):
+        self.line(head_py if self.lang == "py" else head_c + " {")
+        self.depth += 1
+        yield
+        self.depth -= 1
+        if self.lang == "c":
+            self.line("}")
+
+    def loop(self, var: str, lo: str, hi: str):
+        lo, hi = self.x(lo), self.x(hi)
+        return self.block(f"for {var} in range({lo}, {hi}):", f"for ({var} = {lo}; {var} < {hi}; {var}++)")
+
+    def down(self, var: str, hi: str, lo: str = "0"):
+        """var from hi - 1 down to lo."""
+        hi, lo = self.x(hi), self.x(lo)
+        return self.block(f"for {var} in range({hi} - 1, {lo} - 1, -1):",
+                          f"for ({var} = {hi} - 1; {var} >= {lo}; {var}--)")
+
+    def when(self, cond: str):
+        c = self.x(cond)
+        return self.block(f"if {c}:", f"if ({c})")
+
+    @contextmanager
+    def func(self, name: str, ret: str, args: list[tuple[str, str]], doubles: str = "", ints: str = "",
+             doc: str = ""):
+        """A helper function; `args`: (name, C type); `doubles`, `ints`: the C locals."""
+        if self.lang == "py":
+            self.lines += ["", "", "@njit(cache=True)", f"def {name}({', '.join(a for a, _ in args)}):"]
+            self.depth = 1
+            if doc:
+                self.line(f'"""{doc}"""')
+        else:
+            self.lines += ["", f"/* {doc} */" if doc else "",
+                           f"static {ret} {name}({', '.join(f'{t}{a}' if t.endswith('*') else f'{t} {a}' for a, t in args)}) {{"]
+            self.depth = 1
+            if doubles:
+                self.line(f"double {doubles};")
+            if ints:
+                self.line(f"int {ints};")
+        yield
+        if self.lang == "c":
+            self.lines.append("}")
+        self.depth = 0
+
+
+def _algorithm(e: _Emit, mh: int) -> None:
+    """The helpers of the saddle-point solve and of the projection (see the module), into `e`;
+    N, M, MH and the offsets are e's constants."""
+    w = "double *"
+    with e.func("lg_ldl", "double", [("work", w)], "r, d, s, inv", "i, j, k",
+                "M = L D L^T in place (M's lower triangle in work[0:N*N], D at D0); the inertia measure "
+                "min_j D_j / M_jj (0 where M is not positive definite)"):
+        e.do("r = 1.0")
+        with e.loop("j", "0", "N"):
+            e.do("d = work[j * N + j]")
+            with e.loop("k", "0", "j"):
+                e.do("d -= work[j * N + k] * work[j * N + k] * work[D0 + k]")
+            with e.when("!(d > 0.0 && d < INFINITY)"):
+                e.ret("0.0")
+            e.do("r = fmin(r, d / work[j * N + j])")
+            e.do("work[D0 + j] = d")
+            e.do("inv = 1.0 / d")
+            with e.loop("i", "j + 1", "N"):
+                e.do("s = work[i * N + j]")
+                with e.loop("k", "0", "j"):
+                    e.do("s -= work[i * N + k] * work[j * N + k] * work[D0 + k]")
+                e.do("work[i * N + j] = s * inv")
+        e.ret("r")
+    with e.func("lg_lower", "void", [("work", w), ("b", "int")], "s", "i, k",
+                "work[b:b+N] <- L^-1 work[b:b+N] (L unit lower)"):
+        with e.loop("i", "0", "N"):
+            e.do("s = work[b + i]")
+            with e.loop("k", "0", "i"):
+                e.do("s -= work[i * N + k] * work[b + k]")
+            e.do("work[b + i] = s")
+    with e.func("lg_upper", "void", [("work", w), ("b", "int")], "s", "i, k",
+                "work[b:b+N] <- L^-T D^-1 work[b:b+N]"):
+        with e.down("i", "N"):
+            e.do("s = work[b + i] / work[D0 + i]")
+            with e.loop("k", "i + 1", "N"):
+                e.do("s -= work[k * N + i] * work[b + k]")
+            e.do("work[b + i] = s")
+    with e.func("lg_qr", "double", [("work", w), ("m", "int")], "big, s, rho", "i, j, k",
+                "Z = Q R (the m columns of Z at Q0, column k at Q0 + k N) by modified Gram-Schmidt in the "
+                "metric D^-1; R at R0 (R_jk at R0 + j M + k). The rank measure min_k R_kk / max_k |z_k| "
+                "(0 where a column is 0 or not finite)"):
+        e.do("big = 0.0")
+        with e.loop("k", "0", "m"):
+            e.do("s = 0.0")
+            with e.loop("i", "0", "N"):
+                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] / work[D0 + i]")
+            e.do("big = fmax(big, s)")
+        with e.when("!(big > 0.0 && big < INFINITY)"):
+            e.ret("0.0")
+        e.do("rho = 1.0")
+        with e.loop("k", "0", "m"):
+            with e.loop("j", "0", "k"):
+                e.do("s = 0.0")
+                with e.loop("i", "0", "N"):
+                    e.do("s += work[Q0 + j * N + i] * work[Q0 + k * N + i] / work[D0 + i]")
+                e.do("work[R0 + j * M + k] = s")
+                with e.loop("i", "0", "N"):
+                    e.do("work[Q0 + k * N + i] -= s * work[Q0 + j * N + i]")
+            e.do("s = 0.0")
+            with e.loop("i", "0", "N"):
+                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] / work[D0 + i]")
+            with e.when("!(s > 0.0 && s < INFINITY)"):
+                e.ret("0.0")
+            e.do("rho = fmin(rho, s / big)")
+            e.do("s = sqrt(s)")
+            e.do("work[R0 + k * M + k] = s")
+            with e.loop("i", "0", "N"):
+                e.do("work[Q0 + k * N + i] /= s")
+        e.ret("sqrt(rho)")
+    with e.func("lg_rt", "void", [("work", w), ("m", "int"), ("b", "int")], "s", "j, k",
+                "work[b:b+m] <- R^-T work[b:b+m]"):
+        with e.loop("k", "0", "m"):
+            e.do("s = work[b + k]")
+            with e.loop("j", "0", "k"):
+                e.do("s -= work[R0 + j * M + k] * work[b + j]")
+            e.do("work[b + k] = s / work[R0 + k * M + k]")
+    with e.func("lg_qv", "void", [("work", w), ("m", "int"), ("b", "int")], "s", "i, k",
+                "work[V0:V0+N] <- Q work[b:b+m]"):
+        with e.loop("i", "0", "N"):
+            e.do("s = 0.0")
+            with e.loop("k", "0", "m"):
+                e.do("s += work[Q0 + k * N + i] * work[b + k]")
+            e.do("work[V0 + i] = s")
+    with e.func("lg_factor", "double", [("work", w)], "r, rho", "i, k",
+                "Steps 1 and 2 (M, G in work): the measure min(r_M, rho_G)"):
+        e.do("r = lg_ldl(work)")
+        with e.when("r <= SINGULAR_RATIO"):
+            e.ret("r")
+        with e.loop("k", "0", "M"):
+            with e.loop("i", "0", "N"):
+                e.do("work[Q0 + k * N + i] = work[G0 + k * N + i]")
+            e.do("lg_lower(work, Q0 + k * N)")
+        e.do("rho = lg_qr(work, M)")
+        e.ret("fmin(r, rho)")
+    with e.func("lg_saddle", "double", [("work", w)], "r, s", "i, k",
+                "q_ddot into work[A0:A0+N] and lambda into work[L0:L0+M] from M, f, G, c in work; the "
+                "measure (-1.0 where f, G or c is not finite)"):
+        e.do("r = lg_ldl(work)")
+        with e.when("r <= SINGULAR_RATIO"):
+            e.ret("r")
+        with e.loop("i", "0", "N + M * N + M"):
+            with e.when("!isfinite(work[F0 + i])"):
+                e.ret("-1.0")
+        with e.loop("k", "0", "M"):
+            with e.loop("i", "0", "N"):
+                e.do("work[Q0 + k * N + i] = work[G0 + k * N + i]")
+            e.do("lg_lower(work, Q0 + k * N)")
+        e.do("r = fmin(r, lg_qr(work, M))")
+        with e.when("r <= SINGULAR_RATIO"):
+            e.ret("r")
+        with e.loop("i", "0", "N"):
+            e.do("work[A0 + i] = work[F0 + i]")
+        e.do("lg_lower(work, A0)")
+        e.do("lg_upper(work, A0)")
+        with e.loop("k", "0", "M"):
+            e.do("s = work[C0 + k]")
+            with e.loop("i", "0", "N"):
+                e.do("s -= work[G0 + k * N + i] * work[A0 + i]")
+            e.do("work[W0 + k] = s")
+        e.do("lg_rt(work, M, W0)")
+        with e.down("k", "M"):
+            e.do("s = work[W0 + k]")
+            with e.loop("i", "k + 1", "M"):
+                e.do("s -= work[R0 + k * M + i] * work[L0 + i]")
+            e.do("work[L0 + k] = s / work[R0 + k * M + k]")
+        e.do("lg_qv(work, M, W0)")
+        e.do("lg_upper(work, V0)")
+        with e.loop("i", "0", "N"):
+            e.do("work[A0 + i] += work[V0 + i]")
+        e.ret("r")
+    args = [("t", "double"), ("x", "double *"), ("u", "double *"), ("p", "double *"), ("work", w),
+            ("drift", "double *")]
+    with e.func("lg_projection", "int", args, "nq, wmax" + (", gmax" if mh else ""), "i, k" + (", it" if mh else ""),
+                "x onto the constraints (see the module); drift[0], drift[1]: the largest |g|, |w| met "
+                "before projecting. Returns MET, SINGULAR or NOT_FINITE"):
+        e.do("nq = 0.0")
+        with e.loop("i", "0", "N"):
+            e.do("nq = fmax(nq, fabs(x[i]))")
+        e.do("nq += 1.0")
+        if mh:
+            with e.loop("it", "0", "PROJECTION_STEPS"):
+                e.do("lg_position(t, x, u, p, work)")
+                e.do("gmax = 0.0")
+                with e.loop("k", "0", "MH + MH * N"):
+                    with e.when("!isfinite(work[P0 + k])"):
+                        e.ret("NOT_FINITE")
+                with e.loop("k", "0", "MH"):
+                    e.do("gmax = fmax(gmax, fabs(work[P0 + k]))")
+                with e.when("it == 0"):
+                    e.do("drift[0] = fmax(drift[0], gmax)")
+                with e.when("gmax <= PROJECTION_TOL * nq"):
+                    e.stop()
+                with e.loop("k", "0", "MH"):  # G_h^T = Q R in the identity metric
+                    e.do("work[W0 + k] = work[P0 + k]")
+                    with e.loop("i", "0", "N"):
+                        e.do("work[Q0 + k * N + i] = work[H0 + k * N + i]")
+                with e.loop("i", "0", "N"):
+                    e.do("work[D0 + i] = 1.0")
+                with e.when("lg_qr(work, MH) <= SINGULAR_RATIO"):
+                    e.ret("SINGULAR")
+                e.do("lg_rt(work, MH, W0)")
+                e.do("lg_qv(work, MH, W0)")
+                with e.loop("i", "0", "N"):
+                    e.do("x[i] -= work[V0 + i]")
+                with e.when("gmax <= NEWTON_EXIT * nq"):
+                    e.stop()
+        e.do("lg_velocity(t, x, u, p, work)")
+        e.do("wmax = 0.0")
+        with e.loop("k", "0", "M"):
+            with e.when("!isfinite(work[W0 + k])"):
+                e.ret("NOT_FINITE")
+            e.do("wmax = fmax(wmax, fabs(work[W0 + k]))")
+        with e.loop("i", "0", "N"):  # M's lower triangle and G
+            with e.loop("k", "0", "i + 1"):
+                with e.when("!isfinite(work[i * N + k])"):
+                    e.ret("NOT_FINITE")
+        with e.loop("k", "0", "M * N"):
+            with e.when("!isfinite(work[G0 + k])"):
+                e.ret("NOT_FINITE")
+        e.do("drift[1] = fmax(drift[1], wmax)")
+        with e.when("wmax > 0.0"):
+            with e.when("lg_factor(work) <= SINGULAR_RATIO"):
+                e.ret("SINGULAR")
+            e.do("lg_rt(work, M, W0)")
+            e.do("lg_qv(work, M, W0)")
+            e.do("lg_upper(work, V0)")
+            with e.loop("i", "0", "N"):
+                e.do("x[N + i] -= work[V0 + i]")
+        with e.loop("i", "0", "2 * N"):
+            with e.when("!isfinite(x[i])"):
+                e.ret("NOT_FINITE")
+        e.ret("MET")
+
+
+def _constants(eq: Equations) -> tuple[dict, int]:
+    n, m = eq.n, len(eq.model.constraints)
+    mh = len(holonomic_rows(eq))
+    consts = {"N": n, "M": m, "MH": mh, **{k: v for k, v in layout(n, m).items() if k != "size"},
+              "SINGULAR_RATIO": SINGULAR_RATIO, "PROJECTION_STEPS": PROJECTION_STEPS,
+              "PROJECTION_TOL": PROJECTION_TOL, "NEWTON_EXIT": NEWTON_EXIT, "MET": MET, "SINGULAR": SINGULAR,
+              "NOT_FINITE": NOT_FINITE}
+    return consts, mh
+
+
+def holonomic_rows(eq: Equations) -> list[int]:
+    """The indices of the holonomic constraints, in the model's order."""
+    return [k for k, c in enumerate(eq.model.constraints) if c.kind == HOLONOMIC]
+
+
+def _parts(eq: Equations):
+    """The expressions of the three evaluations and where they go in the work array: (rhs: M's
+    lower triangle, f, G, c), (position: g_h, G_h), (velocity: w, G, M's lower triangle)."""
     from ._codegen import _mass_and_forcing
 
-    core = equations.core
-    n, m = equations.n, len(core.g)
-    nu, npar = len(equations.inputs), len(equations.parameters)
-    hol = [k for k, c in enumerate(equations.model.constraints) if c.kind == HOLONOMIC]
-    mh = len(hol)
-    F0 = n * n
-    G0 = F0 + n
-    C0 = G0 + m * n
-    D0 = C0 + m
-    A0 = D0 + n
-    Y0 = A0 + n
-    S0 = Y0 + n * m
-    L0 = S0 + m * m
-    R0 = L0 + m  # scratch
-    consts = {"@N@": n, "@M@": m, "@F0@": F0, "@G0@": G0, "@C0@": C0, "@D0@": D0, "@A0@": A0, "@Y0@": Y0,
-              "@S0@": S0, "@L0@": L0, "@SINGULAR@": repr(SINGULAR),
-              "@NU1@": max(nu, 1), "@NP1@": max(npar, 1)}
-    text = _LINEAR
-    for k, v in consts.items():
-        text = text.replace(k, str(v))
-    out = [text]
-    Ms, fs = _mass_and_forcing(equations)
-    Mlow = [Ms[i][j] for i in range(n) for j in range(i + 1)]
+    core = eq.core
+    n, m = eq.n, len(core.g)
+    at = layout(n, m)
+    hol = holonomic_rows(eq)
+    Ms, fs = _mass_and_forcing(eq)
     lower = [(i, j) for i in range(n) for j in range(i + 1)]
+    Mlow = [Ms[i][j] for i, j in lower]
     G = [core.G[k, j] for k in range(m) for j in range(n)]
-    pr = _Printer(equations, "py")
+    places_M = [i * n + j for i, j in lower]
+    places_G = [at["G0"] + k for k in range(m * n)]
+    rhs = (Mlow + list(fs) + G + list(core.c),
+           places_M + [at["F0"] + i for i in range(n)] + places_G + [at["C0"] + k for k in range(m)])
+    position = ([core.g[k] for k in hol] + [core.G[k, j] for k in hol for j in range(n)],
+                [at["P0"] + k for k in range(len(hol))] + [at["H0"] + k for k in range(len(hol) * n)])
+    velocity = (list(core.w) + G + Mlow, [at["W0"] + k for k in range(m)] + places_G + places_M)
+    return rhs, position, velocity
 
-    def stores(exprs, names):
-        return [f"    {name} = {e}" for name, e in zip(names, exprs)]
 
-    # the right-hand side
-    out += _cfunc_head("rhs", "_SIG_RHS", (("dx", 2 * n), ("work", work_size(n, m))), n, nu, npar,
-                       "dx = [q_dot, q_ddot] of the saddle-point system; returns the measure (see the module).")
-    out += pr.unpack()
-    lines, exprs, _ = pr.trig_block(Mlow + list(fs) + G + list(core.c))
-    out += lines
-    targets = ([f"work[{i * n + j}]" for i, j in lower] + [f"work[{F0 + i}]" for i in range(n)]
-               + [f"work[{G0 + k}]" for k in range(m * n)] + [f"work[{C0 + k}]" for k in range(m)])
-    if n <= UNROLL_MAX and m <= UNROLL_MAX:  # written out: names instead of the work array
-        out += [f"    {name} = {e}" for name, e in zip(
-            [f"m{i}_{j}" for i, j in lower] + [f"f{i}" for i in range(n)]
-            + [f"g{k}_{j}" for k in range(m) for j in range(n)] + [f"c{k}_" for k in range(m)], exprs)]
-        out += _unrolled_saddle(n, m)
-    else:
-        out += stores(exprs, targets)
-        out.append("    return _saddle(work, x, dx)")
+def constrained_main(equations: Equations) -> list[str]:
+    """The lines of the numba module's constrained part: the algorithm, ``rhs`` and ``project``."""
+    eq = equations
+    n = eq.n
+    nu, npar = len(eq.inputs), len(eq.parameters)
+    consts, mh = _constants(eq)
+    size = work_size(n, consts["M"])
+    rhs, position, velocity = _parts(eq)
+    pr = _Printer(eq, "py")
+    out = []
 
-    # the constraint parts the projection needs, as njit functions of (t, x, u, p, out)
-    def parts(name, exprs, doc, places=None):
-        body = [f"", f"", "@njit(cache=True)", f"def {name}(t, x, u, p, out):", f'    """{doc}"""']
+    def parts(name, exprs, places, doc):
+        body = ["", "", "@njit(cache=True)", f"def {name}(t, x, u, p, work):", f'    """{doc}"""']
         body += pr.unpack()
         lines, values = pr.block(exprs)
-        places = places or list(range(len(values)))
-        body += lines + [f"    out[{k}] = {v}" for k, v in zip(places, values)] + ["    return 0.0"]
-        return body
+        return body + lines + [f"    work[{k}] = {v}" for k, v in zip(places, values)]
 
     if mh:
-        out += parts("_position", [core.g[k] for k in hol] + [core.G[k, j] for k in hol for j in range(n)],
-                     "g of the holonomic constraints, then their rows of G.")
-    out += parts("_velocity", list(core.w) + G + Mlow, "w = G q_dot + b (into the scratch), G and M's lower "
-                 "triangle (into their places in rhs's layout).",
-                 [R0 + k for k in range(m)] + [G0 + k for k in range(m * n)] + [i * n + j for i, j in lower])
-    out += _cfunc_head("project", "_SIG_VOID", (("work", work_size(n, m)), ("drift", 2)), n, nu, npar,
-                       "x moved onto the constraints (see the module); drift[0], drift[1]: the largest |g|, |w| met.")
-    out += [
-        "    nq = 1.0",
-        f"    for i in range({n}):",
-        "        nq = max(nq, abs(x[i]))",
-    ]
-    if mh:
-        out += [
-            f"    for it in range(4):",
-            "        _position(t, x, _u(u_), _p(p_), work)",
-            "        gmax = 0.0",
-            f"        for k in range({mh}):",
-            "            gmax = max(gmax, abs(work[k]))",
-            "        if it == 0:",
-            "            drift[0] = max(drift[0], gmax)",
-            "        if gmax <= 1e-14 * nq:",
-            "            break",
-            f"        # (G G^T) y = g, q -= G^T y  (G in work[{mh}:], G G^T and y in the scratch)",
-            f"        o = {mh + mh * n}",
-            f"        for a in range({mh}):",
-            f"            for b in range({mh}):",
-            "                s = 0.0",
-            f"                for i in range({n}):",
-            f"                    s += work[{mh} + a * {n} + i] * work[{mh} + b * {n} + i]",
-            f"                work[o + a * {mh} + b] = s",
-            f"        y = work[o + {mh * mh}:o + {mh * mh + mh}]",
-            f"        for a in range({mh}):",
-            "            y[a] = work[a]",
-            f"        if not _spd_solve(work[o:o + {mh * mh}], {mh}, y):",
-            "            break",
-            f"        for i in range({n}):",
-            "            s = 0.0",
-            f"            for a in range({mh}):",
-            f"                s += work[{mh} + a * {n} + i] * y[a]",
-            "            x[i] -= s",
-            "        if gmax <= 1e-8 * nq:  # Newton from there: the next residual is about gmax**2",
-            "            break",
-        ]
-    out += [
-        "    _velocity(t, x, _u(u_), _p(p_), work)",
-        "    wmax = 0.0",
-        f"    for k in range({m}):",
-        f"        wmax = max(wmax, abs(work[{R0} + k]))",
-        "    drift[1] = max(drift[1], wmax)",
-        "    if wmax == 0.0:",
-        "        return",
-        f"    if _ldl(work, {n}) <= 0.0 or _schur(work, {n}, {m}, {G0}, {S0}) <= 0.0:",
-        "        return",
-        f"    w = work[{R0}:{R0 + m}]",
-        f"    _chol_solve(work, {m}, {S0}, w)",
-        f"    for i in range({n}):",
-        "        s = 0.0",
-        f"        for k in range({m}):",
-        f"            s += work[{Y0} + i * {m} + k] * w[k]",
-        f"        x[{n} + i] -= s",
-    ]
+        out += parts("lg_position", *position, "g of the holonomic constraints, then their rows of G.")
+    out += parts("lg_velocity", *velocity, "w = G q_dot + b, G and M's lower triangle.")
+    e = _Emit("py", consts)
+    _algorithm(e, mh)
+    out += e.lines
+    out += ["", "", "@njit(cache=True)", "def _u(u_):", f"    return carray(u_, ({max(nu, 1)},))",
+            "", "", "@njit(cache=True)", "def _p(p_):", f"    return carray(p_, ({max(npar, 1)},))"]
+    out += _cfunc_head("rhs", "_SIG_RHS", (("dx", 2 * n), ("work", size)), n, nu, npar,
+                       "dx = [q_dot, q_ddot] of the saddle-point system; returns the measure (see "
+                       "lagrangian.numeric._codegen_constrained).")
+    out += pr.unpack()
+    lines, exprs, _ = pr.trig_block(rhs[0])
+    out += lines + [f"    work[{k}] = {v}" for k, v in zip(rhs[1], exprs)]
+    out += ["    r = lg_saddle(work)", f"    if r <= {SINGULAR_RATIO!r}:", "        return r",
+            f"    for i in range({n}):", "        dx[i] = x[i + N]", f"        dx[i + N] = work[{consts['A0']} + i]",
+            "    return r"]
+    out += _cfunc_head("project", "_SIG_VOID", (("work", size), ("drift", 2)), n, nu, npar,
+                       "x moved onto the constraints (see lagrangian.numeric._codegen_constrained).")
+    out.append("    lg_projection(t, x, _u(u_), _p(p_), work, drift)")
     return out
 
 
-def _unrolled_saddle(n: int, m: int) -> list[str]:
-    """Statements of rhs's saddle-point solve written out (n, m <= UNROLL_MAX), from the names
-    m{i}_{j} (M's lower triangle), f{i}, g{k}_{j} (G) and c{k}_: the LDL^T factors of M (as for an
-    unconstrained model), a = M^-1 f and the columns y{k} = M^-1 G_k^T by substitution, S = G Y by
-    Cholesky, lambda, and q_ddot = a + Y lambda; the same measure as _saddle."""
-    ind = "    "
-    out = _ldl(n, "py", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}", part="factor")
-    out.append(f"{ind}if not math.isfinite({' + '.join(f'f{i}' for i in range(n))}):")
-    out.append(f"{ind}    return -1.0")
+def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "") -> str:
+    """The C of the saddle-point solve and the projection: ``<prefix>constrained_rhs(t, x, u, p,
+    dx, work)`` (the numba rhs's signature and value) and ``<prefix>project(t, x, u, p, work,
+    drift)`` (numba's project: void), after the static helpers, for the C backend and export_c.
+    The work arrays hold work_size(n, m) values."""
+    eq = equations
+    n = eq.n
+    consts, mh = _constants(eq)
+    rhs, position, velocity = _parts(eq)
+    pr = _Printer(eq, "c")
+    quiet = ["    " + " ".join(["(void)t;", "(void)x;", "(void)u;", "(void)p;",
+                                *(f"(void){local};" for local, _, _ in pr.locals)])]
+    out = []
 
-    def substitute(rhs, name):  # M^-1 rhs into {name}{i}
-        lines = []
-        for i in range(n):  # L z = rhs
-            terms = "".join(f" - l{i}_{k} * z{name}{k}" for k in range(i))
-            lines.append(f"{ind}z{name}{i} = {rhs(i)}{terms}")
-        for i in range(n - 1, -1, -1):  # L^T v = D^-1 z
-            terms = "".join(f" - l{k}_{i} * {name}{k}" for k in range(i + 1, n))
-            lines.append(f"{ind}{name}{i} = z{name}{i} * i{i}{terms}")
-        return lines
+    def parts(name, exprs, places):
+        body = [f"static void {name}(double t, double *x, double *u, double *p, double *work) {{"]
+        body += pr.unpack() + quiet
+        lines, values = pr.block(exprs)
+        return body + lines + [f"    work[{k}] = {v};" for k, v in zip(places, values)] + ["}", ""]
 
-    out += substitute(lambda i: f"f{i}", "a")
-    for k in range(m):
-        out += substitute(lambda i, k=k: f"g{k}_{i}", f"y{k}_")
-    for a in range(m):  # S = G Y, lower triangle
-        for b in range(a + 1):
-            out.append(f"{ind}s{a}_{b} = " + " + ".join(f"g{a}_{i} * y{b}_{i}" for i in range(n)))
-    out.append(f"{ind}rs = 1.0")
-    for j in range(m):  # Cholesky of S
-        terms = "".join(f" - h{j}_{k} * h{j}_{k}" for k in range(j))
-        out.append(f"{ind}e{j} = s{j}_{j}{terms}")
-        out.append(f"{ind}if not (e{j} > 0.0 and s{j}_{j} > 0.0):")
-        out.append(f"{ind}    return 0.0")
-        out.append(f"{ind}rs = min(rs, e{j} / s{j}_{j})")
-        out.append(f"{ind}h{j}_{j} = math.sqrt(e{j})")
-        for i in range(j + 1, m):
-            terms = "".join(f" - h{i}_{k} * h{j}_{k}" for k in range(j))
-            out.append(f"{ind}h{i}_{j} = (s{i}_{j}{terms}) / h{j}_{j}")
-    for k in range(m):  # S lambda = c - G a
-        ga = " + ".join(f"g{k}_{i} * a{i}" for i in range(n))
-        terms = "".join(f" - h{k}_{q} * w{q}" for q in range(k))
-        out.append(f"{ind}w{k} = (c{k}_ - ({ga}){terms}) / h{k}_{k}")
-    for k in range(m - 1, -1, -1):
-        terms = "".join(f" - h{q}_{k} * lam{q}" for q in range(k + 1, m))
-        out.append(f"{ind}lam{k} = (w{k}{terms}) / h{k}_{k}")
-    for i in range(n):
-        out.append(f"{ind}dx[{n + i}] = a{i} + " + " + ".join(f"y{k}_{i} * lam{k}" for k in range(m)))
-        out.append(f"{ind}dx[{i}] = x[{n + i}]")
-    out.append(f"{ind}return min(r, math.sqrt(rs))")
-    return out
+    if mh:
+        out += parts("lg_position", *position)
+    out += parts("lg_velocity", *velocity)
+    e = _Emit("c", consts)
+    _algorithm(e, mh)
+    out += e.lines
+    out += ["", (f"{storage}double {prefix}constrained_rhs(double t, double *x, double *u, double *p, double *dx, "
+                 "double *work) {"), "    double r;", "    int i;"]
+    out += pr.unpack() + quiet
+    lines, exprs = pr.block(rhs[0])
+    out += lines + [f"    work[{k}] = {v};" for k, v in zip(rhs[1], exprs)]
+    out += ["    r = lg_saddle(work);", f"    if (r <= {SINGULAR_RATIO!r}) return r;",
+            f"    for (i = 0; i < {n}; i++) {{", f"        dx[i] = x[{n} + i];",
+            f"        dx[{n} + i] = work[{consts['A0']} + i];", "    }", "    return r;", "}", "",
+            f"{storage}void {prefix}project(double t, double *x, double *u, double *p, double *work, double *drift) {{",
+            "    (void)lg_projection(t, x, u, p, work, drift);", "}", ""]
+    return "\n".join(out)
+
+
+# ------------------------------------------------------------------------------- calls from Python
+def _calls():
+    import ctypes
+
+    D = ctypes.POINTER(ctypes.c_double)
+    return (ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double, D, D, D, D, D),
+            ctypes.CFUNCTYPE(None, ctypes.c_double, D, D, D, D, D), D)
+
+
+def _pointer(a, D):
+    return a.ctypes.data_as(D)
+
+
+def compiled_solve(fast, t, x, u, p):
+    """(q_ddot, lambda, measure) of a compiled constrained model's rhs (numba or C) at the state:
+    the same steps as ConstrainedModel.solve (q_ddot and lambda are NaN where the measure is at
+    most SINGULAR_RATIO or -1.0)."""
+    from ._fast import _address
+
+    rhs_t, _, D = _calls()
+    n, m = fast.n, len(fast.equations.model.constraints)
+    x = np.ascontiguousarray(x, float)
+    u, p = (np.ascontiguousarray(v, float) if len(v) else np.zeros(1) for v in (u, p))
+    dx, work = np.full(2 * n, np.nan), np.full(work_size(n, m), np.nan)
+    r = rhs_t(_address(fast.rhs_c))(float(t), *(_pointer(a, D) for a in (x, u, p, dx, work)))
+    L0 = layout(n, m)["L0"]
+    lam = work[L0:L0 + m] if r > SINGULAR_RATIO else np.full(m, np.nan)
+    return dx[n:], lam.copy(), float(r)
+
+
+def compiled_project(fast, t, x, p):
+    """(x projected, drift [max |g|, max |w|] met) by a compiled constrained model's projection."""
+    from ._fast import _address
+
+    _, project_t, D = _calls()
+    n, m = fast.n, len(fast.equations.model.constraints)
+    x = np.array(x, float)
+    u = np.zeros(max(1, len(fast.input_names)))
+    p = np.ascontiguousarray(p, float) if len(p) else np.zeros(1)
+    work, drift = np.zeros(work_size(n, m)), np.zeros(2)
+    project_t(_address(fast.project_c))(float(t), *(_pointer(a, D) for a in (x, u, p, work, drift)))
+    return x, drift

@@ -12,6 +12,11 @@ with the smallest change (q <- q - G^T (G G^T)^-1 g), the velocities onto G q_do
 smallest change of kinetic energy (q_dot <- q_dot - M^-1 G^T (G M^-1 G^T)^-1 w, what an impulse of
 the constraints would do). The drift then stays at the size of one step's error, however long the
 run (the trajectory's ``constraint_drift`` reports it).
+
+The solve, the projection and their "singular" decision are one algorithm with one set of
+thresholds, written once in numeric._codegen_constrained (its module docstring) and emitted for
+numba and C; ConstrainedModel.solve and .project below are its NumPy transcription (LAPACK's
+Cholesky and QR for the loops: the same factors, the same measures).
 """
 
 from __future__ import annotations
@@ -22,26 +27,55 @@ from functools import cached_property
 
 import numpy as np
 import symengine as se
+from scipy.linalg import solve_triangular
 
 from ..equations import Equations
 from ..errors import ModelError, Problem, SimulationError
 from ..model._constraints import HOLONOMIC
+from ._codegen_constrained import EVENT_RATIO, NEWTON_EXIT, PROJECTION_STEPS, PROJECTION_TOL, SINGULAR_RATIO
 
 __all__ = ["ConstrainedModel", "constrained_model", "ConstraintSingular"]
 
-#: A constraint Jacobian whose smallest singular value, relative to its largest, is below this
-#: has lost rank (the constraints are dependent there: a dead point of a mechanism).
-RANK_RATIO = 1e-9
-#: Gauss-Newton steps of one projection (each converges quadratically from a step's error).
-PROJECTION_STEPS = 4
-
-
 class ConstraintSingular(Exception):
-    """The constraint Jacobian lost rank at (t, x)."""
+    """The saddle-point system is singular at (t, x): its measure `ratio` is at most
+    SINGULAR_RATIO (see numeric._codegen_constrained); `mass`: through M (the inertia measure of M
+    is the smaller), not through the constraints' Jacobian G losing rank."""
 
-    def __init__(self, t, x, ratio):
+    def __init__(self, t, x, ratio, mass: bool = False):
         super().__init__(t, x, ratio)
-        self.t, self.x, self.ratio = t, np.array(x), ratio
+        self.t, self.x, self.ratio, self.mass = t, np.array(x), ratio, mass
+
+
+def _triangular(R, b, transpose: bool = False, lower: bool = False):
+    return solve_triangular(R, b, trans="T" if transpose else "N", lower=lower, check_finite=False)
+
+
+def _qr(B) -> tuple[np.ndarray, np.ndarray, float]:
+    """(Q, R, rank measure min_k |R_kk| / max_k |b_k|) of B = Q R (n x m, m <= n): step 2 of the
+    algorithm, B = D^-1/2 Z. The measure is 0 where a column is 0 or B not finite."""
+    if B.shape[1] == 0:
+        return B, np.zeros((0, 0)), 1.0
+    big = float(np.max(np.sum(B * B, axis=0)))
+    if not (0.0 < big < np.inf) or not np.all(np.isfinite(B)):
+        return B, np.eye(B.shape[1]), 0.0
+    Q, R = np.linalg.qr(B)
+    return Q, R, float(np.min(np.abs(np.diag(R)))) / np.sqrt(big)
+
+
+def _factor(M, G):
+    """Steps 1 and 2 of the algorithm: (r_M, rho_G, Lc, Q, R) with Lc = L D^1/2 (Cholesky: M =
+    Lc Lc^T) and Lc^-1 G^T = Q R; r_M = min_j D_j / M_jj (0.0 where M is not positive definite,
+    and then rho_G = 1.0: not computed)."""
+    d = np.diag(M)
+    if not (np.all(np.isfinite(M)) and np.all(d > 0)):
+        return 0.0, 1.0, None, None, None
+    try:
+        Lc = np.linalg.cholesky(M)
+    except np.linalg.LinAlgError:
+        return 0.0, 1.0, None, None, None
+    r = float(np.min(np.diag(Lc) ** 2 / d))
+    Q, R, rho = _qr(_triangular(Lc, G.T, lower=True))
+    return r, rho, Lc, Q, R
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,19 +105,28 @@ class ConstrainedModel:
                 out[n * n + n + m * n:])
 
     def solve(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray]:
-        """(q_ddot, lambda) at the state."""
-        n, m = self.n, self.m
+        """(q_ddot, lambda) at the state; ConstraintSingular where the measure is at most
+        SINGULAR_RATIO (or f, G or c is not finite: ratio -1.0)."""
         M, f, G, c = self.parts(t, x, u, p)
-        _check_rank(G, t, x)
-        K = np.zeros((n + m, n + m))
-        K[:n, :n], K[:n, n:], K[n:, :n] = M, G.T, G
-        try:
-            z = np.linalg.solve(K, np.concatenate((f, c)))
-        except np.linalg.LinAlgError:
-            raise ConstraintSingular(t, x, 0.0) from None
-        if not np.all(np.isfinite(z)):
-            raise ConstraintSingular(t, x, 0.0)
-        return z[:n], -z[n:]
+        r, rho, Lc, Q, R = _factor(M, G)
+        if r <= SINGULAR_RATIO:
+            raise ConstraintSingular(t, x, r, mass=True)
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(G)) and np.all(np.isfinite(c))):
+            raise ConstraintSingular(t, x, -1.0)
+        if rho <= SINGULAR_RATIO:
+            raise ConstraintSingular(t, x, rho)
+        a = _triangular(Lc, _triangular(Lc, f, lower=True), transpose=True, lower=True)
+        w = _triangular(R, c - G @ a, transpose=True)
+        qdd = a + _triangular(Lc, Q @ w, transpose=True, lower=True)
+        return qdd, _triangular(R, w)
+
+    def measures(self, t, x, u, p) -> tuple[float, float]:
+        """(r_M, rho_G): the inertia measure of M and the rank measure of G in the kinetic-energy
+        metric (see numeric._codegen_constrained); the saddle-point measure is their minimum."""
+        M, _, G, _ = self.parts(t, x, u, p)
+        with np.errstate(all="ignore"):
+            r, rho, *_ = _factor(M, G)
+        return r, rho
 
     def residuals(self, t, x, p) -> tuple[np.ndarray, np.ndarray]:
         """(g of the holonomic constraints, w = G q_dot + b of all) at the state."""
@@ -101,31 +144,37 @@ class ConstrainedModel:
         out = np.asarray(self._velocity(np.concatenate(([t], x, p))), float).ravel()
         return out[:m], out[m:m + m * n].reshape(m, n), out[m + m * n:].reshape(n, n)
 
-    def project(self, t, x, p, tol: float = 1e-14) -> np.ndarray:
+    def project(self, t, x, p) -> np.ndarray:
         """The state moved onto the constraints: coordinates onto g = 0 (Gauss-Newton, the smallest
-        change), then velocities onto G q_dot + b = 0 (the smallest change of kinetic energy)."""
+        change), then velocities onto G q_dot + b = 0 (the smallest change of kinetic energy); the
+        steps, tolerances and singular decision of numeric._codegen_constrained. Where a step
+        cannot be taken (not finite, or singular) the state is returned as it is there."""
         n = self.n
         x = np.array(x, float)
+        nq = 1.0 + np.max(np.abs(x[:n]))
         if len(self.holonomic):
             for _ in range(PROJECTION_STEPS):
-                g, G = self._holonomic(t, x, p)
-                if np.max(np.abs(g)) <= tol * (1.0 + np.max(np.abs(x[:n]))):
+                g, Gh = self._holonomic(t, x, p)
+                if not (np.all(np.isfinite(g)) and np.all(np.isfinite(Gh))):
+                    return x
+                gmax = np.max(np.abs(g))
+                if gmax <= PROJECTION_TOL * nq:
                     break
-                dq, *_ = np.linalg.lstsq(G, g, rcond=None)
-                x[:n] -= dq
+                Q, R, rho = _qr(Gh.T)
+                if rho <= SINGULAR_RATIO:
+                    return x
+                x[:n] -= Q @ _triangular(R, g, transpose=True)
+                if gmax <= NEWTON_EXIT * nq:
+                    break
         w, G, M = self._velocity_parts(t, x, p)
-        Minv_Gt = np.linalg.solve(M, G.T)
-        x[n:] -= Minv_Gt @ np.linalg.solve(G @ Minv_Gt, w)
+        if not (np.all(np.isfinite(w)) and np.all(np.isfinite(G)) and np.all(np.isfinite(M))):
+            return x
+        if np.max(np.abs(w), initial=0.0) > 0.0:
+            r, rho, Lc, Q, R = _factor(M, G)
+            if min(r, rho) <= SINGULAR_RATIO:
+                return x
+            x[n:] -= _triangular(Lc, Q @ _triangular(R, w, transpose=True), transpose=True, lower=True)
         return x
-
-
-def _check_rank(G, t, x) -> None:
-    if G.shape[0] == 0:
-        return
-    s = np.linalg.svd(G, compute_uv=False)
-    ratio = s[-1] / s[0] if s[0] > 0 else 0.0
-    if not ratio > RANK_RATIO:
-        raise ConstraintSingular(t, x, ratio)
 
 
 _CACHE: "weakref.WeakKeyDictionary[Equations, ConstrainedModel]" = weakref.WeakKeyDictionary()
@@ -235,6 +284,10 @@ def _solver(method: str):
     return getattr(si, method)
 
 
+def _measure(cm: ConstrainedModel, t, x, u_of, p) -> float:
+    return min(cm.measures(t, x, u_of(t, x), p))
+
+
 def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, method="DOP853"):
     """(X at `times`, Lambda at `times`, stats): the projected integration (see the module)."""
     n = cm.n
@@ -254,11 +307,30 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
     else:
         solver = _solver(method)(rhs, 0.0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j, nstep = 1, 0
+        above = _measure(cm, 0.0, x0, u_of, p) > EVENT_RATIO
         try:
             while j < len(times):
+                t_old = solver.t
                 _step(solver)
                 nstep += 1
                 dense = solver.dense_output()
+                if above and _measure(cm, solver.t, solver.y, u_of, p) <= EVENT_RATIO:
+                    # the measure crossed EVENT_RATIO in the step: located on the interpolant, as compiled
+                    a, b = t_old, solver.t
+                    for _ in range(200):
+                        if b - a <= 4.0 * np.finfo(float).eps * max(1.0, abs(b)):
+                            break
+                        mid = 0.5 * (a + b)
+                        if _measure(cm, mid, dense(mid), u_of, p) <= EVENT_RATIO:
+                            b = mid
+                        else:
+                            a = mid
+                    while j < len(times) and times[j] <= b:
+                        X[j] = cm.project(times[j], dense(times[j]), p)
+                        j += 1
+                    xb = dense(b)
+                    r_M, rho = cm.measures(b, xb, u_of(b, xb), p)
+                    raise ConstraintSingular(b, xb, min(r_M, rho), mass=r_M <= rho)
                 projected = cm.project(solver.t, solver.y, p)
                 while j < len(times) and times[j] <= solver.t:
                     X[j] = projected if times[j] == solver.t else cm.project(times[j], dense(times[j]), p)
