@@ -101,13 +101,15 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
     s.add_argument("--t-end", type=option_number("--t-end", positive=True, example="--t-end 10"), metavar="T", help="final time (s)")
     s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE,...",
                    help="initial coordinates and velocities, e.g. q1=0,q2=0.5,q2_dot=0 (values may use pi and the model's "
-                        "parameters, at their --param values); others are 0")
+                        "parameters, at their --param values); the others keep the model file's [simulation] initial "
+                        "values (0 where it gives none)")
     s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a parameter value (repeatable, or comma-separated)")
     s.add_argument("--input", action="append", default=[], metavar="NAME=EXPR",
                    help="an input as an expression of t, the coordinates, velocities and parameters, e.g. "
                         "\"F=1.5*sin(3*t)\" or the feedback law \"F=-20*(q2-pi/2)-5*q2_dot\", which may switch: "
-                        "where(condition, a, b), min, max, clip (repeatable); inputs not given are 0")
+                        "where(condition, a, b), min, max, clip (repeatable); inputs not given keep the model "
+                        "file's [simulation] inputs (0 where it gives none)")
     s.add_argument("--sample-time", metavar="TS or NAME=TS",
                    help="sample the inputs every TS seconds and hold them in between (a digital controller); "
                         "NAME=TS,... samples only the named inputs")
@@ -149,9 +151,7 @@ def run_simulation(args, *, equations_to=None):
     eqs = derive(model)
     if args.show_equations:
         print(eqs.text(), file=equations_to or sys.stdout)
-    defaults = model.simulation
-    traj = simulate(eqs, args.t_end, initial or None,
-                    inputs={**defaults.get("inputs", {}), **inputs} or None, params=params,
+    traj = simulate(eqs, args.t_end, initial or None, inputs=inputs or None, params=params,  # merged by name
                     dt=args.dt, rtol=args.rtol, atol=args.atol, method=args.method,
                     backend=getattr(args, "backend", "auto"), step=getattr(args, "step", None),
                     events=events or None, stop_on=tuple(stop_on),

@@ -90,18 +90,20 @@ def output_file(path, suffix: str, option: str, what: str) -> Path:
 
 
 def start_state(eq: Equations, initial: Mapping | None, params: Mapping | None = None) -> list[float]:
-    """The start values of x = [q, q_dot]: the model's [simulation] initial values with
-    `initial` overriding them; others 0. For a constrained model the state is then moved onto
+    """The start values of x = [q, q_dot]: the model's [simulation] initial values updated by
+    `initial`, name by name (SimulationOptions.merged: simulate's rule); others 0. For a
+    constrained model the state is then moved onto
     the constraints as :func:`lagrangian.simulate` moves its initial state (the same values held:
     the independent coordinates and speeds, and those given in `initial`; the others found by
     Newton from the model file's values), with the parameter values of `params`."""
+    from ..numeric import SimulationOptions
     from ..numeric._simulate import _named_values
 
     problems: list[Problem] = []
     x0 = [0.0] * (2 * eq.n)
-    for source in (eq.model.simulation.get("initial") or {}, initial or {}):
-        for i, v in _named_values(source, eq.state_names, "a coordinate or velocity", "initial", problems).items():
-            x0[i] = v
+    merged = SimulationOptions.from_model(eq.model).merged(initial=initial).initial
+    for i, v in _named_values(merged, eq.state_names, "a coordinate or velocity", "initial", problems).items():
+        x0[i] = v
     if problems:
         raise ModelError(problems)
     if eq.is_constrained:

@@ -13,7 +13,7 @@ from typing import Mapping
 import numpy as np
 
 from .._util import did_you_mean, read_only
-from ..errors import ModelError, Problem
+from ..errors import ModelError, Problem, Status
 from ._kernels import STATUS
 from ._trajectory import Trajectory
 
@@ -37,8 +37,9 @@ class BatchResult:
     initial : ndarray, shape (B, 2n)
         The initial states.
     status : ndarray of int, shape (B,)
-        0 when the run reached the end; otherwise see `messages` (1 or 2: the mass matrix
-        became singular, 3: the forcing was not finite, -1: the step size became too small).
+        0 when the run reached the end; otherwise see `statuses` (the codes as members of
+        :class:`~lagrangian.errors.Status`: 1 or 2, the mass matrix became singular, 3, the forcing
+        was not finite, -1, the step size became too small) and `messages`.
     stop_time : ndarray, shape (B,)
         Where each run stopped (t_end when it did not).
     nfev : ndarray of int, shape (B,)
@@ -71,6 +72,12 @@ class BatchResult:
         return self.x[:, -1, :]
 
     @property
+    def statuses(self) -> list[Status]:
+        """The status of each run as a :class:`~lagrangian.errors.Status` (its ``message`` and
+        ``fix``); `status` holds the same codes as integers."""
+        return [Status.of(s) for s in self.status]
+
+    @property
     def messages(self) -> list[str]:
         """The integrator's message for each run."""
         return [STATUS.get(int(s), f"status {int(s)}") for s in self.status]
@@ -88,7 +95,8 @@ class BatchResult:
         return Trajectory(self.t, self.x[i], self.state_names,
                           parameters=dict(zip(self.parameter_names, map(float, self.parameters[i]))),
                           nfev=int(self.nfev[i]), message=self.messages[i],
-                          stats={"backend": self.backend, "method": "DOP853", "nfev": int(self.nfev[i])},
+                          stats={"backend": self.backend, "method": "DOP853", "nfev": int(self.nfev[i]),
+                                 "status": self.statuses[i]},
                           model=self._model)
 
     def __repr__(self) -> str:
@@ -127,7 +135,8 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         Final time (default: the model's [simulation] t_end).
     initial : array_like, shape (B, 2n) or (2n,), or mapping of str to float or array (B,)
         Initial states: one row per run, or by name with a number (shared by every run) or an
-        array (one value per run); names not given are 0. Default: the model's initial values.
+        array (one value per run); names not given keep the model's [simulation] initial values
+        (0 where it has none), as in :func:`simulate`. Default: the model's initial values.
     params : mapping of str to float or array_like, shape (B,)
         Parameter values that override the model's: a number for every run, or one per run
         (see :func:`grid` for every combination of several parameters).
@@ -160,10 +169,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         coordinates; otherwise, and for the runs after the last full block, runs are integrated
         alone. A block in which a run meets a nearly singular mass matrix, a non-finite force
         or an angle beyond 1e5 rad is run again one run at a time, so that each run stops or
-        fails as it would alone. The runs of a constrained model are integrated alone (no lanes),
-        each from its consistent initial state (found as :func:`simulate` finds it) and projected
-        onto the constraints after every step; one that reaches a dead point (the constraints
-        dependent there) stops with status 6, ``Status.SINGULAR_CONSTRAINTS``.
+        fails as it would alone.
 
     Returns
     -------
@@ -174,18 +180,20 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     from ._simulate import (_Names, _as_numeric, _input_function, _input_programs, _parameters,
                             _work_problems, requested_times)
     from ._fast import BACKENDS, CompiledModel
+    from ._options import SimulationOptions
 
     nm = _as_numeric(system)
     eq = nm.equations
+    eq.require_unconstrained("simulate_batch", "simulate its runs one by one (simulate), which projects them onto the constraints")
     names = nm if isinstance(nm, (_Names, CompiledModel)) else _Names(eq)
     defaults = eq.model.simulation
     problems: list[Problem] = []
-    t_end = defaults.get("t_end") if t_end is None else t_end
+    options = SimulationOptions.from_model(eq.model).merged(t_end=t_end, dt=dt, rtol=rtol, atol=atol,
+                                                            initial=initial, inputs=inputs)  # simulate's rule
+    t_end = options.t_end
     if t_end is None or not isinstance(t_end, numbers.Real) or not t_end > 0 or not math.isfinite(t_end):
         problems.append(Problem(f"t_end must be a positive number, got {t_end!r}", key="t_end"))
-    dt = defaults.get("dt", 0.01) if dt is None else dt
-    rtol = defaults.get("rtol", 1e-9) if rtol is None else rtol
-    atol = defaults.get("atol", 1e-9) if atol is None else atol
+    dt, rtol, atol = options.dt, options.rtol, options.atol
     for key, v in (("dt", dt), ("rtol", rtol), ("atol", atol)):
         if not isinstance(v, numbers.Real) or not v > 0 or not math.isfinite(v):
             problems.append(Problem(f"{key} must be a positive number, got {v!r}", key=key))
@@ -195,8 +203,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     if backend not in BACKENDS or backend == "scipy":
         problems.append(Problem(f"simulate_batch runs in compiled code: backend must be one of auto, numba, c, "
                                 f"got '{backend}'{did_you_mean(backend, BACKENDS, 0.5)}", key="backend"))
-    given_initial = initial
-    initial = defaults.get("initial") if initial is None else initial
+    initial = options.initial
     params = dict(params or {})
 
     # sizes: every per-run array must have the same length B
@@ -232,7 +239,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
 
         _named_values({k: first(v) for k, v in initial.items()}, names.state_names, "a coordinate or velocity",
                       "initial", problems)
-    _, u_exprs = _input_function(names, defaults.get("inputs") if inputs is None else inputs, p0, problems)
+    _, u_exprs = _input_function(names, options.inputs, p0, problems)
     if u_exprs is None:
         problems.append(Problem("simulate_batch runs in compiled code, which cannot call a Python function: give "
                                 "each input as an expression string such as '1.5*sin(3*t)'", key="inputs"))
@@ -260,9 +267,6 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     from ._compiled import compile_equations
 
     cm = nm if isinstance(nm, CompiledModel) else compile_equations(eq, "numba" if backend == "auto" else backend)
-    project = nwork = 0
-    if eq.is_constrained:  # each run from its consistent state, projected after every step
-        project, nwork = _constrained_starts(cm, X0, P[:, :k], given_initial, defaults.get("initial"))
     prog = _input_programs(eq, u_exprs)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)
     X = np.full((B, len(times), 2 * names.n), np.nan)
@@ -271,7 +275,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     STATUS_ = np.zeros(B, dtype=np.int64)
     if lanes is None:
         lanes = default_lanes(names.n, B)
-    if prog.reads_state or prog.nswitch or project:  # feedback laws, switches, constraints: one run at a time
+    if prog.reads_state or prog.nswitch:  # feedback laws and switches: one run at a time (see dop853)
         lanes = 1
     rcl = cm.rhs_lanes_address(lanes) if lanes > 1 and B >= lanes else None
     if chunk_size is None:
@@ -287,14 +291,11 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
 
             for a, b in chunks:
                 _run(cm.rhs_address, rcl, names.n, lanes, X0[a:b], times, _nonempty_rows(P[a:b]), prog, rtol,
-                     float(atol), float(max_step), X[a:b], INFO[a:b], STATS[a:b], STATUS_[a:b], project=project,
-                     nwork=nwork)
+                     float(atol), float(max_step), X[a:b], INFO[a:b], STATS[a:b], STATUS_[a:b])
                 bar.update(b - a)
         else:
             _run_on_dask(client, cm, names.n, lanes if rcl else 1, chunks, X0, P, times, prog, rtol, float(atol),
-                         float(max_step), X, INFO, STATS, STATUS_, bar, nwork=nwork)
-    if project:
-        _dead_points(cm, INFO, P[:, :k], STATUS_)
+                         float(max_step), X, INFO, STATS, STATUS_, bar)
     for i in np.nonzero(STATUS_ != 0)[0]:
         X[i, STATS[i, 3]:] = np.nan
     stop = np.where(STATUS_ == 0, times[-1], INFO[:, 0])
@@ -319,31 +320,28 @@ def _nonempty_rows(P: np.ndarray) -> np.ndarray:
 
 
 def _run(rc: int, rcl: int | None, n: int, lanes: int, X0, times, P, prog, rtol, atol, max_step, X, INFO, STATS,
-         STATUS_, project: int = 0, nwork: int = 0) -> None:
+         STATUS_) -> None:
     """One chunk, in parallel on this machine's cores: in blocks of `lanes` runs evaluated
-    together (rcl, the address of rhs_lanes), or one run at a time (rcl None; `project`, `nwork`: a
-    constrained model's projection address and work size, see dop853)."""
+    together (rcl, the address of rhs_lanes), or one run at a time (rcl None)."""
     from ._fast import kernels, stage_table
 
     args = (X0, 0.0, times, P, prog.ops, prog.args, prog.starts, prog.nstack, rtol, atol, max_step, X, INFO, STATS,
             STATUS_, *stage_table())
     if rcl:
         kernels().dop853_batch_lanes(rc, rcl, n, lanes, *args)
-    elif project:
-        kernels().dop853_batch(rc, n, *args, project, nwork)
     else:
         kernels().dop853_batch(rc, n, *args)
 
 
 def _run_on_dask(client, cm, n, lanes, chunks, X0, P, times, prog, rtol, atol, max_step, X, INFO, STATS, STATUS_,
-                 bar, nwork: int = 0):
+                 bar):
     from dask.distributed import as_completed
 
     sources = (cm.source, cm.lanes_source(lanes) if lanes > 1 else None)
     futures = {}
     for a, b in chunks:
         fut = client.submit(run_chunk, sources, n, lanes, X0[a:b], times, _nonempty_rows(P[a:b]), prog.ops,
-                            prog.args, prog.starts, prog.nstack, rtol, atol, max_step, nwork=nwork, pure=False)
+                            prog.args, prog.starts, prog.nstack, rtol, atol, max_step, pure=False)
         futures[fut] = (a, b)
     for fut in as_completed(list(futures)):
         a, b = futures[fut]
@@ -351,12 +349,10 @@ def _run_on_dask(client, cm, n, lanes, chunks, X0, P, times, prog, rtol, atol, m
         bar.update(b - a)
 
 
-def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nstack, rtol, atol, max_step,
-              nwork: int = 0):
+def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nstack, rtol, atol, max_step):
     """One chunk of a batch, on a Dask worker: loads (or writes and compiles) the model's modules
     from their sources (that of the main module and that of the lanes module, or None), keyed by
-    the hash of the source itself, then runs the parallel DOP853 (`nwork` > 0: a constrained model's,
-    projected by its main module's project). Returns (X, INFO, STATS, STATUS)."""
+    the hash of the source itself, then runs the parallel DOP853. Returns (X, INFO, STATS, STATUS)."""
     from ._codegen import cached_module
     from ._inputs import Programs
 
@@ -369,45 +365,5 @@ def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nsta
     STATUS_ = np.zeros(B, dtype=np.int64)
     _run(main.rhs.address, lane_module.rhs_lanes.address if lane_module else None, n, lanes,
          np.ascontiguousarray(X0), times, np.ascontiguousarray(P), Programs(ops, args, starts, nstack), rtol, atol,
-         max_step, X, INFO, STATS, STATUS_, project=main.project.address if nwork else 0, nwork=nwork)
+         max_step, X, INFO, STATS, STATUS_)
     return X, INFO, STATS, STATUS_
-
-
-def _constrained_starts(cm, X0, P, initial, model_initial) -> tuple[int, int]:
-    """Move each run's initial state (rows of X0, in place) onto the constraints as simulate does
-    (see _simulate_constrained: the independent coordinates and speeds and the values given kept,
-    the others found); (the address of the model's projection, the size of its work array)."""
-    from ._codegen_constrained import work_size
-    from ._constrained import consistent_state
-    from ._fast import _address
-    from ._simulate import _consistent_guess, _constrained_numbers
-
-    if cm.project_c is None:
-        raise ModelError("simulate_batch integrates a constrained model with numba's compiled projection; the C "
-                         "backend does not take constraints yet: use backend='auto' or 'numba'")
-    eq = cm.equations
-    ccm = _constrained_numbers(eq)
-    for b in range(X0.shape[0]):
-        guess, fixed = _consistent_guess(eq, X0[b], initial, model_initial)
-        try:
-            X0[b] = consistent_state(ccm, guess, fixed, P[b])
-        except ModelError as exc:
-            values = ", ".join(f"{k} = {v:.6g}" for k, v in zip(cm.parameter_names, P[b])) or "no parameters"
-            raise ModelError([Problem(f"run {b} of the batch ({values}): {p.message}", key=p.key)
-                              for p in exc.problems]) from None
-    return _address(cm.project_c), work_size(ccm.n, ccm.m)
-
-
-def _dead_points(cm, INFO, P, STATUS_) -> None:
-    """Runs of a constrained model that stopped at a singular saddle-point system (status 1 or 2)
-    where M is regular stopped at a dead point: their constraints became dependent (G lost rank);
-    their status says so (Status.SINGULAR_CONSTRAINTS)."""
-    from ..errors import Status
-    from ._simulate import _constrained_numbers
-
-    ccm = _constrained_numbers(cm.equations)
-    u0 = np.zeros(len(cm.input_names))  # M does not depend on the inputs
-    for b in np.nonzero((STATUS_ == 1) | (STATUS_ == 2))[0]:
-        M = ccm.parts(INFO[b, 0], INFO[b, 2:], u0, P[b])[0]
-        if np.all(np.isfinite(M)) and np.linalg.cond(M) < 1e12:
-            STATUS_[b] = Status.SINGULAR_CONSTRAINTS

@@ -395,23 +395,21 @@ def _request_problems(obj: dict, problems: list[str]) -> ModelError:
 
 def _simulate(body: bytes):
     from .. import derive, simulate
+    from ..numeric import SimulationOptions
 
     problems: list[str] = []
     obj, kwargs = simulate_request(body, problems)
     if problems:
         raise _request_problems(obj, problems)
     model = _load(obj["model"])
-    defaults = model.simulation
-    t_end = kwargs.get("t_end", defaults.get("t_end"))
-    dt = kwargs.get("dt", defaults.get("dt", 0.01))
+    options = SimulationOptions.from_model(model).merged(t_end=kwargs.get("t_end"), dt=kwargs.get("dt"))
+    t_end, dt = options.t_end, options.dt
     if t_end is not None and t_end / dt + 1 > MAX_ROWS:
         rows = t_end / dt + 1
         shown = f"{math.floor(rows)}" if rows < 1e15 else f"{rows:.3g}"  # 1e+302, not 303 digits; inf at dt = 1e-320
         raise _request_problems(obj, [f"the simulation would output {shown} rows (t_end / dt + 1), more than the "
                                       f"limit of {MAX_ROWS} per request: raise dt or shorten t_end"])  # with the names
-    if kwargs.get("inputs") is not None:
-        kwargs["inputs"] = {**defaults.get("inputs", {}), **kwargs["inputs"]}
-    return model, simulate(derive(model), **kwargs)
+    return model, simulate(derive(model), **kwargs)  # initial and inputs update the model file's by name
 
 
 def simulate_task(body: bytes) -> Reply:
