@@ -401,7 +401,8 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         return _simulate_constrained(nm, run.x0, run.times, run.p, run.u_of, float(opts.rtol), float(opts.atol),
                                      opts.max_step, run.solver.name, opts.given,
                                      (eq.model.simulation or {}).get("initial"), opts.backend, run.u_exprs,
-                                     opts.progress, opts.constraints)
+                                     opts.progress, opts.constraints, event_exprs=run.event_exprs,
+                                     stop_on=opts.stop_on, sampling=run.sampling)
     fast = _compiled_model(nm, opts.backend, run.solver, run.u_exprs)
     if fast is not None:
         return _simulate_compiled(fast, run, opts)
@@ -454,7 +455,7 @@ def _prepare(nm, opts: SimulationOptions) -> _Run:
     if not constraint_problems and opts.constraints == "eliminate":
         _elimination_problems(eq, name, problems)
     if eq.is_constrained and not constraint_problems:
-        _constrained_problems(nm, name, event_exprs, opts.sample_time, problems)
+        _constrained_problems(nm, name, event_exprs, opts.sample_time, opts.constraints, problems)
     problems += _work_problems(opts.t_end, opts.dt, opts.t_eval, opts.step, name)
     if problems:
         raise ModelError(problems)
@@ -832,18 +833,20 @@ def failure(nm, status, t, x, measure, p, *, x0=None, kept: float | None = None,
                            status=status, time=t)
 
 
-def _constrained_problems(nm, method, event_exprs, sample_time, problems) -> None:
-    """What the integration of a constrained model does not do (yet), each with its fix."""
+def _constrained_problems(nm, method, event_exprs, sample_time, constraints, problems) -> None:
+    """What the integration of a constrained model does not do, each with its reason and its fix."""
     if method == "variational":
         problems.append(Problem("method 'variational' does not integrate constrained models: use method='DOP853' "
-                                "(projected onto the constraints after every step)", key="method"))
-    if event_exprs:
-        problems.append(Problem("events are not watched in a constrained model's simulation: find the crossings "
-                                "in the trajectory's columns, or write the model in independent coordinates",
-                                key="events"))
-    if sample_time is not None:
-        problems.append(Problem("sampled inputs (sample_time) are not held in a constrained model's simulation: "
-                                "give the inputs as functions of t and the state", key="sample_time"))
+                                "(projected onto the constraints after every step). The midpoint rule's discrete "
+                                "Euler-Lagrange equations would need the constraint forces G^T lambda in them and "
+                                "g(q) = 0 imposed at every step (a RATTLE step, not built here)", key="method"))
+    if constraints == "eliminate" and (event_exprs or sample_time is not None):
+        what = "events are" if event_exprs else "sampled inputs (sample_time) are"
+        problems.append(Problem(f"{what} not available with constraints='eliminate': its right-hand side finds "
+                                "the dependent coordinates by Newton on g(q, t) = 0 at every evaluation, in "
+                                "SciPy's integrators, while crossings are located and inputs held by the compiled "
+                                "DOP853 of the projected integration: use constraints='project' (the default)",
+                                key="events" if event_exprs else "sample_time"))
 
 
 def _independent_state_names(model) -> set[str]:
@@ -867,8 +870,33 @@ def given_initial_names(model) -> list[str]:
     return [n for n in order if n in names]
 
 
+def _consistent_guess(eq: Equations, x0, initial, model_initial) -> tuple[np.ndarray, set[str]]:
+    """(x0 with the model file's values as guesses, the names consistent_state keeps fixed) for a start
+    from `x0`: the independent coordinates and speeds and the values the caller gave (`initial`, a
+    mapping), or, without `initial`, the model's own given names (given_initial_names)."""
+    names = eq.state_names
+    fixed = _independent_state_names(eq.model)
+    x0 = np.array(x0, float)
+    if isinstance(initial, Mapping):
+        fixed |= {getattr(k, "name", k) for k in initial}
+        for k, v in (model_initial or {}).items():  # the model file's values as guesses for the others
+            if k in names and k not in fixed:
+                x0[names.index(k)] = v
+    elif initial is None:
+        fixed = set(given_initial_names(eq.model))
+    return x0, fixed
+
+
+def _constrained_numbers(eq: Equations):
+    """The ConstrainedModel of `eq` (M, f, G, c and the projection, evaluated by SymEngine and NumPy)."""
+    from ._constrained import constrained_model
+
+    return constrained_model(eq, compile_equations(eq))
+
+
 def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, initial, model_initial,
-                          backend="scipy", u_exprs=None, progress=None, constraints="project"):
+                          backend="scipy", u_exprs=None, progress=None, constraints="project", *,
+                          event_exprs=None, stop_on=(), sampling=None):
     """simulate() of a model with constraints: consistent initial state, then the projected
     integration of M q_ddot = f + G^T lambda, G q_ddot = c (see _constrained).
 
@@ -876,26 +904,32 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     ([simulation] independent) and the independent speeds ([simulation] independent_speeds; default:
     the independent coordinates' velocities), and the values the caller gave (`initial`);
     the model file's other initial values are starting guesses (the assembly closest to them is
-    found). Without independent coordinates and without `initial`, the model file's values are kept."""
-    from ._constrained import ConstraintSingular, consistent_state, constrained_model, integrate, \
-        singular_constraint_message
+    found). Without independent coordinates and without `initial`, the model file's values are kept.
+
+    `event_exprs` (with `stop_on`) and `sampling` (sampled inputs) run on the compiled projected
+    integration: the crossings are located on the interpolant of each step, which starts from the
+    projected state, and the states recorded there are projected as the outputs are."""
+    from ._constrained import (
+        ConstraintSingular,
+        consistent_state,
+        constrained_model,
+        integrate,
+        singular_constraint_message,
+    )
 
     eq = nm.equations
     fast = None if constraints == "eliminate" else _compiled_constrained(nm, backend, method, u_exprs)
+    if fast is None and (event_exprs or sampling is not None):
+        what = "events are watched" if event_exprs else "sampled inputs (sample_time) are held"
+        raise ModelError(f"{what} by the compiled projected integration of a constrained model: give the inputs as "
+                         "expression strings and use method='DOP853' with a compiled backend (backend='auto')")
     if not isinstance(nm, NumericModel):
         nm = compile_equations(eq)
     cm = constrained_model(eq, nm)
     names = nm.state_names
     independent = [str(q) for q in eq.model.simulation.get("independent", ())]
-    fixed = _independent_state_names(eq.model)
-    if isinstance(initial, Mapping):
-        fixed |= {getattr(k, "name", k) for k in initial}
-        x0 = np.array(x0, float)
-        for k, v in (model_initial or {}).items():  # the model file's values as guesses for the others
-            if k in names and k not in fixed:
-                x0[names.index(k)] = v
-    elif initial is None:
-        fixed = set(given_initial_names(eq.model))
+    x0, fixed = _consistent_guess(eq, x0, initial, model_initial)
+    found: dict = {}
     try:
         x0 = consistent_state(cm, x0, fixed, p)
         if constraints == "eliminate":
@@ -904,46 +938,52 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
             X, U, Lam, stats = integrate_eliminated(cm, x0, times, p, u_of, rtol, atol, max_step, method,
                                                     [names.index(q) for q in independent])
         elif fast is not None:
-            X, U, Lam, stats = _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
-                                                               max_step, progress)
+            X, U, Lam, stats, found = _integrate_compiled_constrained(
+                fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress, event_exprs=event_exprs,
+                stop_on=stop_on, sampling=sampling)
         else:
             X, U, Lam, stats = integrate(cm, x0, times, p, u_of, rtol, atol, max_step, method)
     except ConstraintSingular as s:
         error = SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=-1, time=float(s.t))
         error.partial = _constrained_partial(nm, cm, fast, method, times, getattr(s, "rows", None), u_of, p,
-                                             str(error))
+                                             str(error), getattr(s, "inputs", None))
         raise error from None
     except (SimulationError, SingularMassMatrixError) as exc:
         exc.partial = _constrained_partial(nm, cm, fast, method, times, getattr(exc, "rows", None), u_of, p,
-                                           str(exc))
+                                           str(exc), getattr(exc, "inputs", None))
         raise
     if not np.all(np.isfinite(X)):
         raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
                               "and initial state", status=-1)
-    return _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p)
+    return _constrained_trajectory(nm, fast, method, times[:len(X)], X, U, Lam, stats, p, events=found)
 
 
-def _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p, failure: str | None = None) -> Trajectory:
+def _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p, failure: str | None = None,
+                            events=None) -> Trajectory:
     """The Trajectory of a constrained run's output rows at `times` (all of them, or those before a
-    failure, whose message is `failure`)."""
+    failure, whose message is `failure`); `events`: the crossings found, by event name."""
     eq = nm.equations
     energy = None if eq.explicit_time else [nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)]
     stats = {"backend": "scipy" if fast is None else fast.backend, "method": method, **stats}
-    return run_trajectory(eq, times, X, U, p, energy=energy, stats=stats,
-                          status=Status.SUCCESS if failure is None else None,
-                          message="constrained integration finished" if failure is None else "stopped",
-                          failure=failure, multipliers=Lam)
+    status = Status.EVENT_STOP if "stopped_by" in stats else Status.SUCCESS if failure is None else None
+    message = ("stopped" if failure is not None else status.message if "stopped_by" in stats
+               else "constrained integration finished")
+    return run_trajectory(eq, times, X, U, p, energy=energy, stats=stats, status=status, message=message,
+                          events=events, failure=failure, multipliers=Lam)
 
 
-def _constrained_partial(nm, cm, fast, method, times, rows, u_of, p, failure: str) -> Trajectory | None:
+def _constrained_partial(nm, cm, fast, method, times, rows, u_of, p, failure: str,
+                         inputs=None) -> Trajectory | None:
     """The rows a failed constrained run reached (`rows`: its states at the first output times, as
-    the integrators attach them to their error), as a Trajectory marked partial; None without rows."""
+    the integrators attach them to their error; `inputs`: the inputs there, where they were held by a
+    sampled controller), as a Trajectory marked partial; None without rows."""
     from ._constrained import ConstraintSingular, multipliers_and_drift
 
     reached = 0 if rows is None else _finite_rows(np.asarray(rows))
     while reached:
         t, X = times[:reached], np.asarray(rows)[:reached]
-        U = np.array([u_of(ti, xi) for ti, xi in zip(t, X)]).reshape(reached, -1)
+        U = (np.array([u_of(ti, xi) for ti, xi in zip(t, X)]).reshape(reached, -1) if inputs is None
+             else np.asarray(inputs)[:reached])
         try:
             Lam, drift = multipliers_and_drift(cm, t, X, U, p)
             break
@@ -962,18 +1002,35 @@ def _compiled_constrained(nm, backend: str, method: str, u_exprs):
     return _compiled_model(nm, backend, method, u_exprs)
 
 
-def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress):
+def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress, *,
+                                   event_exprs=None, stop_on=(), sampling=None):
     """The projected integration in compiled code: DOP853 on the saddle-point right-hand side with
-    the projection after every accepted step (see _codegen_constrained); (X, U, Lambda, stats) as
-    _constrained.integrate returns them."""
+    the projection after every accepted step (see _codegen_constrained); (X, U, Lambda, stats,
+    events): X, U and Lambda at the output times reached (all of them, or those up to the stop of an
+    event in `stop_on`), stats as _constrained.integrate gives them, and the crossings of the events
+    (`event_exprs`) as Trajectory.events. `sampling`: the sampled inputs, held between samples."""
     from ._codegen_constrained import work_size
     from ._constrained import ConstraintSingular, multipliers_and_drift
     from ._fast import _address, inputs_and_energy, run_dop853
+    from ._inputs import programs
     from ._kernels import STATUS
 
-    prog = _input_programs(fast.equations, u_exprs)
-    raw = run_dop853(fast, x0, times, p, prog, rtol, atol, max_step, progress=progress,
-                     project=_address(fast.project_c), nwork=work_size(cm.n, cm.m))
+    eq = fast.equations
+    prog = _input_programs(eq, u_exprs)
+    stop_on = (stop_on,) if isinstance(stop_on, str) else tuple(stop_on)
+    eprog, terminal = None, ()
+    if event_exprs:
+        eprog = programs(list(event_exprs.values()), eq.t, list(eq.parameters),
+                         states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs, switches=False)
+        terminal = [int(name in stop_on) for name in event_exprs]
+    raw = run_dop853(fast, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal,
+                     progress=progress, sampling=sampling, project=_address(fast.project_c),
+                     nwork=work_size(cm.n, cm.m))
+    stopped = raw.status == 4 and bool(event_exprs)
+    reached = len(raw.t) if stopped else len(times)
+    held = None
+    if sampling is not None:  # the held values at the output times, as _compiled_trajectory reads them
+        held = (sampling.hold, held_inputs(sampling, raw.held[:, :len(fast.input_names)], times[:len(raw.t)]))
     try:
         if raw.status in (1, 2) or (raw.status not in (0, 4) and raw.stop_measure < 1e-6 and raw.status != 3):
             # the kernel's measure is min(r_M, rho_G) (_codegen_constrained): the smaller of the two, in the
@@ -986,20 +1043,52 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
             raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the "
                                   f"state {_state_text(fast, raw.stop_x)}: check the model's parameters and "
                                   "expressions", status=-1, time=raw.stop_t)
-        if raw.status != 0:
+        if raw.status != 0 and not stopped:
             raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
                                   f"(state {_state_text(fast, raw.stop_x)}); try a smaller rtol/atol",
                                   status=raw.status, time=raw.stop_t)
     except (ConstraintSingular, SimulationError, SingularMassMatrixError) as exc:
         exc.rows = raw.x[:len(raw.t)]  # the output rows reached: simulate keeps them (SimulationError.partial)
+        if held is not None:
+            exc.inputs = inputs_and_energy(fast, raw.t, exc.rows, p, prog, held)[0]
         raise
-    X = raw.x
-    U, _ = inputs_and_energy(fast, times, X, p, prog)
-    Lam, drift = multipliers_and_drift(cm, times, X, U, p)
+    t, X = times[:reached], np.array(raw.x[:reached])
+    if stopped:  # the outputs of the stopping step come from its interpolant, not yet projected
+        _project_rows(cm, t, X, p)
+    U, _ = inputs_and_energy(fast, t, X, p, prog, held if held is None else (held[0], held[1][:reached]))
+    Lam, drift = multipliers_and_drift(cm, t, X, U, p)
     stats = {"nfev": raw.nfev, "nstep": raw.nstep, "nreject": raw.nreject,
              "projection": "coordinate projection after every step",
              "constraint_drift": drift}
-    return X, U, Lam, stats
+    if prog.nswitch:
+        stats["switches"] = raw.nswitch
+    if sampling is not None:
+        stats["samples"] = int(np.searchsorted(sampling.samples, t[-1], side="right"))
+    found = {}
+    if event_exprs:
+        names = list(event_exprs)
+        keep = raw.event_t <= (raw.stop_t if stopped else math.inf)
+        for k, name in enumerate(names):
+            sel = keep & (raw.event_k == k)
+            xe = np.array(raw.event_x[sel], float).reshape(-1, 2 * cm.n)
+            _project_rows(cm, raw.event_t[sel], xe, p, every=True)  # on the constraints, as the outputs
+            found[name] = {"t": read_only(raw.event_t[sel], float), "x": read_only(xe, float)}
+        if stopped:
+            stats["stopped_by"] = names[int(raw.stop_measure)]
+            stats["stop_time"] = raw.stop_t
+    return X, U, Lam, stats, found
+
+
+def _project_rows(cm, times, X, p, every: bool = False) -> None:
+    """Project the rows of X (states at `times`) onto the constraints in place: from the last row
+    back to the first that the projection no longer moves (those were projected by the kernel), or
+    `every` row."""
+    for j in range(len(X) - 1, -1, -1):
+        x = cm.project(float(times[j]), X[j], p)
+        moved = np.max(np.abs(x - X[j]))
+        X[j] = x
+        if not every and moved <= 1e-14 * (1.0 + np.max(np.abs(x))):
+            break
 
 
 def _elimination_problems(eq: Equations, method: str, problems: list) -> None:
