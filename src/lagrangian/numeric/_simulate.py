@@ -944,7 +944,8 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
         else:
             X, U, Lam, stats = integrate(cm, x0, times, p, u_of, rtol, atol, max_step, method)
     except ConstraintSingular as s:
-        error = SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=-1, time=float(s.t))
+        error = SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=Status.SINGULAR_CONSTRAINTS,
+                                time=float(s.t))
         error.partial = _constrained_partial(nm, cm, fast, method, times, getattr(s, "rows", None), u_of, p,
                                              str(error), getattr(s, "inputs", None))
         raise error from None
@@ -953,8 +954,7 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
                                            str(exc), getattr(exc, "inputs", None))
         raise
     if not np.all(np.isfinite(X)):
-        raise SimulationError("the solution is not finite (NaN or infinity): check the model's parameters "
-                              "and initial state", status=-1)
+        raise failure(nm, Status.SOLUTION_NOT_FINITE, None, None, None, p)
     return _constrained_trajectory(nm, fast, method, times[:len(X)], X, U, Lam, stats, p, events=found)
 
 
@@ -1013,8 +1013,6 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
     from ._constrained import ConstraintSingular, multipliers_and_drift
     from ._fast import _address, inputs_and_energy, run_dop853
     from ._inputs import programs
-    from ._kernels import STATUS
-
     eq = fast.equations
     prog = _input_programs(eq, u_exprs)
     stop_on = (stop_on,) if isinstance(stop_on, str) else tuple(stop_on)
@@ -1039,14 +1037,9 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
             if rho < r_M:
                 raise ConstraintSingular(raw.stop_t, raw.stop_x, rho)
             raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure, p)
-        if raw.status == 3:
-            raise SimulationError(f"the forcing f is not finite (NaN or infinity) at t = {raw.stop_t:.6g} in the "
-                                  f"state {_state_text(fast, raw.stop_x)}: check the model's parameters and "
-                                  "expressions", status=-1, time=raw.stop_t)
-        if raw.status != 0 and not stopped:
-            raise SimulationError(f"the integrator stopped at t = {raw.stop_t:.6g}: {STATUS[raw.status]} "
-                                  f"(state {_state_text(fast, raw.stop_x)}); try a smaller rtol/atol",
-                                  status=raw.status, time=raw.stop_t)
+        error = failure(fast, raw.status, raw.stop_t, raw.stop_x, None, p)  # the one map: status 3, -1, ...
+        if error is not None:  # (None for 0 and 4, an event's stop)
+            raise error
     except (ConstraintSingular, SimulationError, SingularMassMatrixError) as exc:
         exc.rows = raw.x[:len(raw.t)]  # the output rows reached: simulate keeps them (SimulationError.partial)
         if held is not None:
