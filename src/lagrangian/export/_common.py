@@ -114,29 +114,26 @@ def start_state(eq: Equations, initial: Mapping | None, params: Mapping | None =
 def held_names(eq: Equations) -> set[str]:
     """The coordinates and velocities that the model itself holds when its state is made
     consistent: [simulation] independent, and independent_speeds (default: the independent
-    coordinates' velocities)."""
-    sim = eq.model.simulation
-    independent = [str(q) for q in sim.get("independent", ())]
-    speeds = [str(v) for v in sim.get("independent_speeds", ())]
-    return set(independent) | (set(speeds) if speeds else {f"{q}_dot" for q in independent})
+    coordinates' velocities): SimulationOptions.held."""
+    from ..numeric import SimulationOptions
+
+    return set(SimulationOptions.from_model(eq.model).held)
 
 
 def consistent_start(eq: Equations, x0, initial: Mapping | None, p) -> list[float]:
-    """x0 moved onto the constraints by simulate's rule (numeric._simulate._simulate_constrained):
-    held are the independent coordinates and speeds and the names given in `initial`; without
-    independent coordinates and without `initial`, the model file's initial values."""
+    """x0 moved onto the constraints by simulate's rule, with simulate's own function
+    (numeric._simulate._consistent_guess): held are the independent coordinates and speeds and the
+    names given in `initial`; without `initial`, the model file's given names."""
     import numpy as np
 
+    from ..numeric import SimulationOptions
     from ..numeric._compiled import compile_equations
     from ..numeric._constrained import consistent_state, constrained_model
+    from ..numeric._simulate import _consistent_guess
 
     cm = constrained_model(eq, compile_equations(eq))
-    fixed = held_names(eq)
-    if initial:
-        fixed |= {getattr(k, "name", k) for k in initial}
-    elif not eq.model.simulation.get("independent"):
-        fixed |= set(eq.model.simulation.get("initial") or ())
-    return list(consistent_state(cm, np.array(x0, float), fixed, np.array(p, float)))
+    guess, fixed = _consistent_guess(eq, x0, initial or None, SimulationOptions.from_model(eq.model).initial)
+    return list(consistent_state(cm, guess, fixed, np.array(p, float)))
 
 
 def energy_name(eq: Equations) -> str:

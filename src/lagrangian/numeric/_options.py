@@ -139,6 +139,14 @@ class SimulationOptions:
                     changes["given"] = value
         return replace(self, **changes) if changes else self
 
+    @property
+    def held(self) -> frozenset[str]:
+        """The coordinates and velocities a constrained model's consistent initial state keeps as
+        the model file names them: the independent coordinates and the independent speeds (default:
+        the independent coordinates' velocities)."""
+        speeds = self.independent_speeds or tuple(f"{q}_dot" for q in self.independent)
+        return frozenset(self.independent) | frozenset(speeds)
+
     def problems(self) -> list[Problem]:
         """The problems of the single values (t_end, dt, rtol, atol, step, max_step, constraints),
         every one at once; the names (initial, inputs, params, events...) are checked against the

@@ -392,15 +392,16 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     """
     nm = _as_numeric(system)
     eq = nm.equations
-    opts = (options or SimulationOptions.from_model(eq.model)).merged(
+    base = options or SimulationOptions.from_model(eq.model)
+    opts = base.merged(
         t_end=t_end, initial=initial, inputs=inputs, params=params, dt=dt, t_eval=t_eval, rtol=rtol, atol=atol,
         method=method, max_step=max_step, backend=backend, step=step, events=events, stop_on=stop_on,
         progress=progress, sample_time=sample_time, constraints=constraints)
     run = _prepare(nm, opts)
     if eq.is_constrained:
         return _simulate_constrained(nm, run.x0, run.times, run.p, run.u_of, float(opts.rtol), float(opts.atol),
-                                     opts.max_step, run.solver.name, opts.given,
-                                     (eq.model.simulation or {}).get("initial"), opts.backend, run.u_exprs,
+                                     opts.max_step, run.solver.name, opts.given, base.initial, opts.backend,
+                                     run.u_exprs,
                                      opts.progress, opts.constraints, event_exprs=run.event_exprs,
                                      stop_on=opts.stop_on, sampling=run.sampling)
     fast = _compiled_model(nm, opts.backend, run.solver, run.u_exprs)
@@ -851,10 +852,8 @@ def _constrained_problems(nm, method, event_exprs, sample_time, constraints, pro
 
 def _independent_state_names(model) -> set[str]:
     """[simulation] independent coordinates and independent speeds (default: the independent
-    coordinates' velocities)."""
-    independent = [str(q) for q in model.simulation.get("independent", ())]
-    speeds = [str(v) for v in model.simulation.get("independent_speeds", ())]
-    return set(independent) | (set(speeds) if speeds else {f"{q}_dot" for q in independent})
+    coordinates' velocities): SimulationOptions.held."""
+    return set(SimulationOptions.from_model(model).held)
 
 
 def given_initial_names(model) -> list[str]:
@@ -863,9 +862,10 @@ def given_initial_names(model) -> list[str]:
     independent coordinates named, those and the independent speeds instead (the file's other values
     are starting guesses for the assembly). Giving these names' values (and any others the user
     sets) simulates as the defaults do: the playground's sliders send them."""
-    names = _independent_state_names(model) if model.constraints else set()
-    if not (model.constraints and model.simulation.get("independent")):
-        names |= {str(k) for k in (model.simulation.get("initial") or {})}
+    options = SimulationOptions.from_model(model)
+    names = set(options.held) if model.constraints else set()
+    if not (model.constraints and options.independent):
+        names |= set(options.initial)
     order = [q.name for q in model.coordinates] + [f"{q.name}_dot" for q in model.coordinates]
     return [n for n in order if n in names]
 
