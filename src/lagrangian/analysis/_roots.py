@@ -26,9 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy
 
+from ..equations._search import angle_difference, gauss_newton, multistart, newton, same_point, wrap_angles
 from ..model._kinematics import to_sympy
 from ._setting import Setting
-from ._stationary import StationaryProblem, conditions_hold, constant_map, residual, same_point, wrap_angles
+from ._stationary import StationaryProblem, conditions_hold, constant_map, residual
 
 __all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "mirror_images", "RootSet", "group_roots",
            "free_axes", "no_root_reasons", "runaway_notes", "completeness_notes"]
@@ -90,9 +91,14 @@ def _checked_residual(ctx: Search, q: np.ndarray):
         r, J = residual(ctx.problem, ctx.setting, q)
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
         return None
+    return r, J, _small(ctx, r, J, q)
+
+
+def _small(ctx: Search, r: np.ndarray, J: np.ndarray, q: np.ndarray) -> bool:
+    """Whether the residual r (Jacobian J) at q is small against the scale of the forces."""
     z = q[list(ctx.problem.unknowns)]
     scale = max(ctx.force_scale, float(np.abs(J).max(initial=0.0)) * (1.0 + float(np.abs(z).max(initial=0.0))))
-    return r, J, bool(not r.size or np.abs(r).max() <= _RESIDUAL * scale)
+    return bool(not r.size or np.abs(r).max() <= _RESIDUAL * scale)
 
 
 def is_root(ctx: Search, q: np.ndarray) -> bool:
@@ -164,34 +170,23 @@ def _precise_newton_ok(ctx: Search, q: np.ndarray) -> bool:
 def solve_from(problem: StationaryProblem, setting: Setting, start: np.ndarray,
                ctx: Search | None = None) -> np.ndarray | None:
     """A root of the stationary equations found from `start` (full q); None when the solve does
-    not end at one (is_root)."""
-    import scipy.optimize
-
+    not end at one (is_root). The solve is equations._search.newton (Powell's hybrid method, or
+    Levenberg-Marquardt where the rows outnumber the unknowns)."""
     ctx = ctx or search_context(problem, setting)
     idx = list(problem.unknowns)
     q = np.array(start, dtype=float)
-    m, k = len(problem.rows), len(idx)
-    if not k:
+    if not idx:
         return wrap_angles(q, problem.angles)
-    pad = max(0, k - m)
 
     def fun(z):
         q[idx] = z
-        r, J = residual(problem, setting, q)
-        if pad:
-            r, J = np.concatenate((r, np.zeros(pad))), np.vstack((J, np.zeros((pad, k))))
-        return r, J
+        return residual(problem, setting, q)
 
-    try:
-        with np.errstate(all="ignore"):
-            if m + pad == k:
-                sol = scipy.optimize.root(fun, q[idx], jac=True, method="hybr", options={"xtol": 1e-13})
-            else:
-                sol = scipy.optimize.root(fun, q[idx], jac=True, method="lm", options={"xtol": 1e-13, "ftol": 1e-15})
-    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+    z = newton(fun, q[idx], len(problem.rows))
+    if z is None:
         return None
     out = np.array(start, dtype=float)
-    out[idx] = sol.x
+    out[idx] = z
     # checked where it is reported, angles wrapped: an angle that ran away to 1e17 turns is a root
     # of the floating-point residual only (th1 + th2 rounded to the spacing of the doubles there)
     wrapped = wrap_angles(out, problem.angles) if np.all(np.isfinite(out)) else out
@@ -252,14 +247,9 @@ def numeric_roots(problem: StationaryProblem, setting: Setting, *, starts: int |
     ctx = ctx or search_context(problem, setting)
     k = sum(1 for i in problem.unknowns if i < problem.equations.n)  # the multipliers follow the coordinates
     count = starts if starts is not None else 24 + 24 * k
-    found: list[np.ndarray] = []
     points = [*guesses, *_starts(problem, setting, count, seed)]
     ctx.starts += len(points)
-    for start in points:
-        q = solve_from(problem, setting, start, ctx)
-        if q is not None and not any(same_point(q, g, problem.angles) for g in found):
-            found.append(q)
-    return found
+    return multistart(lambda start: solve_from(problem, setting, start, ctx), points, problem.angles)
 
 
 def mirror_images(ctx: Search, roots: list[np.ndarray]) -> list[np.ndarray]:
@@ -332,21 +322,15 @@ def _project(ctx: Search, q: np.ndarray, iterations: int = 60) -> np.ndarray | N
     problem = ctx.problem
     unk = list(problem.unknowns)
     q = np.array(q, dtype=float)
-    polish = 0
-    for _ in range(iterations):
-        checked = _checked_residual(ctx, q)
-        if checked is None:
-            return None
-        r, J, small = checked
-        if not r.size:
-            return q
-        step = np.linalg.lstsq(J, r, rcond=1e-10)[0]
-        if small:
-            polish += 1
-            if polish > 3 or np.abs(step).max(initial=0.0) <= 1e-15 * (1.0 + np.abs(q[unk]).max(initial=0.0)):
-                return q
-        q[unk] -= step
-    return q if polish else None
+
+    def fun(x):
+        with np.errstate(all="ignore"):
+            return residual(problem, ctx.setting, x)
+
+    q, ok = gauss_newton(fun, q, unk, iterations=iterations, small=lambda r, J, x: _small(ctx, r, J, x), polish=3,
+                         rcond=1e-10,
+                         step_tol=1e-15 * (1.0 + float(np.abs(q[unk]).max(initial=0.0))))
+    return q if ok else None
 
 
 def _tangent(ctx: Search, q: np.ndarray) -> np.ndarray:
@@ -384,11 +368,7 @@ def _connected(ctx: Search, a: np.ndarray, b: np.ndarray, budget: int = 400) -> 
     unk = list(problem.unknowns)
 
     def towards(c):
-        d = b - c
-        for i, is_angle in enumerate(problem.angles):
-            if is_angle:
-                d[i] = math.remainder(d[i], 2 * math.pi)
-        return d[unk]
+        return angle_difference(b, c, problem.angles)[unk]
 
     c = np.array(a, dtype=float)
     h = 0.1 * (1.0 + float(np.linalg.norm(towards(c))))
@@ -446,11 +426,7 @@ def group_roots(ctx: Search, roots: list[RootSet]) -> list[RootSet]:
         return k
 
     def gap(a, b):  # angles a whole turn apart are the same
-        d = out[a].q - out[b].q
-        for i, is_angle in enumerate(ctx.problem.angles):
-            if is_angle:
-                d[i] = math.remainder(d[i], 2 * math.pi)
-        return float(np.linalg.norm(d))
+        return float(np.linalg.norm(angle_difference(out[a].q, out[b].q, ctx.problem.angles)))
 
     pairs = sorted((gap(a, b), a, b) for i, a in enumerate(loose) for b in loose[i + 1:])
     attempts = failed = 0

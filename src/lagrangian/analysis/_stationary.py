@@ -36,6 +36,7 @@ import sympy
 
 from ..equations import Equations
 from ..equations._equations import _depends_on
+from ..equations._search import same_point, wrap_angles  # the one rule for angles (re-exported)
 from ..errors import ModelError
 from ..model._kinematics import to_sympy
 from ._linearize import cyclic_coordinates
@@ -474,25 +475,6 @@ def residual(problem: StationaryProblem, setting: Setting, q: np.ndarray) -> tup
     f, fq, _ = forces(problem, setting, q)
     rows, unk = list(problem.rows), list(problem.unknowns)
     return f[rows], fq[np.ix_(rows, unk)]
-
-
-def wrap_angles(q: np.ndarray, angles) -> np.ndarray:
-    """Angles into (-pi, pi]; round-off next to 0 (1e-17) set to 0."""
-    q = np.array(q, dtype=float)
-    q[np.abs(q) <= 1e-13] = 0.0
-    for i, a in enumerate(angles):
-        if a:
-            w = math.remainder(q[i], 2 * math.pi)
-            q[i] = math.pi if w <= -math.pi + 1e-12 else w
-    return q
-
-
-def same_point(a: np.ndarray, b: np.ndarray, angles) -> bool:
-    diff = a - b
-    for i, is_angle in enumerate(angles):
-        if is_angle:
-            diff[i] = math.remainder(diff[i], 2 * math.pi)
-    return bool(np.all(np.abs(diff) <= 1e-6 * (1 + np.abs(a))))
 
 
 def conditions_hold(problem: StationaryProblem, setting: Setting) -> list[int]:

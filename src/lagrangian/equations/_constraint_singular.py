@@ -40,6 +40,7 @@ from ..errors import ModelError
 from ..model._constraints import HOLONOMIC
 from ..model._kinematics import to_sympy
 from ._equations import Equations
+from ._search import angle_difference, distinct, gauss_newton, least_squares, wrap_angles
 from ._singular import determinant, factored
 
 __all__ = ["constraint_singularities", "ConstraintSingularityReport", "ConstraintConfiguration", "DeadPoints"]
@@ -400,26 +401,16 @@ class _Numbers:
 
 
 def _assemble(num: _Numbers, q, held=(), scale=1.0):
-    """q moved onto g = 0 by Gauss-Newton steps of the smallest change, the `held` indices kept;
-    None where that fails."""
+    """q moved onto g = 0 by Gauss-Newton steps of the smallest change (equations._search), each at
+    most half the length scale, the `held` indices kept; None where that fails."""
     q = np.array(q, float)
     if not num.hol:
         return q
     free = [i for i in range(num.n) if i not in set(held)]
     if not free:
         return q if np.max(np.abs(num.g(q))) <= 1e-10 * scale else None
-    rng = np.random.default_rng(1)
-    for _ in range(60):
-        r = num.g(q)
-        J = num.G(q)[num.hol][:, free]
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):  # 0/0 at a guess (the pivot): move off it
-            q[free] += 1e-3 * scale * rng.standard_normal(len(free))
-            continue
-        if np.max(np.abs(r)) <= 1e-14 * scale:
-            break
-        dq = np.linalg.lstsq(J, r, rcond=None)[0]
-        step = np.max(np.abs(dq))
-        q[free] -= dq * (0.5 / step if step > 0.5 * scale else 1.0)
+    q, _ = gauss_newton(lambda x: (num.g(x), num.G(x)[num.hol][:, free]), q, free, iterations=60,
+                        small=1e-14 * scale, max_step=0.5 * scale, nudge=1e-3 * scale)
     r = num.g(q)
     return q if np.all(np.isfinite(r)) and np.max(np.abs(r)) <= 1e-10 * scale else None
 
@@ -440,8 +431,6 @@ def _search(num: _Numbers, starts, rows, cols, scale):
     on F = (g(q), A(q)^T y, |y|^2 - 1) from each start (moved onto g = 0 first), each result verified
     (|g| and A's smallest singular value at round-off). Returns [(q, dimension)]: the dimension of the
     set of such configurations there (0: an isolated one; 1: a curve of them)."""
-    from scipy.optimize import least_squares
-
     n = num.n
     system = num.system(rows, cols)
     rows, cols = list(rows), list(cols)
@@ -454,22 +443,10 @@ def _search(num: _Numbers, starts, rows, cols, scale):
         if not np.all(np.isfinite(A)):
             continue
         y = np.linalg.svd(A)[0][:, -1]
-        z0 = np.concatenate((q, y))
-        pad = max(0, len(z0) - (len(num.hol) + len(cols) + 1))  # MINPACK's LM wants rows >= unknowns: zero rows
-
-        def residual(z, pad=pad):
-            return np.concatenate((system(z)[0], np.zeros(pad)))
-
-        def jacobian(z, pad=pad):
-            J = system(z)[1]
-            return np.vstack((J, np.zeros((pad, J.shape[1]))))
-
-        try:
-            res = least_squares(residual, z0, jac=jacobian, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                                max_nfev=50 * len(z0))
-        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+        z = least_squares(system, np.concatenate((q, y)), len(num.hol) + len(cols) + 1)
+        if z is None:
             continue
-        q = res.x[:n]
+        q = z[:n]
         G, g = num.G(q), num.g(q)
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(G)) and np.all(np.isfinite(g))):
             continue
@@ -477,7 +454,7 @@ def _search(num: _Numbers, starts, rows, cols, scale):
             continue
         if _ratio(G[rows][:, cols], G[num.hol] if num.hol and rows != list(range(num.m)) else G) > RANK_TOL:
             continue
-        found.append((q, _dimension(system(res.x)[1], n)))
+        found.append((q, _dimension(system(z)[1], n)))
     return found
 
 
@@ -491,25 +468,6 @@ def _dimension(J: np.ndarray, n: int) -> int:
         return 0
     s = np.linalg.svd(null, compute_uv=False)
     return int(np.sum(s > 1e-6))
-
-
-def _wrap(q: np.ndarray, angles: list[bool]) -> np.ndarray:
-    q = np.array(q, float)
-    for i, a in enumerate(angles):
-        if a:
-            q[i] = (q[i] + np.pi) % (2 * np.pi) - np.pi
-            if np.isclose(q[i], -np.pi, atol=1e-9):
-                q[i] = np.pi
-    return q
-
-
-def _distinct(points, angles):
-    out = []
-    for p in points:
-        p = _wrap(p, angles)
-        if not any(np.allclose(p, o, atol=1e-6) for o in out):
-            out.append(p)
-    return out
 
 
 def _exact(value: float, angle: bool):
@@ -732,7 +690,7 @@ class _Search:
         raw = _search(self.num, self.starts, rows, cols, self.scale)
 
         def key(q):  # the distance from the initial configuration
-            return float(np.linalg.norm(_wrap(q - self.initial, angles)))
+            return float(np.linalg.norm(angle_difference(q, self.initial, angles)))
 
         points = [q for q, nullity in raw if not nullity]
         families = []
@@ -742,14 +700,14 @@ class _Search:
                 families.append((self._nearest(members[0], rows, cols), dim, vanishing))
             else:  # isolated zeros where dF/dz is singular too
                 points.extend(members)
-        points = sorted(_distinct(points, angles), key=key)
+        points = sorted(distinct(points, angles), key=key)
         out = []
         for q in points[:_MAX_LISTED]:
             where, exact = self._recognize(q, rows, cols, rank_below)
             out.append((q, where, exact, ", ".join(f"{k} = {_num(v)}" for k, v in where.items()), 0))
         for q, dim, condition in families:
-            rounded = _wrap(np.where(np.abs(q) < 1e-9 * self.scale, 0.0, q), angles)  # its round-off zeroed
-            q = rounded if self._is_zero(rounded, rows, cols) else _wrap(q, angles)
+            rounded = wrap_angles(np.where(np.abs(q) < 1e-9 * self.scale, 0.0, q), angles)  # its round-off zeroed
+            q = rounded if self._is_zero(rounded, rows, cols) else wrap_angles(q, angles)
             where, exact = self._recognize(q, rows, cols, rank_below)
             out.append((q, where, exact, condition, dim))
         return out, max(0, len(points) - _MAX_LISTED)
@@ -788,13 +746,13 @@ class _Search:
             _, sv, Vt = np.linalg.svd(J)
             tangent = Vt[int(np.sum(sv > 1e-7 * sv[0])):, :num.n]
             basis = np.linalg.svd(tangent)[2][:_dimension(J, num.n)] if len(tangent) else np.zeros((0, num.n))
-            d = _wrap(self.initial - q, self.angles)
+            d = angle_difference(self.initial, q, self.angles)
             step = basis.T @ (basis @ d)
             if np.linalg.norm(step) < 1e-9 * self.scale:
                 break
             for fraction in (1.0, 0.5, 0.25, 0.125):  # a shorter step where the set curves away
                 moved = _search(num, [q + fraction * step], rows, cols, self.scale)
-                if moved and np.linalg.norm(_wrap(self.initial - moved[0][0], self.angles)) < np.linalg.norm(d):
+                if moved and np.linalg.norm(angle_difference(self.initial, moved[0][0], self.angles)) < np.linalg.norm(d):
                     q = moved[0][0]
                     break
             else:

@@ -20,6 +20,7 @@ from ..errors import ModelError, Problem
 from ..model._elements import Particle, RigidBody, RigidBody3D
 from ._equations import Equations
 from ._readable import trigonometric_polynomial
+from ._search import minimize, multistart, wrap_angle, wrap_angles
 
 __all__ = ["singularities", "SingularityReport", "SingularConfiguration", "inertia_measure", "determinant",
            "factored"]
@@ -211,19 +212,6 @@ def _values(eqs: Equations, parameters: Mapping | None = None) -> dict:
     return {p: sympy.nsimplify(v) for p, v in values.items() if v is not None}
 
 
-def _wrap(value: sympy.Expr) -> sympy.Expr:
-    """An angle in (-pi, pi] when it is a number."""
-    if value.is_number:
-        v = float(value)
-        if np.isfinite(v):
-            k = sympy.floor((value + sympy.pi) / (2 * sympy.pi))
-            w = sympy.nsimplify(value - 2 * sympy.pi * k)
-            if w == -sympy.pi:
-                w = sympy.pi
-            return w
-    return value
-
-
 def _is_angle(eqs: Equations, q: sympy.Symbol) -> bool:
     """A coordinate that appears inside trigonometric functions is treated as an angle."""
     exprs = list(eqs.mass_matrix) + [eqs.V]
@@ -252,7 +240,7 @@ def _zeros_of_factor(eqs: Equations, f: sympy.Expr) -> list[dict] | None:
         for v in sorted(sol, key=lambda s: float(s) if s.is_number else 0):
             if v.is_number and not v.is_real:
                 continue
-            out.append({q: _wrap(v) if angle else v})
+            out.append({q: wrap_angle(v) if angle else v})
         return out
     if sol == sympy.S.EmptySet:
         return []
@@ -260,25 +248,22 @@ def _zeros_of_factor(eqs: Equations, f: sympy.Expr) -> list[dict] | None:
 
 
 def _numeric_zero_search(eqs: Equations, det_num: sympy.Expr) -> list[dict]:
-    """Look for real zeros of det M numerically (multi-start minimisation of det^2)."""
-    from scipy.optimize import minimize
-
+    """Look for real zeros of det M numerically (equations._search: det^2, scaled, minimised by
+    Nelder-Mead from 40 random starts; the zeros kept once, angles modulo 2 pi)."""
     qs = [q for q in eqs.coordinates if q in det_num.free_symbols]
     if not qs:
         return []
     func = sympy.lambdify([qs], det_num, "numpy")
     rng = np.random.default_rng(0)
     scale = max(abs(float(func(rng.uniform(-np.pi, np.pi, len(qs))))) for _ in range(20)) or 1.0
-    found: list[np.ndarray] = []
-    for _ in range(40):
-        x0 = rng.uniform(-np.pi, np.pi, len(qs))
-        res = minimize(lambda x: (float(func(x)) / scale) ** 2, x0, method="Nelder-Mead",
-                       options={"xatol": 1e-10, "fatol": 1e-24, "maxiter": 4000})
-        if res.fun < 1e-16:
-            x = np.array([(v + np.pi) % (2 * np.pi) - np.pi if _is_angle(eqs, q) else v
-                          for v, q in zip(res.x, qs)])
-            if not any(np.allclose(x, y, atol=1e-5) for y in found):
-                found.append(x)
+    angles = [_is_angle(eqs, q) for q in qs]
+
+    def solve(x0):
+        x, value = minimize(lambda x: (float(func(x)) / scale) ** 2, x0, method="Nelder-Mead",
+                            options={"xatol": 1e-10, "fatol": 1e-24, "maxiter": 4000})
+        return wrap_angles(x, angles) if value < 1e-16 else None
+
+    found = multistart(solve, (rng.uniform(-np.pi, np.pi, len(qs)) for _ in range(40)), angles, tol=1e-5)
     return [{q: sympy.Float(v, 8) for q, v in zip(qs, x)} for x in found[:4]]
 
 
@@ -471,14 +456,13 @@ def _numerically_zero_everywhere(eqs, M) -> bool:
 
 def _numeric_det_search(eqs, M) -> list[dict]:
     """For large n: a local minimisation of the inertia measure of M (a function of q) from a few
-    random starts."""
-    from scipy.optimize import minimize
-
+    random starts (equations._search), the first zero found."""
     rng = np.random.default_rng(2)
-    for _ in range(4):
-        x0 = rng.uniform(-np.pi, np.pi, eqs.n)
-        res = minimize(lambda x: inertia_measure(M(x)), x0, method="Powell",
-                       options={"maxfev": 400 * eqs.n, "xtol": 1e-9, "ftol": 1e-16})
-        if res.fun < 1e-12:
-            return [{q: sympy.Float(v, 8) for q, v in zip(eqs.coordinates, res.x)}]
-    return []
+
+    def solve(x0):
+        x, value = minimize(lambda x: inertia_measure(M(x)), x0, method="Powell",
+                            options={"maxfev": 400 * eqs.n, "xtol": 1e-9, "ftol": 1e-16})
+        return x if value < 1e-12 else None
+
+    found = multistart(solve, (rng.uniform(-np.pi, np.pi, eqs.n) for _ in range(4)), first=True)
+    return [{q: sympy.Float(v, 8) for q, v in zip(eqs.coordinates, x)} for x in found]

@@ -30,6 +30,7 @@ import symengine as se
 from scipy.linalg import solve_triangular
 
 from ..equations import Equations
+from ..equations._search import gauss_newton
 from ..errors import ModelError, Problem, SimulationError
 from ..model._constraints import HOLONOMIC
 from ._codegen_constrained import EVENT_RATIO, NEWTON_EXIT, PROJECTION_STEPS, PROJECTION_TOL, SINGULAR_RATIO
@@ -218,22 +219,15 @@ def consistent_state(cm: ConstrainedModel, x0, fixed_names, p) -> np.ndarray:
     free = [i for i in range(n) if i not in fixed_q]
     problems = []
     if len(cm.holonomic) and free:
-        rng = np.random.default_rng(1)
-        for _ in range(200):  # Gauss-Newton (linear convergence where G loses rank at the solution)
+        # Gauss-Newton of the smallest change, steps of at most 1, polished until a step is at
+        # round-off (linear convergence where G loses rank at the solution): equations._search,
+        # transcribed in the C export's <id>_consistent_state
+        def holonomic(x):
             g, G = cm._holonomic(0.0, x, p)
-            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(G))):  # 0/0 at a guess: move off it
-                x[free] += 1e-3 * rng.standard_normal(len(free))
-                continue
-            if np.max(np.abs(g)) == 0.0:
-                break
-            if np.max(np.abs(G[:, free])) == 0.0:  # a guess where the constraints are flat (y = 0 on a circle)
-                x[free] += 1e-3 * rng.standard_normal(len(free))
-                continue
-            dq, *_ = np.linalg.lstsq(G[:, free], g, rcond=None)
-            step = np.max(np.abs(dq))
-            x[free] -= dq / step if step > 1.0 else dq
-            if step <= 1e-15 * scale and np.max(np.abs(g)) <= 1e-13 * scale:
-                break
+            return g, G[:, free]
+
+        x, _ = gauss_newton(holonomic, x, free, iterations=200, small=1e-13 * scale, polish=200,
+                            step_tol=1e-15 * scale, max_step=1.0, nudge=1e-3)
     if len(cm.holonomic):
         g, G = cm._holonomic(0.0, x, p)
         bad = [k for k, v in zip(cm.holonomic, g) if not abs(v) <= 1e-9 * scale]

@@ -1,0 +1,213 @@
+"""The one root search: Newton and least squares from many starts, roots told apart modulo 2 pi.
+
+Four searches use it, each with its own residual:
+
+* the equilibria and steady motions (``analysis._roots``: f(q) = 0, or f + G^T lambda = 0 and g = 0);
+* the zeros of det M (``equations._singular``: det M(q)^2 and the inertia measure minimised);
+* where the constraint Jacobian loses rank (``equations._constraint_singular``: g(q) = 0,
+  A(q)^T y = 0, |y| = 1);
+* the consistent initial state (``numeric._constrained.consistent_state``: g(q) = 0 with some
+  coordinates held) and the assembly of a mechanism at a guess (``_constraint_singular``).
+
+Its parts: :func:`newton` (Powell's hybrid method where the rows are as many as the unknowns,
+Levenberg-Marquardt otherwise, MINPACK's both), :func:`least_squares` (Levenberg-Marquardt to
+round-off, for systems that are singular at their roots), :func:`gauss_newton` (steps of the
+smallest change: the assembly onto g = 0 and the polish of a root), :func:`minimize` (a scalar
+measure driven to 0), :func:`multistart` (each start solved, the roots kept once), and one rule for
+angles: :func:`wrap_angles` into (-pi, pi] (exact numbers too, :func:`wrap_angle`),
+:func:`angle_difference` and :func:`same_point`. A residual is a function of the unknowns that
+returns (r, dr/dz) as NumPy arrays.
+
+The tolerances are named once, here; each search states which it uses.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+
+import numpy as np
+import sympy
+
+__all__ = ["NEWTON_XTOL", "PRECISE", "ROUND_OFF", "SAME_POINT", "angle_difference", "distinct", "gauss_newton",
+           "least_squares", "minimize", "multistart", "newton", "same_point", "wrap_angle", "wrap_angles"]
+
+#: Values this small (1e-17 left by cos(pi/2)) are exact zeros once wrapped.
+ROUND_OFF = 1e-13
+#: Two roots are one when every component differs by at most this, relative to 1 + |q| (angles
+#: modulo 2 pi).
+SAME_POINT = 1e-6
+#: The step tolerance of Powell's and Levenberg-Marquardt's iterations in :func:`newton`.
+NEWTON_XTOL = 1e-13
+#: The tolerances of :func:`least_squares`: driven to round-off, for roots that are singular.
+PRECISE = 1e-15
+
+Residual = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+# --------------------------------------------------------------------------- angles
+def wrap_angle(value):
+    """One angle in (-pi, pi]: a float, or an exact SymPy number kept exact (3*pi/2 -> -pi/2);
+    anything else (a symbol, a value that is not finite) as it is."""
+    if isinstance(value, sympy.Basic):
+        if value.is_number and math.isfinite(float(value)):
+            k = sympy.floor((value + sympy.pi) / (2 * sympy.pi))
+            w = sympy.nsimplify(value - 2 * sympy.pi * k)
+            return sympy.pi if w == -sympy.pi else w
+        return value
+    return float(wrap_angles(np.array([value], float), [True])[0])
+
+
+def wrap_angles(q, angles: Sequence[bool]) -> np.ndarray:
+    """q with its angles (where `angles` is True) in (-pi, pi], -pi given as pi; round-off next to 0
+    (|q| <= ROUND_OFF) set to 0 in every component."""
+    q = np.array(q, dtype=float)
+    q[np.abs(q) <= ROUND_OFF] = 0.0
+    for i, a in enumerate(angles):
+        if a and math.isfinite(q[i]):
+            w = math.remainder(q[i], 2 * math.pi)
+            q[i] = math.pi if w <= -math.pi + 1e-12 else w
+    return q
+
+
+def angle_difference(a, b, angles: Sequence[bool]) -> np.ndarray:
+    """a - b, its angles' components modulo 2 pi in [-pi, pi] (angles a whole turn apart are the same)."""
+    d = np.array(a, dtype=float) - np.asarray(b, dtype=float)
+    for i, is_angle in enumerate(angles):
+        if is_angle:
+            d[i] = math.remainder(d[i], 2 * math.pi)
+    return d
+
+
+def same_point(a, b, angles: Sequence[bool], tol: float = SAME_POINT) -> bool:
+    """Whether a and b are one point: every component within `tol` (1 + |a|), angles modulo 2 pi."""
+    return bool(np.all(np.abs(angle_difference(a, b, angles)) <= tol * (1 + np.abs(a))))
+
+
+def distinct(points: Iterable, angles: Sequence[bool], tol: float = SAME_POINT) -> list[np.ndarray]:
+    """The points wrapped (:func:`wrap_angles`), each kept once (:func:`same_point`), in their order."""
+    out: list[np.ndarray] = []
+    for p in points:
+        p = wrap_angles(p, angles)
+        if not any(same_point(p, o, angles, tol) for o in out):
+            out.append(p)
+    return out
+
+
+# --------------------------------------------------------------------------- one solve
+def _padded(fun: Residual, k: int, rows: int) -> Residual:
+    """`fun` with zero rows below, up to `k` (MINPACK's Levenberg-Marquardt wants rows >= unknowns)."""
+    pad = max(0, k - rows)
+    if not pad:
+        return fun
+
+    def padded(z):
+        r, J = fun(z)
+        return np.concatenate((r, np.zeros(pad))), np.vstack((J, np.zeros((pad, k))))
+
+    return padded
+
+
+def newton(fun: Residual, z0, rows: int):
+    """The solution of r(z) = 0 from z0 (`rows`: the length of r): Powell's hybrid method where the
+    rows are as many as the unknowns or fewer (zero rows added), Levenberg-Marquardt where they are
+    more (the minimum of |r|). Returns the last iterate, checked by the caller; None where the solve
+    raised (a residual that is not finite)."""
+    import scipy.optimize
+
+    z0 = np.asarray(z0, dtype=float)
+    k = len(z0)
+    solve = _padded(fun, k, rows)
+    try:
+        with np.errstate(all="ignore"):
+            if rows <= k:
+                sol = scipy.optimize.root(solve, z0, jac=True, method="hybr", options={"xtol": NEWTON_XTOL})
+            else:
+                sol = scipy.optimize.root(solve, z0, jac=True, method="lm",
+                                          options={"xtol": NEWTON_XTOL, "ftol": PRECISE})
+    except (ValueError, FloatingPointError, np.linalg.LinAlgError):
+        return None
+    return sol.x
+
+
+def least_squares(fun: Residual, z0, rows: int):
+    """The minimum of |r(z)| from z0 by Levenberg-Marquardt with every tolerance at PRECISE (round-off:
+    for roots where dr/dz is singular, which converge linearly); zero rows added where the rows are fewer
+    than the unknowns. Returns the last iterate, checked by the caller; None where the solve raised."""
+    from scipy.optimize import least_squares as lm
+
+    z0 = np.asarray(z0, dtype=float)
+    solve = _padded(fun, len(z0), rows)
+    try:
+        res = lm(lambda z: solve(z)[0], z0, jac=lambda z: solve(z)[1], method="lm", xtol=PRECISE, ftol=PRECISE,
+                 gtol=PRECISE, max_nfev=50 * len(z0))
+    except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+        return None
+    return res.x
+
+
+def gauss_newton(fun: Residual, x, free: Sequence[int] | None = None, *, iterations: int,
+                 small: float | Callable[[np.ndarray, np.ndarray, np.ndarray], bool], polish: int = 0,
+                 step_tol: float = 0.0, max_step: float = math.inf, nudge: float = 0.0, rcond: float | None = None,
+                 seed: int = 1) -> tuple[np.ndarray, bool]:
+    """(x moved onto r(x) = 0, whether r got small) by Gauss-Newton steps of the smallest change in
+    x[free] (the others held), each at most `max_step` long (its largest component).
+
+    `fun(x)` returns r and dr/dx[free] (the columns of the free components). r is small where
+    max |r| <= `small` (or where ``small(r, J, x)`` says so); the steps go on `polish` times more
+    from there (to round-off), or until one is at most `step_tol` long. Where r or its Jacobian is not
+    finite (0/0 at a guess: the pivot of a mechanism), or the Jacobian vanishes (a guess where a
+    constraint is flat: y = 0 on a circle), x[free] is moved off by `nudge` times a normal draw
+    (with nudge 0 the solve stops there, not converged)."""
+    x = np.array(x, dtype=float)
+    free = list(range(len(x))) if free is None else list(free)
+    rng = np.random.default_rng(seed)
+    polished = 0
+    for _ in range(iterations):
+        r, J = fun(x)
+        if not r.size:
+            return x, True
+        finite = bool(np.all(np.isfinite(r)) and np.all(np.isfinite(J)))
+        ok = finite and (small(r, J, x) if callable(small) else bool(np.max(np.abs(r)) <= small))
+        if not finite or (not ok and J.size and np.max(np.abs(J)) == 0.0):
+            if not nudge:
+                return x, False
+            x[free] += nudge * rng.standard_normal(len(free))
+            continue
+        if ok and polished >= polish:
+            return x, True
+        dx = np.linalg.lstsq(J, r, rcond=rcond)[0]
+        step = float(np.max(np.abs(dx), initial=0.0))
+        if ok:
+            polished += 1
+            if step <= step_tol:
+                return x, True
+        x[free] -= dx * (max_step / step) if step > max_step else dx
+    return x, polished > 0
+
+
+def minimize(measure: Callable[[np.ndarray], float], x0, *, method: str, options: dict):
+    """(x, measure(x)) at a local minimum of a scalar measure from x0 (SciPy's `method`: Nelder-Mead for a
+    squared function, Powell for one without derivatives)."""
+    from scipy.optimize import minimize as scipy_minimize
+
+    res = scipy_minimize(measure, np.asarray(x0, dtype=float), method=method, options=options)
+    return res.x, float(res.fun)
+
+
+def multistart(solve: Callable[[np.ndarray], np.ndarray | None], starts: Iterable,
+               angles: Sequence[bool] | None = None, *, tol: float = SAME_POINT, first: bool = False,
+               found: list | None = None) -> list[np.ndarray]:
+    """The roots `solve` finds from each start (None: none from there), each kept once (:func:`same_point`
+    with `angles`; every root kept without `angles`), in the order found; only the first with `first`.
+    `found` (a list) collects them as they come."""
+    found = [] if found is None else found
+    for start in starts:
+        z = solve(np.asarray(start, dtype=float))
+        if z is None:
+            continue
+        if angles is None or not any(same_point(z, other, angles, tol) for other in found):
+            found.append(z)
+            if first:
+                break
+    return found
