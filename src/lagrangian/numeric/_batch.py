@@ -169,7 +169,10 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         coordinates; otherwise, and for the runs after the last full block, runs are integrated
         alone. A block in which a run meets a nearly singular mass matrix, a non-finite force
         or an angle beyond 1e5 rad is run again one run at a time, so that each run stops or
-        fails as it would alone.
+        fails as it would alone. The runs of a constrained model are integrated alone (no lanes),
+        each from its consistent initial state (found as :func:`simulate` finds it) and projected
+        onto the constraints after every step; one that reaches a dead point (the constraints
+        dependent there) stops with status 6, ``Status.SINGULAR_CONSTRAINTS``.
 
     Returns
     -------
@@ -184,7 +187,6 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
 
     nm = _as_numeric(system)
     eq = nm.equations
-    eq.require_unconstrained("simulate_batch", "simulate its runs one by one (simulate), which projects them onto the constraints")
     names = nm if isinstance(nm, (_Names, CompiledModel)) else _Names(eq)
     defaults = eq.model.simulation
     problems: list[Problem] = []
@@ -203,6 +205,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     if backend not in BACKENDS or backend == "scipy":
         problems.append(Problem(f"simulate_batch runs in compiled code: backend must be one of auto, numba, c, "
                                 f"got '{backend}'{did_you_mean(backend, BACKENDS, 0.5)}", key="backend"))
+    given_initial = initial
     initial = options.initial
     params = dict(params or {})
 
@@ -267,6 +270,9 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     from ._compiled import compile_equations
 
     cm = nm if isinstance(nm, CompiledModel) else compile_equations(eq, "numba" if backend == "auto" else backend)
+    project = nwork = 0
+    if eq.is_constrained:  # each run from its consistent state, projected after every step
+        project, nwork = _constrained_starts(cm, X0, P[:, :k], given_initial, defaults.get("initial"))
     prog = _input_programs(eq, u_exprs)
     rtol = max(float(rtol), 100 * np.finfo(float).eps)
     X = np.full((B, len(times), 2 * names.n), np.nan)
@@ -275,7 +281,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     STATUS_ = np.zeros(B, dtype=np.int64)
     if lanes is None:
         lanes = default_lanes(names.n, B)
-    if prog.reads_state or prog.nswitch:  # feedback laws and switches: one run at a time (see dop853)
+    if prog.reads_state or prog.nswitch or project:  # feedback laws, switches, constraints: one run at a time
         lanes = 1
     rcl = cm.rhs_lanes_address(lanes) if lanes > 1 and B >= lanes else None
     if chunk_size is None:
@@ -287,15 +293,16 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
 
     with Progress(B, "simulating", enabled=progress) as bar:
         if client is None:
-            from ._fast import kernels, stage_table
-
             for a, b in chunks:
                 _run(cm.rhs_address, rcl, names.n, lanes, X0[a:b], times, _nonempty_rows(P[a:b]), prog, rtol,
-                     float(atol), float(max_step), X[a:b], INFO[a:b], STATS[a:b], STATUS_[a:b])
+                     float(atol), float(max_step), X[a:b], INFO[a:b], STATS[a:b], STATUS_[a:b], project=project,
+                     nwork=nwork)
                 bar.update(b - a)
         else:
             _run_on_dask(client, cm, names.n, lanes if rcl else 1, chunks, X0, P, times, prog, rtol, float(atol),
-                         float(max_step), X, INFO, STATS, STATUS_, bar)
+                         float(max_step), X, INFO, STATS, STATUS_, bar, nwork=nwork)
+    if project:
+        _dead_points(cm, INFO, P[:, :k], STATUS_)
     for i in np.nonzero(STATUS_ != 0)[0]:
         X[i, STATS[i, 3]:] = np.nan
     stop = np.where(STATUS_ == 0, times[-1], INFO[:, 0])
@@ -320,28 +327,24 @@ def _nonempty_rows(P: np.ndarray) -> np.ndarray:
 
 
 def _run(rc: int, rcl: int | None, n: int, lanes: int, X0, times, P, prog, rtol, atol, max_step, X, INFO, STATS,
-         STATUS_) -> None:
+         STATUS_, project: int = 0, nwork: int = 0) -> None:
     """One chunk, in parallel on this machine's cores: in blocks of `lanes` runs evaluated
-    together (rcl, the address of rhs_lanes), or one run at a time (rcl None)."""
-    from ._fast import kernels, stage_table
+    together (rcl, the address of rhs_lanes), or one run at a time (rcl None; `project`, `nwork`: a
+    constrained model's projection address and work size, see dop853)."""
+    from ._fast import run_batch
 
-    args = (X0, 0.0, times, P, prog.ops, prog.args, prog.starts, prog.nstack, rtol, atol, max_step, X, INFO, STATS,
-            STATUS_, *stage_table())
-    if rcl:
-        kernels().dop853_batch_lanes(rc, rcl, n, lanes, *args)
-    else:
-        kernels().dop853_batch(rc, n, *args)
+    run_batch(rc, rcl, n, lanes, X0, times, P, prog, rtol, atol, max_step, X, INFO, STATS, STATUS_, project, nwork)
 
 
 def _run_on_dask(client, cm, n, lanes, chunks, X0, P, times, prog, rtol, atol, max_step, X, INFO, STATS, STATUS_,
-                 bar):
+                 bar, nwork: int = 0):
     from dask.distributed import as_completed
 
     sources = (cm.source, cm.lanes_source(lanes) if lanes > 1 else None)
     futures = {}
     for a, b in chunks:
         fut = client.submit(run_chunk, sources, n, lanes, X0[a:b], times, _nonempty_rows(P[a:b]), prog.ops,
-                            prog.args, prog.starts, prog.nstack, rtol, atol, max_step, pure=False)
+                            prog.args, prog.starts, prog.nstack, rtol, atol, max_step, nwork=nwork, pure=False)
         futures[fut] = (a, b)
     for fut in as_completed(list(futures)):
         a, b = futures[fut]
@@ -349,10 +352,12 @@ def _run_on_dask(client, cm, n, lanes, chunks, X0, P, times, prog, rtol, atol, m
         bar.update(b - a)
 
 
-def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nstack, rtol, atol, max_step):
+def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nstack, rtol, atol, max_step,
+              nwork: int = 0):
     """One chunk of a batch, on a Dask worker: loads (or writes and compiles) the model's modules
     from their sources (that of the main module and that of the lanes module, or None), keyed by
-    the hash of the source itself, then runs the parallel DOP853. Returns (X, INFO, STATS, STATUS)."""
+    the hash of the source itself, then runs the parallel DOP853 (`nwork` > 0: a constrained model's,
+    projected by its main module's project). Returns (X, INFO, STATS, STATUS)."""
     from ._codegen import cached_module
     from ._inputs import Programs
 
@@ -365,5 +370,46 @@ def run_chunk(sources, n: int, lanes: int, X0, times, P, ops, args, starts, nsta
     STATUS_ = np.zeros(B, dtype=np.int64)
     _run(main.rhs.address, lane_module.rhs_lanes.address if lane_module else None, n, lanes,
          np.ascontiguousarray(X0), times, np.ascontiguousarray(P), Programs(ops, args, starts, nstack), rtol, atol,
-         max_step, X, INFO, STATS, STATUS_)
+         max_step, X, INFO, STATS, STATUS_, project=main.project.address if nwork else 0, nwork=nwork)
     return X, INFO, STATS, STATUS_
+
+
+def _constrained_starts(cm, X0, P, initial, model_initial) -> tuple[int, int]:
+    """Move each run's initial state (rows of X0, in place) onto the constraints as simulate does
+    (see _simulate_constrained: the independent coordinates and speeds and the values given kept,
+    the others found); (the address of the model's projection, the size of its work array)."""
+    from ._codegen_constrained import work_size
+    from ._constrained import consistent_state
+    from ._fast import _address
+    from ._simulate import _consistent_guess, _constrained_numbers
+
+    if cm.project_c is None:  # pragma: no cover - both compiled backends generate the projection
+        raise ModelError("simulate_batch integrates a constrained model with its compiled projection, and this "
+                         "compiled model has none: compile it again with backend='auto'")
+    eq = cm.equations
+    ccm = _constrained_numbers(eq)
+    for b in range(X0.shape[0]):
+        guess, fixed = _consistent_guess(eq, X0[b], initial, model_initial)
+        try:
+            X0[b] = consistent_state(ccm, guess, fixed, P[b])
+        except ModelError as exc:
+            values = ", ".join(f"{k} = {v:.6g}" for k, v in zip(cm.parameter_names, P[b])) or "no parameters"
+            raise ModelError([Problem(f"run {b} of the batch ({values}): {p.message}", key=p.key)
+                              for p in exc.problems]) from None
+    return _address(cm.project_c), work_size(ccm.n, ccm.m)
+
+
+def _dead_points(cm, INFO, P, STATUS_) -> None:
+    """Runs of a constrained model that stopped at a singular saddle-point system (status 1 or 2)
+    stopped at a dead point where the rank measure of G is the smaller of the kernel's two measures
+    (as simulate classifies them: ConstrainedModel.measures); their status says so
+    (Status.SINGULAR_CONSTRAINTS); the others keep the singular mass matrix's."""
+    from ..errors import Status
+    from ._simulate import _constrained_numbers
+
+    ccm = _constrained_numbers(cm.equations)
+    u0 = np.zeros(len(cm.input_names))  # M and G do not depend on the inputs
+    for b in np.nonzero((STATUS_ == 1) | (STATUS_ == 2))[0]:
+        r_M, rho = ccm.measures(INFO[b, 0], INFO[b, 2:], u0, P[b])
+        if rho < r_M:
+            STATUS_[b] = Status.SINGULAR_CONSTRAINTS
