@@ -10,8 +10,8 @@ constraints can exert, on the constraints. This module states that problem for t
 (``_stationary``, ``_roots``: exact solutions with SymPy for up to 4 unknowns, the multi-start
 numerical search, every candidate checked to be a root, non-isolated sets grouped); its Jacobian in
 (q, lambda) is the saddle-point matrix [[df/dq + sum_k lambda_k H_k, G^T], [G, 0]] (H_k the Hessian
-of g_k), differentiated once in SymEngine. A mechanism without forces (every configuration at rest)
-is a set of equilibria of dimension n - m, with lambda = 0.
+of g_k), differentiated once in SymEngine (the one numeric model's ``statics``). A mechanism without
+forces (every configuration at rest) is a set of equilibria of dimension n - m, with lambda = 0.
 
 The stability comes from the linearization in independent coordinates
 (``_constrained_linear.linearize_constrained``: the reduced M, D and K with the constraint forces'
@@ -24,11 +24,9 @@ state stays at rest.
 
 from __future__ import annotations
 
-import weakref
 from types import MappingProxyType
 
 import numpy as np
-import symengine as se
 import sympy
 
 from ..equations import Equations
@@ -53,43 +51,12 @@ CONSTRAINTS_DEPENDENT = "undetermined (the constraints are dependent there: G lo
 NO_REDUCTION = "undetermined (the independent coordinates do not determine the others there)"
 
 
-class _Statics:
-    """f + G^T lambda, g, their Jacobian blocks, at (q, t, u, p, lambda), for one Equations object."""
+def _statics(equations: Equations):
+    """(t, z, u, p) -> (F = f + G^T lambda, g, dF/dq, G) at rest in z = (q, lambda): the one
+    numeric model's ``statics``."""
+    from ..numeric._compiled import compile_equations
 
-    def __init__(self, equations: Equations):
-        from ._setting import derivatives
-
-        core = equations.core
-        n, m = equations.n, len(core.g)
-        self.n, self.m = n, m
-        lam = [se.Symbol(mu.name) for mu in equations.multipliers]
-        fs = derivatives(equations).static_forcing
-        F = [fs[i] + sum((core.G[k, i] * lam[k] for k in range(m)), se.Integer(0)) for i in range(n)]
-        J = [F[i].diff(core.q[j]) for i in range(n) for j in range(n)]
-        G = [core.G[k, j] for k in range(m) for j in range(n)]
-        args = [*core.q, core.t, *(se.Symbol(u.name) for u in equations.inputs),
-                *(se.Symbol(p.name) for p in equations.parameters), *lam]
-        self._fun = se.Lambdify(args, F + list(core.g) + J + G, cse=True, real=True)
-
-    def __call__(self, z, t, u, p):
-        """(F = f + G^T lambda, g, dF/dq, G) at the variables z = (q, lambda)."""
-        n, m = self.n, self.m
-        z = np.asarray(z, float)
-        out = np.asarray(self._fun(np.concatenate((z[:n], [t], u, p, z[n:]))), float).ravel()
-        F, g = out[:n], out[n:n + m]
-        J = out[n + m:n + m + n * n].reshape(n, n)
-        G = out[n + m + n * n:].reshape(m, n)
-        return F, g, J, G
-
-
-_CACHE: "weakref.WeakKeyDictionary[Equations, _Statics]" = weakref.WeakKeyDictionary()
-
-
-def _statics(equations: Equations) -> _Statics:
-    s = _CACHE.get(equations)
-    if s is None:
-        s = _CACHE[equations] = _Statics(equations)
-    return s
+    return compile_equations(equations).statics
 
 
 # --------------------------------------------------------------------------- the problem
@@ -141,15 +108,16 @@ def _periodic_constraints(equations: Equations, i: int) -> bool:
     p = np.array([v if v is not None else 1.0 for v in equations.parameters.values()], dtype=float)
     p = np.where(np.isfinite(p), p, 1.0)
     u = rng.uniform(-1, 1, len(equations.inputs))
-    points = [np.concatenate((rng.uniform(-2, 2, s.n), rng.uniform(-1, 1, s.m))) for _ in range(3)]
-    return periodic_in(lambda z: s(z, 0.3, u, p), points, i, rtol=1e-5)
+    points = [np.concatenate((rng.uniform(-2, 2, equations.n), rng.uniform(-1, 1, len(equations.core.g))))
+              for _ in range(3)]
+    return periodic_in(lambda z: s(0.3, z, u, p), points, i, rtol=1e-5)
 
 
 def constrained_residual(problem: StationaryProblem, setting: Setting, z: np.ndarray):
     """(r, dr/dz): the rows of (f + G^T lambda, g) that must vanish, and their Jacobian in the unknowns."""
     eqs = problem.equations
     n = eqs.n
-    F, g, J, G = _statics(eqs)(z, setting.t, setting.u, setting.p)
+    F, g, J, G = _statics(eqs)(setting.t, z, setting.u, setting.p)
     m = len(g)
     full = np.zeros((n + m, n + m))
     full[:n, :n], full[:n, n:], full[n:, :n] = J, G.T, G
@@ -165,7 +133,7 @@ def balancing_multipliers(problem: StationaryProblem, setting: Setting, z: np.nd
     z = np.array(z, float)
     z[n:] = 0.0
     with np.errstate(all="ignore"):
-        f, _, _, G = _statics(eqs)(z, setting.t, setting.u, setting.p)
+        f, _, _, G = _statics(eqs)(setting.t, z, setting.u, setting.p)
         if np.all(np.isfinite(f)) and np.all(np.isfinite(G)):
             lam = np.linalg.lstsq(G.T, -f, rcond=None)[0]
             if np.all(np.isfinite(lam)):
@@ -192,7 +160,7 @@ def assess_constrained(problem: StationaryProblem, setting: Setting, z: np.ndarr
     except ModelError as exc:
         if problem.evaluator is not None:  # a steady motion, or a model with velocity constraints
             return Assessment(None, f"undetermined (no linearization there: {exc})", False, empty, qd), {}
-        _, _, _, G = _statics(eqs)(z, setting.t, setting.u, setting.p)
+        _, _, _, G = _statics(eqs)(setting.t, z, setting.u, setting.p)
         try:
             dep = [i for i in range(n) if i not in _independent(eqs, G)]
         except ModelError:

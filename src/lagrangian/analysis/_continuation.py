@@ -8,6 +8,14 @@ change (det K = 0 along the branch). Otherwise the branches are followed numeric
 equilibria found at one value seed the search at the next, points are joined to the nearest one of
 the previous value, and a change of stability or a branch ending between two values is located by
 bisection.
+
+A model with holonomic constraints g(q) = 0 is continued the same way in the variables z = (q, lambda):
+its equilibria are the stationary points on the constraint manifold, f(q, 0) + G(q)^T lambda = 0 and
+g(q) = 0, the multipliers lambda unknown (``_constrained_static``); the exact critical values are
+the zeros of the determinant of that system's Jacobian in z along a branch (the bordered stiffness
+[[-K - sum_k lambda_k H_k, G^T], [G, 0]], singular where the stiffness reduced to the constraint
+manifold is), and the stability is the constrained linearization's (in independent coordinates).
+Branches are joined by their coordinates q.
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ import sympy
 from ..equations import Equations
 from .._progress import progress
 from ..errors import ModelError
+from ..model._constraints import VELOCITY
 from ._equilibria import make_equilibrium
 from ._roots import numeric_roots, solve_from
 from ._stationary import StationaryProblem, evaluate_exact, normalized_exact, same_point, stationary_problem
@@ -34,23 +43,30 @@ __all__ = ["continuation", "Continuation", "Branch", "BranchPoint"]
 
 @dataclass(frozen=True)
 class BranchPoint:
-    """One equilibrium on a branch: the parameter value, q, and its stability."""
+    """One equilibrium on a branch: the parameter value, q, and its stability; with constraints,
+    the multipliers there too (``lambda_<name>``; empty without constraints)."""
 
     param: float
     coordinates: Mapping[str, float]
     stable: bool
     stability: str
     eigenvalues: np.ndarray = field(repr=False)
+    multipliers: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}), kw_only=True)
 
     def to_dict(self) -> dict:
-        return {"param": self.param, "coordinates": dict(self.coordinates), "stable": self.stable}
+        """{param, coordinates, stable}, and multipliers for a constrained model."""
+        out = {"param": self.param, "coordinates": dict(self.coordinates), "stable": self.stable}
+        if self.multipliers:
+            out["multipliers"] = dict(self.multipliers)
+        return out
 
 
 @dataclass(frozen=True)
 class Branch:
     """A connected set of equilibria along the parameter.
 
-    `exact` is the symbolic solution ({coordinate: expression}) when the branch is an exact one."""
+    `exact` is the symbolic solution ({coordinate: expression}, and {lambda_<name>: expression} for
+    the multipliers of a constrained model) when the branch is an exact one."""
 
     points: tuple[BranchPoint, ...]
     exact: Mapping[str, sympy.Expr] | None = None
@@ -170,8 +186,26 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
     Returns
     -------
     Continuation
+
+    Raises
+    ------
+    ModelError
+        An unknown parameter, bad values, a constraint that depends on t, or a velocity constraint.
+
+    Notes
+    -----
+    With holonomic constraints g(q) = 0 the branches are those of f + G^T lambda = 0, g = 0 in
+    (q, lambda): each point has its `multipliers`, and its stability comes from the linearization
+    in independent coordinates.
     """
-    equations.require_unconstrained("the continuation of equilibria")
+    velocity = [c.name for c in equations.model.constraints if c.kind == VELOCITY]
+    if velocity:
+        raise ModelError(
+            f"{equations.model.name}: the continuation of equilibria follows the solutions of f(q) + G(q)^T lambda "
+            f"= 0, g(q) = 0 (holonomic constraints), and velocity constraint{'s' if len(velocity) > 1 else ''} "
+            f"{', '.join(velocity)} (a(q) . q_dot + b = 0, not the derivative of any g(q) = 0) leave"
+            f"{'' if len(velocity) > 1 else 's'} the coordinates they do not hold free: there is no such system in "
+            "q and lambda to continue; call equilibria(equations, params={...}) at each value instead")
     names = tuple(p.name for p in equations.parameters)
     if parameter not in names:
         raise ModelError(f"'{parameter}' is not a parameter of {equations.model.name}"
@@ -184,7 +218,12 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
                          "decreasing) order, e.g. numpy.linspace(0, 8, 201)")
     base = resolve_setting(equations, {k: v for k, v in (params or {}).items()
                                        if str(getattr(k, "name", k)) != parameter}, inputs, t, free=(parameter,))
-    problem = stationary_problem(equations, base.inputs, base.t, exact, values=base.p)
+    if equations.is_constrained:
+        from ._constrained_static import constrained_problem
+
+        problem = constrained_problem(equations, base.inputs, base.t, exact, values=base.p)
+    else:
+        problem = stationary_problem(equations, base.inputs, base.t, exact, values=base.p)
     settings = [base.with_parameter(parameter, v) for v in values]
     exact_branches = _exact_branches(problem, settings, parameter) if problem.exact else None
     if exact_branches is not None:
@@ -205,14 +244,15 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
 
 def _point(problem: StationaryProblem, setting: Setting, q: np.ndarray, parameter: str,
            exact=None) -> BranchPoint:
+    """The branch point at the variables q (the coordinates, then a constrained model's multipliers)."""
     e = make_equilibrium(problem, setting, q, exact)
-    return BranchPoint(setting.parameters[parameter], e.coordinates, e.stable, e.stability, e.eigenvalues)
+    return BranchPoint(setting.parameters[parameter], e.coordinates, e.stable, e.stability, e.eigenvalues,
+                       multipliers=e.multipliers)
 
 
 def _exact_branches(problem: StationaryProblem, settings: list[Setting], parameter: str):
     """Branches from the exact solutions; None when the numerical search finds equilibria the exact
     solutions miss (then the numerical continuation is used)."""
-    eqs = problem.equations
     critical = _exact_critical(problem, settings, parameter)
     # visit the critical values too: the branches then meet where they should, with no gap
     base, values = settings[0], [s.parameters[parameter] for s in settings]
@@ -241,39 +281,41 @@ def _exact_branches(problem: StationaryProblem, settings: list[Setting], paramet
     unique: list[Branch] = []
     for b in branches:
         if not any(len(b.points) == len(o.points) and all(
-                p.param == r.param and same_point(_q(eqs, p), _q(eqs, r), problem.angles) for p, r in zip(b.points, o.points))
+                p.param == r.param and same_point(_z(problem, p), _z(problem, r), problem.angles) for p, r in zip(b.points, o.points))
                 for o in unique):
             unique.append(b)
     # check on a few values that no equilibrium is missing
     for s in settings[:: max(1, len(settings) // 8)]:
-        known = [_q(eqs, p) for b in unique for p in b.points if p.param == s.parameters[parameter]]
+        known = [_z(problem, p) for b in unique for p in b.points if p.param == s.parameters[parameter]]
         for q in numeric_roots(problem, s, starts=16):
             if not any(same_point(q, k, problem.angles) for k in known):
                 return None
     return unique, critical
 
 
-def _q(eqs: Equations, p: BranchPoint) -> np.ndarray:
-    return np.array([p.coordinates[c.name] for c in eqs.coordinates])
+def _z(problem: StationaryProblem, p: BranchPoint) -> np.ndarray:
+    """The variables of a branch point: q, then the multipliers of a constrained model."""
+    return np.array([p.coordinates[c.name] for c in problem.equations.coordinates]
+                    + [p.multipliers[mu.name] for mu in problem.multipliers])
 
 
 def _exact_critical(problem: StationaryProblem, settings: list[Setting], parameter: str):
     """Exact critical values in the range: boundaries of the existence conditions and zeros of
-    det K along each exact branch."""
-    eqs = problem.equations
+    det K along each exact branch (with constraints, of the bordered stiffness' determinant)."""
     psym = sympy.Symbol(parameter)
     lo, hi = sorted((settings[0].parameters[parameter], settings[-1].parameters[parameter]))
     others = {sympy.Symbol(k): v for k, v in {**settings[0].parameters, **settings[0].inputs}.items() if k != parameter}
     idx = list(problem.unknowns)
-    static = sympy.Matrix(problem.static_sympy)
-    qs = [eqs.coordinates[i] for i in idx]
-    K = -static.extract(idx, list(range(eqs.n))).jacobian(qs) if idx else sympy.zeros(0)
+    variables = problem.variables
+    # -K at m = 0; with constraints the Jacobian of (f + G^T lambda, g) in (q, lambda): the bordered stiffness
+    K = (sympy.Matrix([problem.static_sympy[i] for i in idx]).jacobian([variables[i] for i in idx])
+         if idx else sympy.zeros(0))
     candidates: list[sympy.Expr] = []
     for sol, conds in problem.exact:
         for c in conds:
             candidates += _solve_for(sympy.Eq(c.lhs, c.rhs), psym)
         if idx:
-            detK = sympy.simplify(K.subs({eqs.coordinates[i]: e for i, e in sol.items()}).det())
+            detK = sympy.simplify(K.subs({variables[i]: e for i, e in sol.items()}).det())
             if detK != 0:
                 candidates += _solve_for(sympy.Eq(detK, 0), psym)
     out: list[tuple[float, sympy.Expr]] = []
@@ -301,7 +343,6 @@ def _solve_for(eq, symbol) -> list:
 
 
 def _numeric_branches(problem: StationaryProblem, settings: list[Setting], parameter: str) -> list[Branch]:
-    eqs = problem.equations
     open_runs: list[list[BranchPoint]] = []
     closed: list[list[BranchPoint]] = []
     previous: list[np.ndarray] = []
@@ -313,15 +354,15 @@ def _numeric_branches(problem: StationaryProblem, settings: list[Setting], param
         still_open: list[list[BranchPoint]] = []
         taken = set()
         for run in open_runs:
-            last = _q(eqs, run[-1])
+            last = _z(problem, run[-1])
             best, dist = None, math.inf
             for k, p in enumerate(points):
                 if k in taken:
                     continue
-                d = _distance(_q(eqs, p), last, problem.angles)
+                d = _distance(problem, _z(problem, p), last)
                 if d < dist:
                     best, dist = k, d
-            if best is not None and dist <= 0.5 * (1 + np.abs(last).max()):
+            if best is not None and dist <= _reach(problem, last):
                 taken.add(best)
                 run.append(points[best])
                 still_open.append(run)
@@ -336,19 +377,26 @@ def _numeric_branches(problem: StationaryProblem, settings: list[Setting], param
     return [Branch(tuple(r)) for r in closed + open_runs]
 
 
-def _distance(a: np.ndarray, b: np.ndarray, angles) -> float:
-    diff = a - b
-    for i, is_angle in enumerate(angles):
+def _distance(problem: StationaryProblem, a: np.ndarray, b: np.ndarray) -> float:
+    """The largest difference of the coordinates of the variables a and b (angles modulo 2 pi; a
+    constrained model's multipliers, forces, are not compared)."""
+    n = problem.equations.n
+    diff = a[:n] - b[:n]
+    for i, is_angle in enumerate(problem.angles[:n]):
         if is_angle:
             diff[i] = math.remainder(diff[i], 2 * math.pi)
     return float(np.abs(diff).max()) if diff.size else 0.0
+
+
+def _reach(problem: StationaryProblem, z: np.ndarray) -> float:
+    """How far a branch may move between two values of the parameter, in the coordinates."""
+    return 0.5 * (1 + np.abs(z[:problem.equations.n]).max(initial=0.0))
 
 
 def _numeric_critical(problem: StationaryProblem, settings: list[Setting], parameter: str,
                       branches: list[Branch]) -> list[float]:
     """(stability changes along each branch, ends of branches inside the range), each located by
     bisection."""
-    eqs = problem.equations
     values = [s.parameters[parameter] for s in settings]
     base = settings[0]
     out: list[float] = []
@@ -356,7 +404,7 @@ def _numeric_critical(problem: StationaryProblem, settings: list[Setting], param
         for a, c in zip(b.points, b.points[1:]):
             if a.stable == c.stable:
                 continue
-            lo, hi, q = a.param, c.param, _q(eqs, a)
+            lo, hi, q = a.param, c.param, _z(problem, a)
             for _ in range(50):
                 mid = (lo + hi) / 2
                 s = base.with_parameter(parameter, mid)
@@ -391,13 +439,12 @@ def _branch_end(problem: StationaryProblem, base: Setting, parameter: str, end: 
                 beyond: float) -> float:
     """Where a branch that exists at end.param and not at `beyond` ends, by bisection: the branch
     exists at a value when the solve started from its last point converges nearby."""
-    eqs = problem.equations
-    inside, outside, q = end.param, beyond, _q(eqs, end)
-    reach = 0.5 * (1 + np.abs(q).max())
+    inside, outside, q = end.param, beyond, _z(problem, end)
+    reach = _reach(problem, q)
     for _ in range(60):
         mid = (inside + outside) / 2
         qm = solve_from(problem, base.with_parameter(parameter, mid), q)
-        if qm is not None and _distance(qm, q, problem.angles) <= reach:
+        if qm is not None and _distance(problem, qm, q) <= reach:
             inside, q = mid, qm
         else:
             outside = mid

@@ -1,20 +1,19 @@
-"""The fixed values an analysis works at (parameters, constant inputs, time) and the numerical
-derivatives of the forcing that every analysis shares.
+"""The fixed values an analysis works at (parameters, constant inputs, time).
 
-With M(q, t) q_ddot = f(q, q_dot, t, u), an analysis needs f and its Jacobians with respect to q,
-q_dot and u, evaluated at points; they are differentiated once in SymEngine and evaluated with
-Lambdify (common subexpressions shared), cached per Equations object.
+The numbers an analysis needs at points (f and its Jacobians with respect to q, q_dot and u, the
+momenta, the damping matrix, the static forces and the constraint parts) are the one numeric
+model's (``numeric._compiled.NumericModel``, in the argument order (t, x, u, p), cached per
+Equations object); ``Derivatives`` keeps the old order (q, q_dot, t, u, p) for the callers not yet
+moved to it.
 """
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
-import symengine as se
 
 from ..equations import Equations
 from .._util import named_values, real_number
@@ -86,104 +85,25 @@ def collect_setting(equations: Equations, params: Mapping | None, inputs: Mappin
 
 
 class Derivatives:
-    """Numerical f, M and Jacobians of f at (q, q_dot, t, u, p) for one Equations object."""
+    """The old argument order (q, q_dot, t, u, p) over the one numeric model's Jacobians
+    (:meth:`NumericModel.jacobians`, :meth:`NumericModel.damping`, in (t, x, u, p)), for the callers
+    not yet moved to it (``_linearize``, ``_constrained_linear``)."""
 
     def __init__(self, equations: Equations):
-        core = equations.core
-        n = equations.n
-        self.n, self.m = n, len(equations.inputs)
-        q, qd, t = list(core.q), list(core.qd), core.t
-        u = [se.Symbol(s.name) for s in equations.inputs]
-        p = [se.Symbol(s.name) for s in equations.parameters]
-        a = [se.Symbol(f"_a{i}") for i in range(n)]  # placeholder accelerations for d(M a)/dq
-        self._args = [*q, *qd, t, *u, *p]
-        f = list(core.f)
-        M = [core.M[i, j] for i in range(n) for j in range(n)]
-        fq = [fi.diff(qj) for fi in f for qj in q]
-        fqd = [fi.diff(vj) for fi in f for vj in qd]
-        fu = [fi.diff(uj) for fi in f for uj in u]
-        Ma = [sum((core.M[i, j] * a[j] for j in range(n)), se.Integer(0)) for i in range(n)]
-        Maq = [e.diff(qj) for e in Ma for qj in q]
-        self._full = se.Lambdify(self._args + a, M + f + fq + fqd + fu + Maq, cse=True, real=True)
-        self._core = core
-        self._static_parts = None
-        self._momenta = None
-        self._damping = None
+        from ..numeric._compiled import compile_equations
 
-    def momenta(self, q, qd, t, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(p, dp/dq, M) with p = dL/dq_dot, the generalized momenta: shapes (n,), (n, n), (n, n)
-        (M = dp/dq_dot). Built on first use (steady motions need it)."""
-        n = self.n
-        if self._momenta is None:
-            core = self._core
-            mom = list(core.p)
-            self._momenta = se.Lambdify(self._args, mom + [e.diff(qj) for e in mom for qj in core.q]
-                                        + [core.M[i, j] for i in range(n) for j in range(n)], cse=True, real=True)
-        out = np.asarray(self._momenta(self._argv(q, qd, t, u, p)), dtype=float).ravel()
-        return out[:n], out[n:n + n * n].reshape(n, n), out[n + n * n:].reshape(n, n)
-
-    def damping(self, q, qd, t, u, p) -> np.ndarray:
-        """The damping matrix at the state, shape (n, n): the symmetric part of
-        d2D/dq_dot2 - dQ/dq_dot, the velocity-dependent forces that take power from the motion (or
-        give it: a negative damping). The other velocity terms of -df/dq_dot (gyroscopic, Coriolis,
-        those of the constraint forces) are not damping. Built on first use; zeros without a
-        Rayleigh function or velocity-dependent forces."""
-        n = self.n
-        if self._damping is None:
-            core = self._core
-            qd_ = list(core.qd)
-            Q = list(core.Q) or [se.Integer(0)] * n
-            entries = [core.D.diff(qd_[i]).diff(qd_[j]) - (Q[i].diff(qd_[j]) + Q[j].diff(qd_[i])) / 2
-                       for i in range(n) for j in range(n)]
-            entries = [se.expand(e) for e in entries]
-            self._damping = (se.Lambdify(self._args, entries, cse=True, real=True)
-                             if any(e != 0 for e in entries) else False)
-        if self._damping is False:
-            return np.zeros((n, n))
-        return np.asarray(self._damping(self._argv(q, qd, t, u, p)), dtype=float).reshape(n, n)
-
-    def _argv(self, q, qd, t, u, p, extra=()):
-        return np.concatenate((q, qd, [t], u, p, extra)).astype(float)
-
-    @property
-    def static_forcing(self) -> tuple:
-        """f at rest (q_dot = 0), SymEngine expressions."""
-        return self._static_lambdified()[0]
-
-    def _static_lambdified(self):
-        if self._static_parts is None:  # built on first use (linearizing a steady motion needs none)
-            core = self._core
-            zero = {v: se.Integer(0) for v in core.qd}
-            fs = [fi.subs(zero) for fi in core.f]
-            fsq = [e.diff(qj) for e in fs for qj in core.q]
-            self._static_parts = (tuple(fs), se.Lambdify(self._args, fs + fsq, cse=True, real=True))
-        return self._static_parts
-
-    def static(self, q, t, u, p) -> tuple[np.ndarray, np.ndarray]:
-        """(f, df/dq) at rest (q_dot = 0): shapes (n,), (n, n)."""
-        n = self.n
-        out = np.asarray(self._static_lambdified()[1](self._argv(q, np.zeros(n), t, u, p)), dtype=float).ravel()
-        return out[:n], out[n:].reshape(n, n)
+        self._nm = compile_equations(equations, "scipy")
+        self.n, self.m = equations.n, len(equations.inputs)
 
     def full(self, q, qd, t, u, p, qdd) -> dict[str, np.ndarray]:
         """M, f, df/dq, df/dq_dot, df/du and d(M a)/dq at a = qdd."""
-        n, m = self.n, self.m
-        out = np.asarray(self._full(self._argv(q, qd, t, u, p, qdd)), dtype=float).ravel()
-        sizes = {"M": (n, n), "f": (n,), "fq": (n, n), "fqd": (n, n), "fu": (n, m), "Maq": (n, n)}
-        parts, k = {}, 0
-        for key, shape in sizes.items():
-            size = int(np.prod(shape))
-            parts[key] = out[k:k + size].reshape(shape)
-            k += size
-        return parts
+        return self._nm.jacobians(t, np.concatenate((q, qd)), u, p, qdd)
 
-
-_CACHE: "weakref.WeakKeyDictionary[Equations, Derivatives]" = weakref.WeakKeyDictionary()
+    def damping(self, q, qd, t, u, p) -> np.ndarray:
+        """The damping matrix at the state, shape (n, n) (:meth:`NumericModel.damping`)."""
+        return self._nm.damping(t, np.concatenate((q, qd)), u, p)
 
 
 def derivatives(equations: Equations) -> Derivatives:
-    """The numerical derivatives of `equations` (built once per Equations object)."""
-    d = _CACHE.get(equations)
-    if d is None:
-        d = _CACHE[equations] = Derivatives(equations)
-    return d
+    """:class:`Derivatives` of `equations` (a view of its cached NumericModel)."""
+    return Derivatives(equations)

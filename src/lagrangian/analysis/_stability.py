@@ -26,7 +26,8 @@ import sympy
 
 from .._util import read_only
 from ..errors import ModelError
-from ._setting import Setting, derivatives
+from ..numeric._compiled import compile_equations
+from ._setting import Setting
 from ._stationary import StationaryProblem, conserved_cyclic, constant_map, state_velocities
 
 __all__ = ["assess", "Assessment", "classify_across", "routh_stiffness", "UNDETERMINED", "DEGENERATE", "NOT_FINITE"]
@@ -57,13 +58,14 @@ def routh_stiffness(problem: StationaryProblem, setting: Setting, q: np.ndarray,
     (Routh: the Hessian of the amended potential, when the forces derive from one); -df/dq at
     rest when there is no such coordinate."""
     eqs = problem.equations
-    d = derivatives(eqs)
+    nm = compile_equations(eqs)
     n = eqs.n
-    parts = d.full(q, qd, setting.t, setting.u, setting.p, np.zeros(n))
+    x = np.concatenate((q, qd))
+    parts = nm.jacobians(setting.t, x, setting.u, setting.p)
     idx = [i for i in conserved_cyclic(eqs)]
     if not idx:
         return -parts["fq"]
-    _, pq, M = d.momenta(q, qd, setting.t, setting.u, setting.p)
+    _, pq, M = nm.momenta(setting.t, x, setting.u, setting.p)
     dqd = np.zeros((n, n))
     try:
         dqd[idx] = -np.linalg.solve(M[np.ix_(idx, idx)], pq[idx])

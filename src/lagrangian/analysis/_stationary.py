@@ -40,7 +40,8 @@ from ..equations._search import same_point, wrap_angles  # the one rule for angl
 from ..errors import ModelError
 from ..model._kinematics import to_sympy
 from ._linearize import cyclic_coordinates
-from ._setting import Setting, derivatives
+from ..numeric._compiled import compile_equations
+from ._setting import Setting
 
 __all__ = ["StationaryProblem", "stationary_problem", "conserved_cyclic", "state_velocities", "forces",
            "residual", "conditions_hold", "parameter_conditions", "constant_map", "evaluate_exact",
@@ -150,18 +151,18 @@ def conserved_cyclic(equations: Equations) -> tuple[int, ...]:
 
 def _periodic(equations: Equations, i: int) -> bool:
     """Whether the equations at rest and M are 2 pi-periodic in coordinate i (an angle)."""
-    d = derivatives(equations)
+    nm = compile_equations(equations)
     rng = np.random.default_rng(7)
     n = equations.n
     p = np.array([v if v is not None else 1.0 for v in equations.parameters.values()], dtype=float)
     p = np.where(np.isfinite(p), p, 1.0)
-    u = rng.uniform(-1, 1, d.m)
+    u = rng.uniform(-1, 1, len(equations.inputs))
     for _ in range(3):
         q = rng.uniform(-2, 2, n)
         shifted = q.copy()
         shifted[i] += 2 * math.pi
-        f1, J1 = d.static(q, 0.3, u, p)
-        f2, J2 = d.static(shifted, 0.3, u, p)
+        f1, J1 = nm.static(0.3, q, u, p)
+        f2, J2 = nm.static(0.3, shifted, u, p)
         scale = 1.0 + np.abs(f1).max() + np.abs(J1).max()
         if not (np.all(np.isfinite(f1)) and np.allclose(f1, f2, atol=1e-9 * scale)
                 and np.allclose(J1, J2, atol=1e-9 * scale)):
@@ -434,17 +435,17 @@ def state_velocities(problem: StationaryProblem, setting: Setting, q: np.ndarray
         qd[i] = v
     if not problem.momenta:
         return qd, None
-    d = derivatives(eqs)
+    nm = compile_equations(eqs)
     idx = sorted(problem.momenta)
     p0 = np.array([problem.momenta[i] for i in idx])
-    p, _, M = d.momenta(q, qd, setting.t, setting.u, setting.p)
+    p, _, M = nm.momenta(setting.t, np.concatenate((q, qd)), setting.u, setting.p)
     Mcc = M[np.ix_(idx, idx)]
     try:
         qd[idx] = np.linalg.solve(Mcc, p0 - p[idx])
     except np.linalg.LinAlgError:
         qd[idx] = np.nan
         return qd, np.full((n, n), np.nan)
-    p, pq, M = d.momenta(q, qd, setting.t, setting.u, setting.p)
+    p, pq, M = nm.momenta(setting.t, np.concatenate((q, qd)), setting.u, setting.p)
     dqd = np.zeros((n, n))
     dqd[idx] = -np.linalg.solve(M[np.ix_(idx, idx)], pq[idx])
     return qd, dqd
@@ -453,12 +454,12 @@ def state_velocities(problem: StationaryProblem, setting: Setting, q: np.ndarray
 def forces(problem: StationaryProblem, setting: Setting, q: np.ndarray):
     """(f, df/dq along the stationary states, q_dot) at q: shapes (n,), (n, n), (n,). With rates fixed
     by momenta, df/dq includes how those rates change with q (Routh's reduction)."""
-    d = derivatives(problem.equations)
+    nm = compile_equations(problem.equations)
     qd, dqd = state_velocities(problem, setting, q)
     if not problem.moving:
-        f, fq = d.static(q, setting.t, setting.u, setting.p)
+        f, fq = nm.static(setting.t, q, setting.u, setting.p)
         return f, fq, qd
-    parts = d.full(q, qd, setting.t, setting.u, setting.p, np.zeros(len(q)))
+    parts = nm.jacobians(setting.t, np.concatenate((q, qd)), setting.u, setting.p)
     fq = parts["fq"] if dqd is None else parts["fq"] + parts["fqd"] @ dqd
     return parts["f"], fq, qd
 

@@ -30,7 +30,8 @@ from ..errors import ModelError, Problem
 from ._equilibria import Equilibria, Equilibrium, found_points
 from ..model._kinematics import to_sympy
 from .._util import did_you_mean, real_number
-from ._setting import collect_setting, derivatives
+from ..numeric._compiled import compile_equations
+from ._setting import collect_setting
 from ._roots import completeness_notes, free_axes, no_root_reasons
 from ._stability import assess
 from ._stationary import conserved_cyclic, stationary_problem
@@ -231,7 +232,7 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
         qd = a.velocities
         if not np.all(np.isfinite(qd)):
             continue
-        p = derivatives(equations).momenta(r.q, qd, setting.t, setting.u, setting.p)[0]
+        p = compile_equations(equations).momenta(setting.t, np.concatenate((r.q, qd)), setting.u, setting.p)[0]
         exact_rates = None
         if r.solution is not None and problem.exact_velocities:
             k = next(k for k, (sol, _) in enumerate(problem.exact) if sol is r.solution)

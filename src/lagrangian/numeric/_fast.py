@@ -12,12 +12,12 @@ from __future__ import annotations
 import functools
 import os
 import threading
-import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..equations import Equations
+from ._cache import CACHE
 from ._codegen import cache_dir, load_module, model_module, store
 from ._inputs import constant_programs
 
@@ -26,16 +26,20 @@ __all__ = ["CompiledModel", "compile_numba", "BACKENDS"]
 #: Backends accepted by ``backend``: "auto" picks numba when it can, else "scipy".
 BACKENDS = ("auto", "numba", "c", "scipy")
 
-_CACHE: "weakref.WeakKeyDictionary[Equations, dict]" = weakref.WeakKeyDictionary()
+_CACHE = CACHE  # the one cache, per Equations (_cache.py): "numba", "c", "variational", "lanes<L>", ...
 _LOCK = threading.Lock()
 
 
 @dataclass(frozen=True, eq=False)
 class CompiledModel:
-    """The numerical state equations of `equations`, generated and compiled by numba.
+    """The numerical state equations of `equations`, generated and compiled by numba (or C).
 
-    Every function takes ``(t, x, u, p)`` as :class:`NumericModel` does: the generated module's
-    docstring (``source``) lists the state, input and parameter names in argument order.
+    It implements :class:`~lagrangian.numeric._compiled.NumericContract` as :class:`NumericModel`
+    does, every function taking ``(t, x, u, p)`` (the generated module's docstring, ``source``,
+    lists the state, input and parameter names in argument order): rhs, solve, mass_matrix,
+    forcing, accelerations and energy by the generated code; the constraint parts and the
+    Jacobians analysis needs (``constraint_parts``, ``jacobians``, ``state_jacobians``,
+    ``momenta``, ``damping``, ``static``, ``statics``) by the NumericModel it carries (``numeric``).
 
     Attributes
     ----------
@@ -62,6 +66,46 @@ class CompiledModel:
     @property
     def n(self) -> int:
         return len(self.state_names) // 2
+
+    @property
+    def m(self) -> int:
+        """The number of constraints (0 without)."""
+        return len(self.equations.core.g)
+
+    @property
+    def numeric(self):
+        """The portable NumericModel of the same equations (the Jacobians and constraint parts)."""
+        from ._compiled import compile_equations
+
+        return compile_equations(self.equations, "scipy")
+
+    def constraint_parts(self, t, x, u, p):
+        """(G, c, g, w), shapes (m, n), (m,), (m,), (m,) (by ``numeric``)."""
+        return self.numeric.constraint_parts(*self._args(t, x, u, p, trim=True))
+
+    def jacobians(self, t, x, u, p, qdd=None):
+        """M, f, df/dq, df/dq_dot, df/du, d(M a)/dq at a = qdd (by ``numeric``)."""
+        return self.numeric.jacobians(*self._args(t, x, u, p, trim=True), qdd)
+
+    def state_jacobians(self, t, x, u, p):
+        """(d rhs/dx, d rhs/du) for m = 0 (by ``numeric``)."""
+        return self.numeric.state_jacobians(*self._args(t, x, u, p, trim=True))
+
+    def momenta(self, t, x, u, p):
+        """(dL/dq_dot, its Jacobian in q, M) (by ``numeric``)."""
+        return self.numeric.momenta(*self._args(t, x, u, p, trim=True))
+
+    def damping(self, t, x, u, p):
+        """The damping matrix, shape (n, n) (by ``numeric``)."""
+        return self.numeric.damping(*self._args(t, x, u, p, trim=True))
+
+    def static(self, t, q, u, p):
+        """(f, df/dq) at rest in the configuration q (by ``numeric``)."""
+        return self.numeric.static(t, q, u, p)
+
+    def statics(self, t, z, u, p):
+        """(f + G^T lambda, g, its Jacobian in q, G) at rest in z = (q, lambda) (by ``numeric``)."""
+        return self.numeric.statics(t, z, u, p)
 
     @property
     def source(self) -> str:
@@ -126,7 +170,9 @@ class CompiledModel:
         """The cfunc of dL/dq_dot and dL/dq - dD/dq_dot + Q."""
         return self._second().lagrange_parts
 
-    def _args(self, t, x, u, p):
+    def _args(self, t, x, u, p, trim=False):
+        """(t, x, u, p) checked, as contiguous float arrays; u and p of length 1 at least (the
+        compiled functions take a pointer) unless `trim`."""
         x = np.ascontiguousarray(x, dtype=float)
         if x.shape != (2 * self.n,):
             raise ValueError(f"x must have shape ({2 * self.n},), got {x.shape}")
@@ -136,14 +182,25 @@ class CompiledModel:
         p = np.ascontiguousarray(p, dtype=float)
         if p.shape != (len(self.parameter_names),):
             raise ValueError(f"p must have shape ({len(self.parameter_names)},), got {p.shape}")
-        return float(t), x, _nonempty(u), _nonempty(p)
+        return (float(t), x, u, p) if trim else (float(t), x, _nonempty(u), _nonempty(p))
 
     def rhs(self, t, x, u, p) -> np.ndarray:
         """x' = [q_dot, q_ddot], shape (2n,) (NaN where M is singular or f not finite)."""
+        if self.m:
+            return np.concatenate((np.asarray(x, float)[self.n:], self.solve(t, x, u, p)[0]))
         return kernels().rhs(self.rhs_address, self.n, *self._args(t, x, u, p))[0]
 
     def solve(self, t, x, u, p) -> tuple[np.ndarray, float]:
-        """(q_ddot, inertia measure of M); the measure is -1.0 when f is not finite."""
+        """(q_ddot, inertia measure of M): q_ddot is NaN where the measure is at or below
+        SINGULAR_RATIO, and the measure is -1.0 where f is not finite (the one failure value of
+        NumericContract). With constraints: the saddle-point system's q_ddot and its measure
+        min(r_M, rho_G), by the generated code (its work array holds work_size(n, m) values)."""
+        if self.m:
+            from ._codegen_constrained import compiled_solve
+            from ._compiled import SINGULAR_RATIO
+
+            qdd, _, r = compiled_solve(self, *self._args(t, x, u, p))
+            return (qdd if r > SINGULAR_RATIO else np.full(self.n, np.nan)), float(r)
         dx, r = kernels().rhs(self.rhs_address, self.n, *self._args(t, x, u, p))
         return dx[self.n:], float(r)
 

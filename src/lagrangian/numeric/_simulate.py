@@ -16,7 +16,7 @@ from .._limits import MAX_ROWS, MAX_STEPS, number_problem
 from .._util import did_you_mean, named_values, read_only
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError, Status
 from ..model import Model
-from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations
+from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations, raise_on_failure
 from ._fast import BACKENDS, CompiledModel
 from ._options import SimulationOptions
 from ._solvers import METHODS, Solver, Variational, solver_of
@@ -490,6 +490,7 @@ def _simulate_scipy(nm: NumericModel, run: _Run, opts: SimulationOptions) -> Tra
         if bar.enabled:
             bar.set(int(t * per_time))
         qdd, last[2] = nm.solve(t, x, u_at(t, x), p)
+        raise_on_failure(t, x, last[2])
         last[0], last[1] = t, x
         return np.concatenate((x[nm.n:], qdd))
 
