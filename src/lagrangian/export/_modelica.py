@@ -196,7 +196,7 @@ def _fixed_states(eq: Equations, x0, pvalues) -> list[bool]:
     from ..numeric._compiled import compile_equations
     from ..numeric._constrained import constrained_model
     from ._common import held_names
-    from ._constrained_c import holonomic_rows
+    from ..numeric._codegen_constrained import holonomic_rows
 
     n = eq.n
     cm = constrained_model(eq, compile_equations(eq))

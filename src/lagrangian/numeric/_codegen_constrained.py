@@ -53,7 +53,9 @@ from ..model._constraints import HOLONOMIC
 from ._codegen import _cfunc_head, _Printer
 from ._kernels import EVENT_RATIO, SINGULAR_RATIO
 
-__all__ = ["C_DECLARATIONS", "EVENT_RATIO", "MET", "NEWTON_EXIT", "NOT_FINITE", "PROJECTION_STEPS", "PROJECTION_TOL", "SINGULAR", "SINGULAR_RATIO", "compiled_project", "compiled_solve", "constrained_c", "constrained_main", "layout", "work_size"]
+__all__ = ["C_DECLARATIONS", "EVENT_RATIO", "MET", "NEWTON_EXIT", "NOT_FINITE", "PROJECTION_STEPS", "PROJECTION_TOL",
+           "SINGULAR", "SINGULAR_RATIO", "compiled_project", "compiled_solve", "constrained_c", "constrained_main",
+           "layout", "work_size"]
 
 #: Gauss-Newton steps of one projection of the coordinates (each converges quadratically from a
 #: step's error).
@@ -93,6 +95,10 @@ void lg_project(double t, double *x, double *u, double *p, double *work, double 
 _TO_PY = [(r"&&", "and"), (r"\|\|", "or"), (r"!(?!=)", "not "), (r"\bfmin\(", "min("), (r"\bfmax\(", "max("),
           (r"\bfabs\(", "abs("), (r"\bsqrt\(", "math.sqrt("), (r"\bisfinite\(", "math.isfinite("),
           (r"\bINFINITY\b", "math.inf")]
+
+
+def _c_arg(name: str, ctype: str) -> str:
+    return f"{ctype}{name}" if ctype.endswith("*") else f"{ctype} {name}"
 
 
 class _Emit:
@@ -158,7 +164,7 @@ class _Emit:
                 self.line(f'"""{doc}"""')
         else:
             self.lines += ["", f"/* {doc} */" if doc else "",
-                           f"static {ret} {name}({', '.join(f'{t}{a}' if t.endswith('*') else f'{t} {a}' for a, t in args)}) {{"]
+                           f"static {ret} {name}({', '.join(_c_arg(a, t) for a, t in args)}) {{"]
             self.depth = 1
             if doubles:
                 self.line(f"double {doubles};")
@@ -194,19 +200,17 @@ def _algorithm(e: _Emit, mh: int) -> None:
                 e.do("work[i * N + j] = s * inv")
         e.ret("r")
     with e.func("lg_lower", "void", [("work", w), ("b", "int")], "s", "i, k",
-                "work[b:b+N] <- L^-1 work[b:b+N] (L unit lower)"):
-        with e.loop("i", "0", "N"):
-            e.do("s = work[b + i]")
-            with e.loop("k", "0", "i"):
-                e.do("s -= work[i * N + k] * work[b + k]")
-            e.do("work[b + i] = s")
+                "work[b:b+N] <- L^-1 work[b:b+N] (L unit lower)"), e.loop("i", "0", "N"):
+        e.do("s = work[b + i]")
+        with e.loop("k", "0", "i"):
+            e.do("s -= work[i * N + k] * work[b + k]")
+        e.do("work[b + i] = s")
     with e.func("lg_upper", "void", [("work", w), ("b", "int")], "s", "i, k",
-                "work[b:b+N] <- L^-T D^-1 work[b:b+N]"):
-        with e.down("i", "N"):
-            e.do("s = work[b + i] / work[D0 + i]")
-            with e.loop("k", "i + 1", "N"):
-                e.do("s -= work[k * N + i] * work[b + k]")
-            e.do("work[b + i] = s")
+                "work[b:b+N] <- L^-T D^-1 work[b:b+N]"), e.down("i", "N"):
+        e.do("s = work[b + i] / work[D0 + i]")
+        with e.loop("k", "i + 1", "N"):
+            e.do("s -= work[k * N + i] * work[b + k]")
+        e.do("work[b + i] = s")
     with e.func("lg_qr", "double", [("work", w), ("m", "int")], "big, s, rho", "i, j, k",
                 "Z = Q R (the m columns of Z at Q0, column k at Q0 + k N) by modified Gram-Schmidt in the "
                 "metric D^-1; R at R0 (R_jk at R0 + j M + k). The rank measure min_k R_kk / max_k |z_k| "
@@ -240,19 +244,17 @@ def _algorithm(e: _Emit, mh: int) -> None:
                 e.do("work[Q0 + k * N + i] /= s")
         e.ret("sqrt(rho)")
     with e.func("lg_rt", "void", [("work", w), ("m", "int"), ("b", "int")], "s", "j, k",
-                "work[b:b+m] <- R^-T work[b:b+m]"):
-        with e.loop("k", "0", "m"):
-            e.do("s = work[b + k]")
-            with e.loop("j", "0", "k"):
-                e.do("s -= work[R0 + j * M + k] * work[b + j]")
-            e.do("work[b + k] = s / work[R0 + k * M + k]")
+                "work[b:b+m] <- R^-T work[b:b+m]"), e.loop("k", "0", "m"):
+        e.do("s = work[b + k]")
+        with e.loop("j", "0", "k"):
+            e.do("s -= work[R0 + j * M + k] * work[b + j]")
+        e.do("work[b + k] = s / work[R0 + k * M + k]")
     with e.func("lg_qv", "void", [("work", w), ("m", "int"), ("b", "int")], "s", "i, k",
-                "work[V0:V0+N] <- Q work[b:b+m]"):
-        with e.loop("i", "0", "N"):
-            e.do("s = 0.0")
-            with e.loop("k", "0", "m"):
-                e.do("s += work[Q0 + k * N + i] * work[b + k]")
-            e.do("work[V0 + i] = s")
+                "work[V0:V0+N] <- Q work[b:b+m]"), e.loop("i", "0", "N"):
+        e.do("s = 0.0")
+        with e.loop("k", "0", "m"):
+            e.do("s += work[Q0 + k * N + i] * work[b + k]")
+        e.do("work[V0 + i] = s")
     with e.func("lg_factor", "double", [("work", w)], "r, rho", "i, k",
                 "Steps 1 and 2 (M, G in work): the measure min(r_M, rho_G)"):
         e.do("r = lg_ldl(work)")
@@ -270,9 +272,8 @@ def _algorithm(e: _Emit, mh: int) -> None:
         e.do("r = lg_ldl(work)")
         with e.when("r <= SINGULAR_RATIO"):
             e.ret("r")
-        with e.loop("i", "0", "N + M * N + M"):
-            with e.when("!isfinite(work[F0 + i])"):
-                e.ret("-1.0")
+        with e.loop("i", "0", "N + M * N + M"), e.when("!isfinite(work[F0 + i])"):
+            e.ret("-1.0")
         with e.loop("k", "0", "M"):
             with e.loop("i", "0", "N"):
                 e.do("work[Q0 + k * N + i] = work[G0 + k * N + i]")
@@ -313,9 +314,8 @@ def _algorithm(e: _Emit, mh: int) -> None:
             with e.loop("it", "0", "PROJECTION_STEPS"):
                 e.do("lg_position(t, x, u, p, work)")
                 e.do("gmax = 0.0")
-                with e.loop("k", "0", "MH + MH * N"):
-                    with e.when("!isfinite(work[P0 + k])"):
-                        e.ret("NOT_FINITE")
+                with e.loop("k", "0", "MH + MH * N"), e.when("!isfinite(work[P0 + k])"):
+                    e.ret("NOT_FINITE")
                 with e.loop("k", "0", "MH"):
                     e.do("gmax = fmax(gmax, fabs(work[P0 + k]))")
                 with e.when("it == 0"):
@@ -346,9 +346,8 @@ def _algorithm(e: _Emit, mh: int) -> None:
             with e.loop("k", "0", "i + 1"):
                 with e.when("!isfinite(work[i * N + k])"):
                     e.ret("NOT_FINITE")
-        with e.loop("k", "0", "M * N"):
-            with e.when("!isfinite(work[G0 + k])"):
-                e.ret("NOT_FINITE")
+        with e.loop("k", "0", "M * N"), e.when("!isfinite(work[G0 + k])"):
+            e.ret("NOT_FINITE")
         e.do("drift[1] = fmax(drift[1], wmax)")
         with e.when("wmax > 0.0"):
             with e.when("lg_factor(work) <= SINGULAR_RATIO"):
@@ -358,9 +357,8 @@ def _algorithm(e: _Emit, mh: int) -> None:
             e.do("lg_upper(work, V0)")
             with e.loop("i", "0", "N"):
                 e.do("x[N + i] -= work[V0 + i]")
-        with e.loop("i", "0", "2 * N"):
-            with e.when("!isfinite(x[i])"):
-                e.ret("NOT_FINITE")
+        with e.loop("i", "0", "2 * N"), e.when("!isfinite(x[i])"):
+            e.ret("NOT_FINITE")
         e.ret("MET")
 
 
@@ -442,11 +440,24 @@ def constrained_main(equations: Equations) -> list[str]:
     return out
 
 
-def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "") -> str:
+def _used(lines: list[str], values: list[str]) -> list[str]:
+    """`lines` (C definitions of common subexpressions, ``double cK = ...;``) without those that
+    nothing reads (SymEngine's CSE can leave one whose uses cancelled): -Wall -Werror builds."""
+    keep = list(lines)
+    while True:
+        text = "\n".join(keep + values)
+        unused = [line for line in keep if (m := re.match(r"\s*double (c\d+) = ", line))
+                  and len(re.findall(rf"\b{m.group(1)}\b", text)) == 1]
+        if not unused:
+            return keep
+        keep = [line for line in keep if line not in unused]
+
+
+def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "", project: bool = True) -> str:
     """The C of the saddle-point solve and the projection: ``<prefix>constrained_rhs(t, x, u, p,
     dx, work)`` (the numba rhs's signature and value) and ``<prefix>project(t, x, u, p, work,
-    drift)`` (numba's project: void), after the static helpers, for the C backend and export_c.
-    The work arrays hold work_size(n, m) values."""
+    drift)`` (numba's project: void; left out without `project`), after the static helpers, for
+    the C backend and export_c. The work arrays hold work_size(n, m) values."""
     eq = equations
     n = eq.n
     consts, mh = _constants(eq)
@@ -460,7 +471,7 @@ def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "") 
         body = [f"static void {name}(double t, double *x, double *u, double *p, double *work) {{"]
         body += pr.unpack() + quiet
         lines, values = pr.block(exprs)
-        return body + lines + [f"    work[{k}] = {v};" for k, v in zip(places, values)] + ["}", ""]
+        return body + _used(lines, values) + [f"    work[{k}] = {v};" for k, v in zip(places, values)] + ["}", ""]
 
     if mh:
         out += parts("lg_position", *position)
@@ -472,12 +483,13 @@ def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "") 
                  "double *work) {"), "    double r;", "    int i;"]
     out += pr.unpack() + quiet
     lines, exprs = pr.block(rhs[0])
-    out += lines + [f"    work[{k}] = {v};" for k, v in zip(rhs[1], exprs)]
+    out += _used(lines, exprs) + [f"    work[{k}] = {v};" for k, v in zip(rhs[1], exprs)]
     out += ["    r = lg_saddle(work);", f"    if (r <= {SINGULAR_RATIO!r}) return r;",
             f"    for (i = 0; i < {n}; i++) {{", f"        dx[i] = x[{n} + i];",
-            f"        dx[{n} + i] = work[{consts['A0']} + i];", "    }", "    return r;", "}", "",
-            f"{storage}void {prefix}project(double t, double *x, double *u, double *p, double *work, double *drift) {{",
-            "    (void)lg_projection(t, x, u, p, work, drift);", "}", ""]
+            f"        dx[{n} + i] = work[{consts['A0']} + i];", "    }", "    return r;", "}", ""]
+    if project:  # (export_c calls lg_projection for its result code)
+        out += [f"{storage}void {prefix}project(double t, double *x, double *u, double *p, double *work, "
+                "double *drift) {", "    (void)lg_projection(t, x, u, p, work, drift);", "}", ""]
     return "\n".join(out)
 
 
