@@ -15,6 +15,8 @@ Sections
                solve_ivp(DOP853), and a plain C
                DOP853 loop compiled with gcc -O2 (benchmarks/c_floor, the floor)
   batch        double-pendulum trajectories of 10 s at rtol 1e-8 per second of wall time
+  output-stage a 20 s double pendulum at rtol = atol = 1e-8: the integration alone against simulate()
+               end to end with the model's default output (2001 points and the energy column)
   new model    derive + generate + compile, cold and cached, in fresh processes; the CLI's first
                and second `lagrangian simulate` of a new model file
   40 links     derivation, code generation and compilation times, separately
@@ -284,6 +286,43 @@ def batch(quick: bool) -> None:
     RESULTS["threads"] = threads
 
 
+# ---------------------------------------------------------------------------- output stage
+def output_stage(quick: bool) -> None:
+    """The double pendulum of the model file (20 s, the model's output every 0.01 s: 2001 points and
+    the energy column) at rtol = atol = 1e-8: the integration alone (the compiled DOP853 to t = 20,
+    no outputs) against `simulate()` end to end. The aim (issue 20): end to end at most 1.3x the
+    integration."""
+    header("Output stage: a 20 s double pendulum at rtol = atol = 1e-8, median wall time")
+    eqs = lg.derive(lg.load("double-pendulum"))
+    cm = compile_numba(eqs)
+    p = cm.parameter_values
+    x0 = np.array([2.0, 2.5, 0.0, 0.0])  # the model file's initial state
+    prog = constant_programs([])
+    ends = np.array([0.0, 20.0])
+    grid = np.linspace(0.0, 20.0, 2001)
+    runs = {
+        "integration alone (run_dop853 to t = 20)": lambda: run_dop853(cm, x0, ends, p, prog, 1e-8, 1e-8),
+        "integration with the 2001 outputs (run_dop853)": lambda: run_dop853(cm, x0, grid, p, prog, 1e-8, 1e-8),
+        "simulate() end to end (2001 points, energy)": lambda: lg.simulate(eqs, rtol=1e-8, atol=1e-8),
+    }
+    tr = lg.simulate(eqs, rtol=1e-8, atol=1e-8)
+    assert len(tr.t) == 2001 and tr.energy is not None
+    reps = 200 if quick else 1000
+    medians = {}
+    for _ in range(3):  # interleaved rounds: a noisy machine slows all of them alike
+        for label, fn in runs.items():
+            fn()
+            medians.setdefault(label, []).append(wall(fn, reps // 3))
+    print("| run | median |")
+    print("|---|---:|")
+    for label, values in medians.items():
+        medians[label] = min(values)
+        print(f"| {label} | {medians[label] * 1e3:.3f} ms |")
+    alone, _, end = medians.values()
+    print(f"\nend to end / integration alone: {end / alone:.2f} (aim: at most 1.3)")
+    RESULTS["output"] = (alone, end)
+
+
 # ------------------------------------------------------------------------------- new model
 _PROBE = textwrap.dedent("""
     import time, sys
@@ -446,6 +485,11 @@ def summary() -> None:
     if "batch" in R:
         print(f"| batch: >= 15,000 double pendulums per second on {R['threads']} cores (aim 59,000) | "
               f"{R['batch']:,.0f}/s | {mark(R['batch'] >= 15000)} |")
+    if "output" in R:
+        alone, end = R["output"]
+        print(f"| output stage: simulate() end to end at most 1.3x the integration alone (20 s double pendulum, "
+              f"2001 points and energy) | {end / alone:.2f}x ({end * 1e3:.3f} ms against {alone * 1e3:.3f} ms) | "
+              f"{mark(end / alone <= 1.3)} |")
     if "cli" in R:
         first, second = R["cli"]
         print(f"| new model from the CLI: first run < 5 s | {first:.2f} s | {mark(first < 5)} |")
@@ -477,12 +521,12 @@ def summary() -> None:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats; skip the slowest peers")
-    ap.add_argument("--only", nargs="*", choices=["derivation", "simulation", "batch", "new-model", "forty",
-                                                  "display", "bodies", "bicycle"],
+    ap.add_argument("--only", nargs="*", choices=["derivation", "simulation", "batch", "output-stage", "new-model",
+                                                  "forty", "display", "bodies", "bicycle"],
                     help="run only these sections")
     args = ap.parse_args(argv)
-    sections = {"derivation": derivation, "simulation": simulation, "batch": batch, "new-model": new_model,
-                "forty": forty, "display": display, "bodies": bodies, "bicycle": bicycle}
+    sections = {"derivation": derivation, "simulation": simulation, "batch": batch, "output-stage": output_stage,
+                "new-model": new_model, "forty": forty, "display": display, "bodies": bodies, "bicycle": bicycle}
     import platform
 
     print(f"# lagrangian benchmarks ({platform.processor() or platform.machine()}, {os.cpu_count()} cores, "

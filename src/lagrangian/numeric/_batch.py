@@ -331,16 +331,9 @@ def _run(rc: int, rcl: int | None, n: int, lanes: int, X0, times, P, prog, rtol,
     """One chunk, in parallel on this machine's cores: in blocks of `lanes` runs evaluated
     together (rcl, the address of rhs_lanes), or one run at a time (rcl None; `project`, `nwork`: a
     constrained model's projection address and work size, see dop853)."""
-    from ._fast import kernels, stage_table
+    from ._fast import run_batch
 
-    args = (X0, 0.0, times, P, prog.ops, prog.args, prog.starts, prog.nstack, rtol, atol, max_step, X, INFO, STATS,
-            STATUS_, *stage_table())
-    if rcl:
-        kernels().dop853_batch_lanes(rc, rcl, n, lanes, *args)
-    elif project:
-        kernels().dop853_batch(rc, n, *args, project, nwork)
-    else:
-        kernels().dop853_batch(rc, n, *args)
+    run_batch(rc, rcl, n, lanes, X0, times, P, prog, rtol, atol, max_step, X, INFO, STATS, STATUS_, project, nwork)
 
 
 def _run_on_dask(client, cm, n, lanes, chunks, X0, P, times, prog, rtol, atol, max_step, X, INFO, STATS, STATUS_,

@@ -251,7 +251,10 @@ def _nonempty(a: np.ndarray) -> np.ndarray:
 
 
 def kernels():
-    """The compiled kernels module (generated once per machine and version, see _kernels.py)."""
+    """The compiled kernels module, _kernels_numba.py, loaded from the cache folder: a copy named by
+    the hash of its text, of _kernels.py (the constants it reads) and of numba's version, so that
+    numba caches its compiled code there, beside the models', once per machine (a read-only
+    installation included) and a changed kernel is a new entry."""
     global _KERNELS
     if _KERNELS is None:
         with _LOCK:
@@ -260,20 +263,14 @@ def kernels():
 
                 import numba
 
-                import scipy
-
                 from . import _kernels
 
-                # keyed by the generator's own source, not by its output: finding the module
-                # costs no generation (and no import of scipy.integrate)
+                source = _kernels.kernel_source()
                 with open(_kernels.__file__, "rb") as fh:
-                    own = fh.read()
-                key = hashlib.sha256(own + f"|{numba.__version__}|{scipy.__version__}".encode()).hexdigest()[:24]
+                    constants = fh.read()
+                key = hashlib.sha256(source.encode() + constants + f"|{numba.__version__}".encode()).hexdigest()[:24]
                 path = cache_dir() / f"lagrangian_kernels_{key}.py"
-                if not path.exists():
-                    source = _kernels.kernel_source()
-                    compile(source, "<kernels>", "exec")  # a syntax check; nothing runs
-                    store(path, source)
+                store(path, source)
                 try:
                     _KERNELS = load_module(path, f"lagrangian_kernels_{key}")
                 except BaseException:  # a broken entry is removed, never reused
@@ -324,22 +321,13 @@ class RawRun:
     event_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # states
     nswitch: int = 0  # switches located
     held: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # sampled inputs at the sample times
+    u: np.ndarray | None = None  # the output stage: the inputs at the output times (None: not computed)
+    energy: np.ndarray | None = None  # and the Jacobi integral there
 
-
-_TABLE = None
-
-
-def stage_table():
-    """The coefficient table the kernels loop over (placeholders when they write the stages out)."""
-    global _TABLE
-    if _TABLE is None:
-        from ._kernels import UNROLL_STAGES, stage_table as table
-
-        if UNROLL_STAGES:
-            _TABLE = (np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1), np.zeros(1))
-        else:
-            _TABLE = table()
-    return _TABLE
+def stage_table() -> tuple:
+    """Nothing any more: the kernels write DOP853's stages out with their coefficients as named
+    constants (kept for callers that passed ``*stage_table()``)."""
+    return ()
 
 
 #: Most event crossings recorded in one run.
@@ -371,6 +359,8 @@ def _with_progress(call, stats, total: int, enabled: bool | None, compiling: boo
     bar = Progress(total, "simulating", enabled=enabled)
     if not bar.enabled:
         return call()
+    if callable(compiling):  # asked only when a bar is drawn (numba's signatures cost tens of microseconds)
+        compiling = compiling()
     if compiling:
         bar.wait(COMPILING)
     import threading
@@ -434,18 +424,21 @@ def no_sampling(m: int) -> tuple[Sampling, np.ndarray]:
 
 def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
                first_step: float = 0.0, events=None, terminal=(), progress: bool | None = None,
-               sampling: Sampling | None = None, project: int = 0, nwork: int = 0) -> RawRun:
+               sampling: Sampling | None = None, project: int = 0, nwork: int = 0, outputs: bool = True) -> RawRun:
     """DOP853 in compiled code from (0, x0); states at `times` (increasing, >= 0). `project`, `nwork`:
     a constrained model's projection (its address) and the size of its rhs's work array. `events`:
     the Programs of event functions of (t, x, u, p); `terminal`: 1 for those that stop it.
     `progress`: draw a progress bar (default: when stderr is a terminal and it takes over 1 s).
-    `sampling`: the sampled inputs (default: none)."""
+    `sampling`: the sampled inputs (default: none). `outputs`: the output stage, the inputs and the
+    Jacobi integral at the output times, evaluated in the compiled loop (RawRun.u and .energy; not
+    with sampled inputs, whose held values inputs_and_energy reads from the run's history)."""
     n = cm.n
     m = len(prog.starts) - 1
     if sampling is None:
         sampling, hist = no_sampling(m)
     else:
         hist = np.zeros((max(1, len(sampling.samples)), max(1, m)))
+        outputs = False
     if events is None:  # no events: the kernel only reads these arrays, so they are shared
         events, eterm, ev_t, ev_k, ev_x, ev_n = _no_events(n)
         nev = 0
@@ -459,24 +452,32 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     X = np.empty((len(times), 2 * n))
     info = np.zeros(2 + 2 * n)
     stats = np.zeros(5, dtype=np.int64)
-    rtol = max(float(rtol), _MIN_RTOL)
+    if outputs:
+        U, E, energy = np.empty((len(times), m)), np.empty(len(times)), cm.energy_address
+    else:
+        U, E, energy = _NO_OUTPUTS[0], _NO_OUTPUTS[1], 0
+    model = (cm.rhs_address, n, int(project), int(nwork), energy)
+    program = (prog.ops, prog.args, prog.starts, max(prog.nstack, events.nstack))
+    control = (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), float(first_step))
+    watched = (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
+    held = (sampling.hold, sampling.samples, sampling.which, hist)
 
     def call():
-        return kernels().dop853(cm.rhs_address, n, np.array(x0, dtype=float), 0.0, times,
-                                _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts,
-                                max(prog.nstack, events.nstack), rtol, float(atol), float(max_step),
-                                float(first_step), X, info, stats, *stage_table(), events.ops, events.args,
-                                events.starts, eterm, ev_t, ev_k, ev_x, ev_n, sampling.hold, sampling.samples,
-                                sampling.which, hist, int(project), int(nwork))
+        return kernels().dop853(model, np.array(x0, dtype=float), times, _nonempty(np.ascontiguousarray(p, dtype=float)),
+                                program, control, watched, held, (X, info, stats, U, E))
 
     status = call() if progress is False else _with_progress(call, stats, len(times), progress,
-                                                              not compiled(kernels().dop853))
+                                                              lambda: not compiled(kernels().dop853))
     k = int(stats[3])
     m = int(ev_n[0]) if nev else 0
     order = np.argsort(ev_t[:m], kind="stable") if m else slice(None)
     return RawRun(int(status), times[:k], X[:k], float(info[0]), float(info[1]), info[2:].copy(),
                   int(stats[0]), int(stats[1]), int(stats[2]), ev_t[:m][order], ev_k[:m][order], ev_x[:m][order],
-                  int(stats[4]), hist)
+                  int(stats[4]), hist, U[:k] if outputs else None, E[:k] if outputs else None)
+
+
+#: The output arrays of a run without the output stage (the kernel does not touch them).
+_NO_OUTPUTS = (np.zeros((1, 1)), np.zeros(1))
 
 
 def run_variational(cm: CompiledModel, x0, h: float, nsteps: int, every: int, p, prog) -> RawRun:
@@ -487,26 +488,48 @@ def run_variational(cm: CompiledModel, x0, h: float, nsteps: int, every: int, p,
     X = np.empty((nout, 2 * n))
     info = np.zeros(2 + 2 * n)
     stats = np.zeros(4, dtype=np.int64)
-    status = kernels().variational(cm.mass_forcing_address, cm.lagrange_parts_address, n, np.array(x0, dtype=float), 0.0,
-                                   float(h), int(nsteps), int(every), _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops,
-                                   prog.args, prog.starts, prog.nstack, X, info, stats)
+    status = kernels().variational((cm.mass_forcing_address, cm.lagrange_parts_address, n), np.array(x0, dtype=float),
+                                   0.0, float(h), int(nsteps), int(every),
+                                   _nonempty(np.ascontiguousarray(p, dtype=float)),
+                                   (prog.ops, prog.args, prog.starts, prog.nstack), (X, info, stats))
     k = int(stats[3])
     return RawRun(int(status), np.arange(k) * (every * h), X[:k], float(info[0]), float(info[1]),
                   info[2:].copy(), int(stats[0]), int(stats[1]), 0)
 
 
-def inputs_and_energy(cm: CompiledModel, times, X, p, prog, held=None) -> tuple[np.ndarray, np.ndarray]:
+def run_batch(rc: int, rcl: int | None, n: int, lanes: int, X0, times, P, prog, rtol: float, atol: float,
+              max_step: float, X, INFO, STATS, STATUS_, project: int = 0, nwork: int = 0) -> None:
+    """DOP853 for each row of X0 and P, in parallel on this machine's cores, into the rows of X,
+    INFO, STATS and STATUS_: in blocks of `lanes` runs evaluated together (rcl, the address of
+    rhs_lanes), or one run at a time (rcl None; `project`, `nwork`: a constrained model's
+    projection address and work size, see run_dop853)."""
+    model = (rc, n, int(project), int(nwork), 0)
+    program = (prog.ops, prog.args, prog.starts, prog.nstack)
+    control = (0.0, float(rtol), float(atol), float(max_step), 0.0)
+    if rcl:
+        kernels().dop853_batch_lanes(model, rcl, lanes, X0, times, P, program, control, (X, INFO, STATS, STATUS_))
+    else:
+        kernels().dop853_batch(model, X0, times, P, program, control, (X, INFO, STATS, STATUS_))
+
+
+def inputs_and_energy(cm: CompiledModel, times, X, p, prog, held=None, run: RawRun | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """(U, energy) at the rows of (times, X), computed in compiled code. `held`: (hold, U0) for
-    sampled inputs: hold[i] = 1 where U0[:, i] holds the values of input i at the times."""
+    sampled inputs: hold[i] = 1 where U0[:, i] holds the values of input i at the times. `run`: the
+    RawRun whose first rows X are: its output stage (computed in its compiled loop) is taken
+    when it has one."""
     times = np.ascontiguousarray(times, dtype=float)
+    if run is not None and run.energy is not None and held is None and len(times) <= len(run.energy):
+        return run.u[:len(times)], run.energy[:len(times)]
     m = len(cm.input_names)
     U = np.empty((len(times), m))
     hold = np.zeros(max(1, m), np.int64)
     if held is not None:
         hold, U[:] = held
     energy = np.empty(len(times))
-    kernels().energies(cm.energy_address, times, np.ascontiguousarray(X, dtype=float), _nonempty(np.ascontiguousarray(p, dtype=float)),
-                       prog.ops, prog.args, prog.starts, prog.nstack, energy, U, hold)
+    kernels().energies(cm.energy_address, times, np.ascontiguousarray(X, dtype=float),
+                       _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts, prog.nstack,
+                       energy, U, hold)
     return U, energy
 
 

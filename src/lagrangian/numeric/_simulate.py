@@ -782,7 +782,7 @@ def _compiled_trajectory(cm: CompiledModel, method, times, raw, p, prog, samplin
         U0[:] = held_inputs(sampling, raw.held[:, :len(cm.input_names)], times)
         held = (sampling.hold, U0)
         stats["samples"] = int(np.searchsorted(sampling.samples, times[-1], side="right"))
-    U, energy = inputs_and_energy(cm, times, raw.x[:len(times)], p, prog, held)
+    U, energy = inputs_and_energy(cm, times, raw.x[:len(times)], p, prog, held, run=raw)
     return run_trajectory(cm.equations, times, raw.x[:len(times)], U, p, energy=energy, stats=stats,
                           status=raw.status, events=events, failure=failure)
 
