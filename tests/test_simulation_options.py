@@ -168,6 +168,9 @@ def test_solvers_say_what_they_support_and_refuse_with_the_fix():
         lg.simulate(oscillator(), 1.0, method=Variational(), backend="scipy")
     with pytest.raises(lg.ModelError, match=r"events are watched by the compiled DOP853 only, not by method 'BDF'"):
         lg.simulate(oscillator(), 1.0, method=SciPyMethod("BDF"), events={"zero": "x"})
+    with pytest.raises(lg.ModelError, match=r"t_end = 10 in fixed steps of 1e-09 is 1e\+10 steps: use a larger step"):
+        lg.simulate(oscillator(), 10.0, method=Variational(step=1e-9), inputs={"F": "0"})  # the object's step
+    assert Variational().callable_inputs is False and DOP853().callable_inputs is True
 
 
 # ------------------------------------------------------------------------ energy's name

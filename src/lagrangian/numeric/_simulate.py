@@ -457,7 +457,8 @@ def _prepare(nm, opts: SimulationOptions) -> _Run:
         _elimination_problems(eq, name, problems)
     if eq.is_constrained and not constraint_problems:
         _constrained_problems(nm, name, event_exprs, opts.sample_time, opts.constraints, problems)
-    problems += _work_problems(opts.t_end, opts.dt, opts.t_eval, opts.step, name)
+    step = solver.step if isinstance(solver, Variational) else opts.step
+    problems += _work_problems(opts.t_end, opts.dt, opts.t_eval, step, name)
     if problems:
         raise ModelError(problems)
     return _Run(solver, requested_times(opts.t_end, opts.dt, opts.t_eval), p, x0, u_of, u_exprs, sampling,

@@ -62,6 +62,11 @@ class Solver:
     constraints: bool = True
     t_eval: bool = True
 
+    @property
+    def callable_inputs(self) -> bool:
+        """Takes inputs given as Python functions u(t) or u(t, x): only on SciPy's path."""
+        return self.scipy
+
     def problems(self, *, backend: str, sample_time=None, t_eval=None, callable_inputs: bool = False,
                  velocity_dependent_mass: bool = False, events: bool = False) -> list[Problem]:
         """What this solver cannot do of what is asked, each with its fix (nothing when it can)."""
@@ -75,7 +80,7 @@ class Solver:
         if t_eval is not None and not self.t_eval:
             out.append(Problem(f"method '{self.name}' outputs every dt: pass dt=... (--dt) instead of t_eval",
                                key="t_eval"))
-        if callable_inputs and not self.scipy:
+        if callable_inputs and not self.callable_inputs:
             out.append(Problem(f"method '{self.name}' runs in compiled code, which cannot call a Python "
                                "function: give each input as an expression string such as '1.5*sin(3*t)'",
                                key="inputs"))
