@@ -76,7 +76,7 @@ def test_events_of_a_constrained_model_where_they_are_not_watched(four_bar):
                                             r"constrained model: give the inputs as expression strings and use "
                                             r"method='DOP853' with a compiled backend \(backend='auto'\)"):
         lg.simulate(four_bar, t_end=0.1, events={"up": "th3 - 2.0"}, backend="scipy")
-    with pytest.raises(lg.ModelError, match=r"events are not available with constraints='eliminate': its right-hand "
+    with pytest.raises(lg.ModelError, match=r"events are not watched with constraints='eliminate': its right-hand "
                                             r"side finds the dependent coordinates by Newton on g\(q, t\) = 0 at every "
                                             r"evaluation, in SciPy's integrators, .*use constraints='project'"):
         lg.simulate(four_bar, t_end=0.1, events={"up": "th3 - 2.0"}, constraints="eliminate")
@@ -108,13 +108,52 @@ def test_a_sampled_controller_on_a_four_bar_is_the_zero_order_hold_rolled_by_han
     assert tr.stats["constraint_drift"]["position"] < 1e-12
 
 
-def test_sampled_inputs_of_a_constrained_model_where_they_are_not_held(four_bar):
-    with pytest.raises(lg.ModelError, match=r"sampled inputs \(sample_time\) are held by the compiled projected "
-                                            r"integration of a constrained model"):
-        lg.simulate(four_bar, t_end=0.1, inputs={"tau": lambda t, x: 0.1}, sample_time=0.01)
-    with pytest.raises(lg.ModelError, match=r"sampled inputs \(sample_time\) are not available with "
-                                            r"constraints='eliminate'"):
-        lg.simulate(four_bar, t_end=0.1, inputs={"tau": "0.1"}, sample_time=0.01, constraints="eliminate")
+def test_scipy_holds_the_sampled_inputs_of_a_constrained_model_as_the_compiled_run_does(four_bar):
+    """One SciPy projected run per sample period; a sample instant at t_end too (its held value is the
+    last row's input, as the compiled kernel records it)."""
+    options = {"t_end": 0.5, "sample_time": 0.05, "rtol": 1e-12, "atol": 1e-12}
+    compiled = lg.simulate(four_bar, inputs={"tau": "0.5 - 0.3*th1_dot"}, **options)
+    scipy_run = lg.simulate(four_bar, inputs={"tau": "0.5 - 0.3*th1_dot"}, backend="scipy", **options)
+    python_law = lg.simulate(four_bar, inputs={"tau": lambda t, x: 0.5 - 0.3 * x[3]}, **options)  # SciPy's path
+    assert scipy_run.stats["backend"] == python_law.stats["backend"] == "scipy"
+    assert scipy_run.stats["samples"] == compiled.stats["samples"] == 11
+    assert np.max(np.abs(scipy_run.x - compiled.x)) < 1e-10 and np.array_equal(python_law.x, scipy_run.x)
+    assert np.max(np.abs(scipy_run["tau"] - compiled["tau"])) < 1e-10
+    assert scipy_run["tau"][-1] != scipy_run["tau"][-2]  # sampled again at t_end = 0.5
+    assert np.max(np.abs(scipy_run.multipliers - compiled.multipliers)) < 1e-8
+    assert scipy_run.stats["constraint_drift"]["position"] < 1e-12
+
+
+def test_a_sampled_scipy_run_that_reaches_a_dead_point_keeps_the_rows_of_every_period():
+    m = lg.Model("driven-rod", coordinates=["x", "y"], parameters={"g": 9.81})
+    m.add_particle(1, ("x", "y"), name="bob")
+    m.add_gravity("g")
+    m.add_constraint("x**2 + y**2 - 1", name="rod")
+    m.add_constraint("x - sin(t)", name="drive")
+    m.input("F")
+    m.add_generalized_force("y", "F")
+    with pytest.raises(lg.SimulationError, match=r"the constraints' Jacobian G loses rank at t = 1\.5708") as caught:
+        lg.simulate(lg.derive(m), t_end=3.0, initial={"x": 0.0, "y": -1.0}, inputs={"F": "-y_dot"},
+                    sample_time=0.25, backend="scipy")
+    partial = caught.value.partial
+    assert len(partial.t) == 158 and partial.t[-1] == pytest.approx(1.57)
+    assert np.allclose(partial["x"], np.sin(partial.t), atol=1e-7)
+    # F held over each period at -y_dot of its sample instant 0, 0.25, ..., 1.5
+    k = np.floor(partial.t / 0.25 + 1e-9).astype(int)
+    samples = np.array([partial["y_dot"][round(0.25 * j / 0.01)] for j in range(7)])
+    assert np.allclose(partial["F"], -samples[k], atol=1e-12)
+
+
+def test_sampled_inputs_held_by_the_ode_in_the_independent_coordinates(four_bar):
+    """constraints='eliminate' (th1 independent, th2 and th3 by Newton on g = 0): one run per period
+    too, the same motion as the projected one."""
+    options = {"t_end": 0.5, "inputs": {"tau": "0.5 - 0.3*th1_dot"}, "sample_time": 0.05, "rtol": 1e-12,
+               "atol": 1e-12}
+    eliminated = lg.simulate(four_bar, constraints="eliminate", **options)
+    projected = lg.simulate(four_bar, **options)
+    assert "elimination" in eliminated.stats and eliminated.stats["samples"] == 11
+    assert np.max(np.abs(eliminated.x - projected.x)) < 1e-9
+    assert np.max(np.abs(eliminated["tau"] - projected["tau"])) < 1e-9
 
 
 # ---------------------------------------------------------------------------------------- batch

@@ -284,7 +284,8 @@ def _measure(cm: ConstrainedModel, t, x, u_of, p) -> float:
 
 
 def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, method="DOP853"):
-    """(X at `times`, Lambda at `times`, stats): the projected integration (see the module)."""
+    """(X at `times`, Lambda at `times`, stats): the projected integration (see the module), from
+    x0 at t = times[0]."""
     n = cm.n
     nfev = 0
 
@@ -296,13 +297,14 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
 
     X = np.empty((len(times), 2 * n))
     X[0] = x0
-    if times[-1] == 0:
-        rhs(0.0, x0)
+    t0 = float(times[0])
+    if times[-1] == t0:
+        rhs(t0, x0)
         nstep = 0
     else:
-        solver = _solver(method)(rhs, 0.0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
+        solver = _solver(method)(rhs, t0, x0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
         j, nstep = 1, 0
-        above = _measure(cm, 0.0, x0, u_of, p) > EVENT_RATIO
+        above = _measure(cm, t0, x0, u_of, p) > EVENT_RATIO
         try:
             while j < len(times):
                 t_old = solver.t
@@ -427,10 +429,11 @@ def integrate_eliminated(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, m
 
     z0 = np.concatenate((x0[ind], x0[n + np.array(ind, int)]))
     X = np.empty((len(times), 2 * n))
-    X[0] = full(0.0, z0)
+    X[0] = full(float(times[0]), z0)
     nstep = 0
-    if times[-1] > 0:
-        solver = _solver(method)(rhs, 0.0, z0, float(times[-1]), rtol=rtol, atol=atol, max_step=max_step)
+    if times[-1] > times[0]:
+        solver = _solver(method)(rhs, float(times[0]), z0, float(times[-1]), rtol=rtol, atol=atol,
+                                 max_step=max_step)
         j = 1
         try:
             while j < len(times):

@@ -843,13 +843,11 @@ def _constrained_problems(nm, method, event_exprs, sample_time, constraints, pro
                                 "(projected onto the constraints after every step). The midpoint rule's discrete "
                                 "Euler-Lagrange equations would need the constraint forces G^T lambda in them and "
                                 "g(q) = 0 imposed at every step (a RATTLE step, not built here)", key="method"))
-    if constraints == "eliminate" and (event_exprs or sample_time is not None):
-        what = "events are" if event_exprs else "sampled inputs (sample_time) are"
-        problems.append(Problem(f"{what} not available with constraints='eliminate': its right-hand side finds "
-                                "the dependent coordinates by Newton on g(q, t) = 0 at every evaluation, in "
-                                "SciPy's integrators, while crossings are located and inputs held by the compiled "
-                                "DOP853 of the projected integration: use constraints='project' (the default)",
-                                key="events" if event_exprs else "sample_time"))
+    if constraints == "eliminate" and event_exprs:
+        problems.append(Problem("events are not watched with constraints='eliminate': its right-hand side finds the "
+                                "dependent coordinates by Newton on g(q, t) = 0 at every evaluation, in SciPy's "
+                                "integrators, while crossings are located by the compiled DOP853 of the projected "
+                                "integration: use constraints='project' (the default)", key="events"))
 
 
 def _independent_state_names(model) -> set[str]:
@@ -908,9 +906,11 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     the model file's other initial values are starting guesses (the assembly closest to them is
     found). Without independent coordinates and without `initial`, the model file's values are kept.
 
-    `event_exprs` (with `stop_on`) and `sampling` (sampled inputs) run on the compiled projected
-    integration: the crossings are located on the interpolant of each step, which starts from the
-    projected state, and the states recorded there are projected as the outputs are."""
+    `event_exprs` (with `stop_on`) are watched by the compiled projected integration: the crossings
+    are located on the interpolant of each step, which starts from the projected state, and the
+    states recorded there are projected as the outputs are. `sampling` (sampled inputs) holds the
+    inputs there too, and on SciPy's projected integration one run from one sample instant to the
+    next (_integrate_sampled)."""
     from ._constrained import (
         ConstraintSingular,
         consistent_state,
@@ -921,10 +921,10 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
 
     eq = nm.equations
     fast = None if constraints == "eliminate" else _compiled_constrained(nm, backend, method, u_exprs)
-    if fast is None and (event_exprs or sampling is not None):
-        what = "events are watched" if event_exprs else "sampled inputs (sample_time) are held"
-        raise ModelError(f"{what} by the compiled projected integration of a constrained model: give the inputs as "
-                         "expression strings and use method='DOP853' with a compiled backend (backend='auto')")
+    if fast is None and event_exprs:  # as for a model without constraints
+        raise ModelError("events are watched by the compiled projected integration of a constrained model: give "
+                         "the inputs as expression strings and use method='DOP853' with a compiled backend "
+                         "(backend='auto')")
     if not isinstance(nm, NumericModel):
         nm = compile_equations(eq)
     cm = constrained_model(eq, nm)
@@ -934,17 +934,25 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     found: dict = {}
     try:
         x0 = consistent_state(cm, x0, fixed, p)
-        if constraints == "eliminate":
-            from ._constrained import integrate_eliminated
-
-            X, U, Lam, stats = integrate_eliminated(cm, x0, times, p, u_of, rtol, atol, max_step, method,
-                                                    [names.index(q) for q in independent])
-        elif fast is not None:
+        if fast is not None:
             X, U, Lam, stats, found = _integrate_compiled_constrained(
                 fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress, event_exprs=event_exprs,
                 stop_on=stop_on, sampling=sampling)
-        else:
-            X, U, Lam, stats = integrate(cm, x0, times, p, u_of, rtol, atol, max_step, method)
+        else:  # SciPy's integrators: the projected integration, or the ODE in the independent coordinates
+            if constraints == "eliminate":
+                from ._constrained import integrate_eliminated
+
+                ind = [names.index(q) for q in independent]
+
+                def run(x, run_times, u):
+                    return integrate_eliminated(cm, x, run_times, p, u, rtol, atol, max_step, method, ind)
+            else:
+                def run(x, run_times, u):
+                    return integrate(cm, x, run_times, p, u, rtol, atol, max_step, method)
+            if sampling is not None:
+                X, U, Lam, stats = _integrate_sampled(run, cm, x0, times, p, u_of, sampling)
+            else:
+                X, U, Lam, stats = run(x0, times, u_of)
     except ConstraintSingular as s:
         error = SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=Status.SINGULAR_CONSTRAINTS,
                                 time=float(s.t))
@@ -958,6 +966,69 @@ def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, 
     if not np.all(np.isfinite(X)):
         raise failure(nm, Status.SOLUTION_NOT_FINITE, None, None, None, p)
     return _constrained_trajectory(nm, fast, method, times[:len(X)], X, U, Lam, stats, p, events=found)
+
+
+def _integrate_sampled(run, cm, x0, times, p, u_of, sampling):
+    """A SciPy integration of a constrained model (`run(x, times, u_of)`: the projected one or the
+    ODE in the independent coordinates, from x at times[0]) with sampled inputs, as _solve_sampled
+    runs a model without constraints: one run from one sample instant to the next, the sampled
+    inputs held at their values at the instant (the others continuous); (X, U, Lambda, stats) at
+    `times`. A failure carries the rows (and held inputs) reached in every run so far."""
+    from ._constrained import ConstraintSingular
+
+    m = len(cm.equations.inputs)
+    hold = sampling.hold[:m].astype(bool)
+    held = np.zeros(m)
+    t_end = float(times[-1])
+    instants = [float(s) for s in sampling.samples if s < t_end] + [t_end]
+    x = np.array(x0, float)
+    rows: list = [[], [], []]  # X, U, Lambda of the output rows so far
+    nfev = nstep = 0
+    drift = {"position": 0.0, "velocity": 0.0}
+
+    def joined(k):
+        return np.concatenate(rows[k]) if rows[k] else np.zeros((0, 2 * cm.n if k == 0 else m))
+
+    for k in range(len(instants) - 1):
+        a, b = instants[k], instants[k + 1]
+        now = sampling.which[k, :m].astype(bool) & hold
+        held[now] = np.asarray(u_of(a, x), dtype=float)[now]
+        frozen = held.copy()
+
+        def u_held(t, xt, frozen=frozen):
+            return np.where(hold, frozen, u_of(t, xt))
+
+        last = k == len(instants) - 2  # the last run ends at the last output time
+        inside = times[(times >= a) & ((times <= b) if last else (times < b))]
+        run_times = np.unique(np.concatenate(([a], inside, [b])))
+        keep = np.isin(run_times, inside)
+        try:
+            X, U, Lam, stats = run(x, run_times, u_held)
+        except (ConstraintSingular, SimulationError) as exc:
+            reached = getattr(exc, "rows", None)
+            reached = np.zeros((0, 2 * cm.n)) if reached is None else np.asarray(reached)
+            new = reached[keep[:len(reached)]]
+            exc.rows = np.concatenate([joined(0), new])
+            exc.inputs = np.concatenate([joined(1), np.array([u_held(t, xt) for t, xt in zip(
+                run_times[:len(reached)][keep[:len(reached)]], new)]).reshape(len(new), m)])
+            raise
+        for r, part in zip(rows, (X, U, Lam)):
+            r.append(part[keep])
+        nfev += stats["nfev"]
+        nstep += stats["nstep"]
+        for key, value in drift.items():
+            drift[key] = max(value, stats["constraint_drift"][key])
+        x = X[-1]
+    X, U, Lam = joined(0), joined(1), joined(2)
+    k = len(instants) - 1
+    if k < len(sampling.samples) and sampling.samples[k] == t_end and hold.any():  # a sample at the end too
+        now = sampling.which[k, :m].astype(bool) & hold
+        held[now] = np.asarray(u_of(t_end, X[-1]), dtype=float)[now]
+        U[-1] = np.where(hold, held, U[-1])
+        Lam[-1] = cm.solve(t_end, X[-1], U[-1], p)[1]
+    stats = {**stats, "nfev": nfev, "nstep": nstep, "constraint_drift": drift,
+             "samples": int(np.searchsorted(sampling.samples, t_end, side="right"))}
+    return X, U, Lam, stats
 
 
 def _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p, failure: str | None = None,
