@@ -17,6 +17,7 @@ import pytest
 from scipy.interpolate import CubicHermiteSpline
 
 import lagrangian as lg
+from lagrangian.numeric._cbackend import c_compiler
 from lagrangian.numeric._simulate import _constrained_numbers
 
 
@@ -212,3 +213,21 @@ def test_a_batch_run_whose_loop_cannot_close_names_the_run(four_bar):
                                             r"ma = 0\.4, mb = 1\.2, mc = 0\.9, g = 9\.81\): the initial coordinates do not "
                                             r"meet constraint 'loop_x' .*give fewer coordinates"):
         lg.simulate_batch(four_bar, 0.1, params={"a": [0.2, 2.0]})  # a crank longer than b + c + d: no loop
+
+
+# ------------------------------------------------------------------------------------ C backend
+@pytest.mark.slow
+@pytest.mark.subprocess  # cffi runs the C compiler
+@pytest.mark.skipif(c_compiler() is None, reason="no C compiler ($CC, cc or gcc) for the C backend")
+def test_the_c_backend_runs_events_sampled_inputs_and_batches_of_a_constrained_model_as_numba(four_bar):
+    options = {"t_end": 0.7, "events": {"up": "th3 - 2.0"}, "stop_on": "up", "inputs": {"tau": "0.5 - 0.3*th1_dot"},
+               "sample_time": 0.05, "rtol": 1e-11, "atol": 1e-11}
+    numba_run = lg.simulate(four_bar, **options)
+    c_run = lg.simulate(four_bar, backend="c", **options)
+    assert c_run.stats["backend"] == "c" and c_run.stats["stopped_by"] == "up" and len(c_run.t) == len(numba_run.t)
+    assert np.max(np.abs(c_run.x - numba_run.x)) < 1e-10
+    assert c_run.events["up"]["t"] == pytest.approx(numba_run.events["up"]["t"], abs=1e-10)
+    params = {"a": [0.18, 0.2, 0.22]}
+    numba_batch = lg.simulate_batch(four_bar, 1.0, params=params)
+    c_batch = lg.simulate_batch(four_bar, 1.0, params=params, backend="c")
+    assert c_batch.backend == "c" and c_batch.ok.all() and np.max(np.abs(c_batch.x - numba_batch.x)) < 1e-10
