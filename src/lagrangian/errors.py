@@ -176,22 +176,22 @@ class Status(enum.IntEnum):
     SINGULAR_EVENT = (1, "A termination event occurred.",
                       "the mass matrix became singular: see the error's diagnosis (where det M vanishes and why)")
     SINGULAR_MASS_MATRIX = (2, "The mass matrix is singular at a stage of a step.",
-                            "the mass matrix is singular there: see the error's diagnosis (where det M vanishes "
-                            "and why)")
+                            ("the mass matrix is singular there: see the error's diagnosis (where det M vanishes "
+                             "and why)"))
     FORCING_NOT_FINITE = (3, "The forcing f is not finite.",
-                          "check the model's parameters and expressions (a division by zero, a log or sqrt of a "
-                          "negative number)")
+                          ("check the model's parameters and expressions (a division by zero, a log or sqrt of a "
+                           "negative number)"))
     STEP_TOO_SMALL = (-1, "Required step size is less than spacing between numbers.",
-                      "try a smaller rtol/atol, a stiff method such as method='Radau', or check the model's "
-                      "parameters")
+                      ("try a smaller rtol/atol, a stiff method such as method='Radau', or check the model's "
+                       "parameters"))
     SOLUTION_NOT_FINITE = (-2, "The solution is not finite (NaN or infinity).",
                            "check the model's parameters and initial state")
     VARIATIONAL_NOT_CONVERGED = (-3, "The implicit midpoint step of the variational integrator did not converge.",
                                  "try a smaller step")
     EVENT_STOP = (4, "An event stopped the integration.", "")
     CHATTERING = (5, "The inputs switch at every step (chattering: a sliding mode).",
-                  "smooth the switch with a boundary layer, e.g. clip(s/0.01, -1, 1) instead of sign(s), or "
-                  "sample the law (sample_time=...)")
+                  ("smooth the switch with a boundary layer, e.g. clip(s/0.01, -1, 1) instead of sign(s), or "
+                   "sample the law (sample_time=...)"))
     SINGULAR_CONSTRAINTS = (6, "The constraints are singular (their Jacobian G has lost rank: a dead point).",
                             "see the error's message: where G loses rank, and which coordinates to drive instead")
 
@@ -201,7 +201,7 @@ class Status(enum.IntEnum):
         return self in (Status.SUCCESS, Status.EVENT_STOP)
 
     @classmethod
-    def of(cls, code) -> "Status | int":
+    def of(cls, code) -> Status | int:
         """The member of an integer status code; the integer itself when no member has it."""
         try:
             return cls(int(code))

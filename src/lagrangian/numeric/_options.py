@@ -19,14 +19,14 @@ command line (``lagrangian simulate``, ``animate``, ``export``...), the exports 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from types import MappingProxyType
-from typing import Mapping
 
 from .._limits import number_problem
 from ..errors import Problem
 
-__all__ = ["SimulationOptions", "BY_NAME"]
+__all__ = ["BY_NAME", "SimulationOptions"]
 
 #: The options whose mappings update the model's name by name (see the module's docstring).
 BY_NAME = ("initial", "inputs", "params", "sample_time", "events")
@@ -97,7 +97,7 @@ class SimulationOptions:
     independent_speeds: tuple = ()
 
     @classmethod
-    def from_model(cls, model) -> "SimulationOptions":
+    def from_model(cls, model) -> SimulationOptions:
         """The options of the model file's [simulation] table (``model.simulation``), the defaults
         for what it does not give."""
         sim = getattr(model, "simulation", None) or {}
@@ -111,7 +111,7 @@ class SimulationOptions:
             values["sample_time"] = _frozen(values["sample_time"])
         return cls(**values)
 
-    def merged(self, **overrides) -> "SimulationOptions":
+    def merged(self, **overrides) -> SimulationOptions:
         """These options with the caller's: a value given replaces this one, a mapping given for
         initial, inputs, params, events or sample_time updates this one's name by name (see the
         module's docstring); None keeps this one. An unknown option is a TypeError."""

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from .._util import did_you_mean
 from ..errors import Problem
 
-__all__ = ["Solver", "DOP853", "Variational", "SciPyMethod", "solver_of", "METHODS"]
+__all__ = ["DOP853", "METHODS", "SciPyMethod", "Solver", "Variational", "solver_of"]
 
 #: The names ``method`` accepts: DOP853 (compiled by default, or SciPy's), SciPy's other solve_ivp
 #: methods, and "variational" (the compiled midpoint variational integrator, fixed step).
