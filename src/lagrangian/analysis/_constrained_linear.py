@@ -32,6 +32,7 @@ form over the coordinates of the independent speeds, with M = T^T M T (T = dq_do
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from types import MappingProxyType
 
 import numpy as np
@@ -74,21 +75,69 @@ def _independent(equations: Equations, G: np.ndarray) -> list[int]:
     return [i for i in range(n) if i not in dep]
 
 
-def linearize_constrained(equations: Equations, at: dict, given: set, setting):
-    """The LinearModel of a constrained model in its independent coordinates (see the module)."""
+@dataclass(frozen=True, eq=False)
+class TangentSpace:
+    """The constraints' tangent space at a configuration at rest on them: dq = T dz.
+
+    Attributes
+    ----------
+    x : ndarray, shape (2n,)
+        The state moved onto the constraints (the given coordinates held, the velocities 0).
+    independent : list of int
+        The coordinates z (those of T's identity rows), the others dependent.
+    basis : ndarray, shape (n, n - m)
+        T = [I; -G_d^-1 G_i] (rows in coordinate order).
+    accelerations, multipliers : ndarray, shapes (n,) and (m,)
+        q_ddot and lambda of the saddle-point solve there.
+    stiffness : ndarray, shape (n, n)
+        sum_k lambda_k H_k (H_k the Hessian of the holonomic constraint g_k): the constraint forces'
+        stiffness, subtracted from K.
+    """
+
+    x: np.ndarray
+    independent: list
+    basis: np.ndarray
+    accelerations: np.ndarray
+    multipliers: np.ndarray
+    stiffness: np.ndarray
+    names: tuple = ()
+
+    def require_rest(self, M: np.ndarray, f: np.ndarray) -> None:
+        """A ModelError unless the accelerations are 0 at the point, against the scale f / diag M."""
+        scale = np.max(np.abs(f), initial=0.0) / max(np.max(np.abs(np.diag(M))), 1e-300) + 1e-300
+        qdd = self.accelerations
+        if np.max(np.abs(qdd), initial=0.0) > 1e-6 * max(scale, 1.0):  # g = 0 is met to sqrt(eps) at a tangency
+            n = len(qdd)
+            where = ", ".join(f"{k} = {v:.6g}" for k, v in zip(self.names[:n], self.x[:n]))
+            accel = ", ".join(f"{q}_ddot = {a:.3g}" for q, a in zip(self.names[:n], qdd) if abs(a) > 0)
+            raise ModelError(f"the configuration {where} is not at rest: the constrained accelerations there are "
+                             f"{accel}; linearize about an equilibrium (where the forces balance on the constraints), "
+                             "or simulate the motion")
+
+    def summary(self, equations: Equations) -> dict:
+        """LinearModel.constrained: the dependent coordinates' values, the multipliers and T."""
+        from ._linearize import _clean
+
+        dep = [i for i in range(equations.n) if i not in self.independent]
+        return {"dependent": {self.names[i]: float(self.x[i]) for i in dep},
+                "multipliers": {mu.name: float(v) + 0.0 for mu, v in zip(equations.multipliers,
+                                                                          _clean(self.multipliers))},
+                "basis": self.basis.tolist()}
+
+
+def tangent_space(equations: Equations, x: np.ndarray, given: set, setting) -> TangentSpace:
+    """The tangent space of the holonomic constraints at the state x moved onto them, keeping the
+    coordinates in `given` and the velocities (see the module); the model's initial values are the
+    guesses of the others."""
     from ..numeric._compiled import compile_equations
     from ..numeric._constrained import ConstraintSingular, consistent_state, constrained_model, \
         singular_constraint_message
-    from ._linearize import LinearModel, _clean, read_only, split_velocity_terms
-    from ._setting import derivatives
 
     n = equations.n
     names = equations.state_names
-    x = np.array([at[s] for s in names], float)
-    if any(c.kind == VELOCITY for c in equations.model.constraints) or np.any(x[n:] != 0):
-        return linearize_steady(equations, at, given, setting)
     p, u, t = setting.p, setting.u, setting.t
     cm = constrained_model(equations, compile_equations(equations))
+    x = np.array(x, float)
     for k, v in (equations.model.simulation.get("initial") or {}).items():  # guesses for the others
         if k in names and k not in given and names.index(k) < n:
             x[names.index(k)] = v
@@ -97,16 +146,6 @@ def linearize_constrained(equations: Equations, at: dict, given: set, setting):
         qdd, lam = cm.solve(t, x, u, p)
     except ConstraintSingular as s:
         raise ModelError(singular_constraint_message(cm, s.t, s.x, p)) from None
-    d = derivatives(equations)
-    parts = d.full(x[:n], x[n:], t, u, p, np.zeros(n))
-    M = parts["M"]
-    scale = np.max(np.abs(parts["f"]), initial=0.0) / max(np.max(np.abs(np.diag(M))), 1e-300) + 1e-300
-    if np.max(np.abs(qdd), initial=0.0) > 1e-6 * max(scale, 1.0):  # g = 0 is met to sqrt(eps) at a tangency
-        where = ", ".join(f"{k} = {v:.6g}" for k, v in zip(names[:n], x[:n]))
-        accel = ", ".join(f"{q.name}_ddot = {a:.3g}" for q, a in zip(equations.coordinates, qdd) if abs(a) > 0)
-        raise ModelError(f"the configuration {where} is not at rest: the constrained accelerations there are "
-                         f"{accel}; linearize about an equilibrium (where the forces balance on the constraints), "
-                         "or simulate the motion")
     _, G, _ = cm._velocity_parts(t, x, p)
     ind = _independent(equations, G)
     dep = [i for i in range(n) if i not in ind]
@@ -114,33 +153,20 @@ def linearize_constrained(equations: Equations, at: dict, given: set, setting):
     T[ind, range(len(ind))] = 1.0
     T[dep, :] = -np.linalg.solve(G[:, dep], G[:, ind])
     H = _hessians(equations, cm)(t, x, p)
-    K = parts["Maq"] - parts["fq"] - np.einsum("k,kij->ij", lam[cm.holonomic], H)
-    D = -parts["fqd"]
-    Mr, Kr, Dr = _clean(T.T @ M @ T), _clean(T.T @ K @ T), _clean(T.T @ D @ T)
-    Kr = (Kr + Kr.T) / 2 if np.allclose(Kr, Kr.T, rtol=1e-10, atol=1e-12 * np.abs(Kr).max(initial=1)) else Kr
-    B0 = _clean(T.T @ parts["fu"])
-    r = len(ind)
-    A = np.zeros((2 * r, 2 * r))
-    A[:r, r:] = np.eye(r)
-    A[r:, :r] = -np.linalg.solve(Mr, Kr)
-    A[r:, r:] = -np.linalg.solve(Mr, Dr)
-    B = np.zeros((2 * r, B0.shape[1]))
-    if B0.size:
-        B[r:] = np.linalg.solve(Mr, B0)
-    C, G = split_velocity_terms(Dr, d.damping(x[:n], x[n:], t, u, p), T)
-    coords = tuple(names[i] for i in ind)
-    state = coords + tuple(f"{c}_dot" for c in coords)
-    point = {s: 0.0 for s in state}
-    point.update({names[i]: float(x[i]) for i in ind})
-    return LinearModel(
-        equations=equations, coordinate_names=coords, state_names=state, input_names=tuple(setting.inputs),
-        operating_point=MappingProxyType(point), input_values=setting.inputs, parameter_values=setting.parameters,
-        t=setting.t, M=read_only(Mr), C=read_only(C), G=read_only(G), K=read_only(Kr),
-        input_matrix=read_only(B0), A=read_only(_clean(A)), B=read_only(_clean(B)), accelerations=read_only(np.zeros(r)),
-        family=(), constrained=MappingProxyType({
-            "dependent": {names[i]: float(x[i]) for i in dep},
-            "multipliers": {mu.name: float(v) + 0.0 for mu, v in zip(equations.multipliers, _clean(lam))},
-            "basis": T.tolist()}))
+    return TangentSpace(x, ind, T, qdd, lam, np.einsum("k,kij->ij", lam[cm.holonomic], H), tuple(names))
+
+
+def linearize_constrained(equations: Equations, at: dict, given: set, setting):
+    """The LinearModel of a constrained model in its independent coordinates (see the module): at
+    rest with holonomic constraints, linearize_at in the tangent space (the unconstrained model's
+    linearization with dq = T dz); with velocity constraints or about a steady motion, linearize_steady."""
+    from ._linearize import linearize_at
+
+    n = equations.n
+    x = np.array([at[s] for s in equations.state_names], float)
+    if any(c.kind == VELOCITY for c in equations.model.constraints) or np.any(x[n:] != 0):
+        return linearize_steady(equations, at, given, setting)
+    return linearize_at(equations, at, setting, given=given)
 
 
 # ------------------------------------------------------------------ steady motions, velocity constraints

@@ -13,6 +13,11 @@ operating point. The state-space form x' = A x + B u, x = [dq, dq_dot], has
 
 (outputs y = x: C = I, D = 0). Everything comes from derivatives evaluated at the point and a
 linear solve with M0; nothing divides by a symbolic M, so no NaN appears.
+
+A model with m holonomic constraints is the same linearization in the coordinates z of the
+constraints' tangent space at the point, dq = T dz (T = [I; -G_d^-1 G_i], ``_constrained_linear``):
+M0, C0 + G0, K0 and B0 become T^T M0 T, ..., T^T B0, and K0 gains the constraint forces' stiffness
+-sum_k lambda_k H_k. At m = 0, T = I and there is none: one assembly (:func:`assembled`) for both.
 """
 
 from __future__ import annotations
@@ -409,48 +414,92 @@ def model_operating_point(equations: Equations, setting: Setting) -> dict[str, f
 
 
 def linearize_at(equations: Equations, point: Mapping[str, float], setting: Setting,
-                 exact: Mapping | None = None) -> LinearModel:
-    """linearize() for checked values (used by equilibria and continuation)."""
+                 exact: Mapping | None = None, given: set | None = None) -> LinearModel:
+    """linearize() for checked values (used by equilibria and continuation): one linearization for
+    every model, in the coordinates z of the constraints' tangent space at the point (dq = T dz),
+    with T = I and no constraint forces when there are no constraints (m = 0).
+
+    For a model with holonomic constraints (m > 0) the point is first moved onto them, keeping the
+    coordinates named in `given` (:func:`~lagrangian.analysis._constrained_linear.tangent_space`:
+    the independent coordinates, T, the multipliers and the constraint forces' stiffness); then
+    both cases assemble the same M, C, G, K, B0, A and B (:func:`assembled`)."""
     n = equations.n
     names = equations.state_names
     x = np.array([point[s] for s in names], dtype=float)
+    space = None
+    if equations.is_constrained:
+        from ._constrained_linear import tangent_space
+
+        space = tangent_space(equations, x, set(names) if given is None else given, setting)
+        x = space.x
     q, qd = x[:n], x[n:]
     d = derivatives(equations)
     u, p = setting.u, setting.p
     base = d.full(q, qd, setting.t, u, p, np.zeros(n))
     M, f = base["M"], base["f"]
-    diag = np.abs(np.diag(M)) if M.size else np.ones(0)
-    if (not np.all(np.isfinite(M)) or inertia_measure(M) <= _SINGULAR
-            or (diag.size and diag.min() <= _ROUND_OFF * diag.max())):
-        # the second test: a diagonal entry at round-off against the others (sin(pi)**2 = 1.5e-32
-        # at the pole of spherical coordinates), which the scaled measure cannot see
-        raise _singular_error(equations, point, setting.parameters)
-    qdd = np.linalg.solve(M, f)
-    parts = d.full(q, qd, setting.t, u, p, qdd) if np.any(qdd) else base
-    D = -parts["fqd"]
+    if space is not None:  # at rest on the constraints (checked): the accelerations are 0
+        space.require_rest(M, f)
+        qdd, parts = np.zeros(n), base
+    else:
+        diag = np.abs(np.diag(M)) if M.size else np.ones(0)
+        if (not np.all(np.isfinite(M)) or inertia_measure(M) <= _SINGULAR
+                or (diag.size and diag.min() <= _ROUND_OFF * diag.max())):
+            # the second test: a diagonal entry at round-off against the others (sin(pi)**2 = 1.5e-32
+            # at the pole of spherical coordinates), which the scaled measure cannot see
+            raise _singular_error(equations, point, setting.parameters)
+        qdd = np.linalg.solve(M, f)
+        parts = d.full(q, qd, setting.t, u, p, qdd) if np.any(qdd) else base
     K = parts["Maq"] - parts["fq"]
-    B0 = parts["fu"]
-    D, K, B0 = _clean(D), _clean(K), _clean(B0)
-    C, G = split_velocity_terms(D, d.damping(q, qd, setting.t, u, p))
-    A = np.zeros((2 * n, 2 * n))
-    A[:n, n:] = np.eye(n)
-    A[n:, :n] = -np.linalg.solve(M, K)
-    A[n:, n:] = -np.linalg.solve(M, D)
-    B = np.zeros((2 * n, B0.shape[1]))
-    if B0.size:
-        B[n:] = np.linalg.solve(M, B0)
+    if space is not None:  # the constraint forces' stiffness, sum_k lambda_k H_k
+        K = K - space.stiffness
+    M, C, G, K, B0, A, B = assembled(M, K, -parts["fqd"], parts["fu"], d.damping(q, qd, setting.t, u, p),
+                                     None if space is None else space.basis)
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
         bad = ", ".join(f"{k} = {v:g}" for k, v in point.items())
         raise ModelError(f"the linearization at {bad} is not finite (a derivative of the equations is "
                          "infinite or undefined there); choose another operating point")
     A, B = _clean(A), _clean(B)
+    if space is None:
+        coords, state, operating = names[:n], names, dict(zip(names, map(float, x)))
+        family, constrained, accelerations = cyclic_coordinates(equations), {}, qdd
+    else:
+        coords = tuple(names[i] for i in space.independent)
+        state = coords + tuple(f"{c}_dot" for c in coords)
+        operating = {s: 0.0 for s in state}
+        operating.update({names[i]: float(x[i]) for i in space.independent})
+        family, constrained, accelerations = (), space.summary(equations), np.zeros(len(coords))
     return LinearModel(
-        equations=equations, coordinate_names=names[:n], state_names=names,
-        input_names=tuple(setting.inputs), operating_point=MappingProxyType(dict(zip(names, map(float, x)))),
+        equations=equations, coordinate_names=coords, state_names=state,
+        input_names=tuple(setting.inputs), operating_point=MappingProxyType(operating),
         input_values=setting.inputs, parameter_values=setting.parameters, t=setting.t,
         M=read_only(M), C=read_only(C), G=read_only(G), K=read_only(K), input_matrix=read_only(B0),
-        A=read_only(A), B=read_only(B), accelerations=read_only(qdd), family=cyclic_coordinates(equations),
-        _exact_point=MappingProxyType(dict(exact or {})))
+        A=read_only(A), B=read_only(B), accelerations=read_only(accelerations), family=family,
+        _exact_point=MappingProxyType(dict(exact or {})), constrained=MappingProxyType(constrained))
+
+
+def assembled(M: np.ndarray, K: np.ndarray, D: np.ndarray, B0: np.ndarray, damping: np.ndarray,
+              basis: np.ndarray | None = None):
+    """(M, C, G, K, B0, A, B) of M dq'' + D dq' + K dq = B0 du (shapes (n, n) and (n, m)), in the
+    coordinates z of dq = basis dz (shape (n, r): the constraints' tangent space; None: the identity,
+    no constraints): M, D and K become basis^T M basis and so on, and K is made exactly symmetric
+    where it is to round-off. C is the damping's part of D (`damping`, see split_velocity_terms),
+    G the rest; A = [[0, I], [-M^-1 K, -M^-1 D]] and B = [[0], [M^-1 B0]], not cleaned of round-off."""
+    if basis is not None:
+        T = basis
+        M, K, D, B0 = _clean(T.T @ M @ T), T.T @ K @ T, T.T @ D @ T, T.T @ B0
+    D, K, B0 = _clean(D), _clean(K), _clean(B0)
+    if basis is not None and np.allclose(K, K.T, rtol=1e-10, atol=1e-12 * np.abs(K).max(initial=1)):
+        K = (K + K.T) / 2
+    C, G = split_velocity_terms(D, damping, basis)
+    r = M.shape[0]
+    A = np.zeros((2 * r, 2 * r))
+    A[:r, r:] = np.eye(r)
+    A[r:, :r] = -np.linalg.solve(M, K)
+    A[r:, r:] = -np.linalg.solve(M, D)
+    B = np.zeros((2 * r, B0.shape[1]))
+    if B0.size:
+        B[r:] = np.linalg.solve(M, B0)
+    return M, C, G, K, B0, A, B
 
 
 def split_velocity_terms(D: np.ndarray, damping: np.ndarray, basis: np.ndarray | None = None):
@@ -501,8 +550,16 @@ def _singular_error(equations: Equations, point: Mapping[str, float],
 
 def _symbolic(lin: LinearModel) -> SymbolicLinearization:
     eqs = lin.equations
+    # refused with constraints: the dependent coordinates at the point solve g(q) = 0, with no closed
+    # form in general, and T = [I; -G_d^-1 G_i] is a symbolic inverse (ARCHITECTURE: never)
     eqs.require_unconstrained("the exact (symbolic) linearization", "its numeric linearization (A, B, M, C, K) is "
-                              "in the independent coordinates")
+                              "in the independent coordinates; an exact one needs the dependent coordinates at the "
+                              "point as exact roots of g(q) = 0, functions of the symbolic parameters, and the "
+                              "tangent basis T = [I; -G_d^-1 G_i], a symbolic inverse of the constraints' Jacobian: "
+                              "g(q) = 0 has no closed-form solution in general (a four-bar's loop closes where two "
+                              "circles meet), so the constraints are eliminated numerically at the point. Use the "
+                              "numeric matrices, or write the model in independent coordinates without constraints "
+                              "for the exact form")
     core, n = eqs.core, eqs.n
     point = {se.Symbol(s): se.sympify(exact_number(v, lin._exact_point.get(s)))
              for s, v in lin.operating_point.items()}
