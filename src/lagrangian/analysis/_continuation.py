@@ -29,6 +29,7 @@ import numpy as np
 import sympy
 
 from ..equations import Equations
+from ..equations._search import angle_difference
 from .._progress import progress
 from ..errors import ModelError
 from ..model._constraints import VELOCITY
@@ -381,10 +382,7 @@ def _distance(problem: StationaryProblem, a: np.ndarray, b: np.ndarray) -> float
     """The largest difference of the coordinates of the variables a and b (angles modulo 2 pi; a
     constrained model's multipliers, forces, are not compared)."""
     n = problem.equations.n
-    diff = a[:n] - b[:n]
-    for i, is_angle in enumerate(problem.angles[:n]):
-        if is_angle:
-            diff[i] = math.remainder(diff[i], 2 * math.pi)
+    diff = angle_difference(a[:n], b[:n], problem.angles[:n])
     return float(np.abs(diff).max()) if diff.size else 0.0
 
 
