@@ -26,7 +26,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy
 
-from ..equations._search import angle_difference, gauss_newton, multistart, newton, same_point, wrap_angles
+from ..equations._search import (
+    STEP_ROUND_OFF,
+    angle_difference,
+    gauss_newton,
+    multistart,
+    newton,
+    same_point,
+    wrap_angles,
+)
 from ..model._kinematics import to_sympy
 from ._setting import Setting
 from ._stationary import StationaryProblem, conditions_hold, constant_map, residual
@@ -329,7 +337,7 @@ def _project(ctx: Search, q: np.ndarray, iterations: int = 60) -> np.ndarray | N
 
     q, ok = gauss_newton(fun, q, unk, iterations=iterations, small=lambda r, J, x: _small(ctx, r, J, x), polish=3,
                          rcond=1e-10,
-                         step_tol=1e-15 * (1.0 + float(np.abs(q[unk]).max(initial=0.0))))
+                         step_tol=STEP_ROUND_OFF * (1.0 + float(np.abs(q[unk]).max(initial=0.0))))
     return q if ok else None
 
 

@@ -40,7 +40,7 @@ from ..errors import ModelError
 from ..model._constraints import HOLONOMIC
 from ..model._kinematics import to_sympy
 from ._equations import Equations
-from ._search import angle_difference, distinct, gauss_newton, least_squares, wrap_angles
+from ._search import NUDGE, angle_difference, distinct, gauss_newton, least_squares, wrap_angles
 from ._singular import determinant, factored
 
 __all__ = ["constraint_singularities", "ConstraintSingularityReport", "ConstraintConfiguration", "DeadPoints"]
@@ -410,7 +410,7 @@ def _assemble(num: _Numbers, q, held=(), scale=1.0):
     if not free:
         return q if np.max(np.abs(num.g(q))) <= 1e-10 * scale else None
     q, _ = gauss_newton(lambda x: (num.g(x), num.G(x)[num.hol][:, free]), q, free, iterations=60,
-                        small=1e-14 * scale, max_step=0.5 * scale, nudge=1e-3 * scale)
+                        small=1e-14 * scale, max_step=0.5 * scale, nudge=NUDGE * scale)
     r = num.g(q)
     return q if np.all(np.isfinite(r)) and np.max(np.abs(r)) <= 1e-10 * scale else None
 

@@ -29,7 +29,7 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 import sympy
 
-__all__ = ["NEWTON_XTOL", "PRECISE", "ROUND_OFF", "SAME_POINT", "angle_difference", "distinct", "gauss_newton",
+__all__ = ["NEWTON_XTOL", "NUDGE", "PRECISE", "ROUND_OFF", "SAME_POINT", "STEP_ROUND_OFF", "angle_difference", "distinct", "gauss_newton",
            "least_squares", "minimize", "multistart", "newton", "same_point", "wrap_angle", "wrap_angles"]
 
 #: Values this small (1e-17 left by cos(pi/2)) are exact zeros once wrapped.
@@ -41,6 +41,10 @@ SAME_POINT = 1e-6
 NEWTON_XTOL = 1e-13
 #: The tolerances of :func:`least_squares`: driven to round-off, for roots that are singular.
 PRECISE = 1e-15
+#: A Gauss-Newton step this short, relative to the size of x, is round-off: the polish ends.
+STEP_ROUND_OFF = 1e-15
+#: A guess where the residual is not finite or flat is moved by this, relative to the length scale.
+NUDGE = 1e-3
 
 Residual = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 

@@ -29,7 +29,7 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
-from ..equations._search import gauss_newton
+from ..equations._search import NUDGE, STEP_ROUND_OFF, gauss_newton
 from ..errors import ModelError, Problem, SimulationError
 from ..model._constraints import HOLONOMIC
 from ._codegen_constrained import EVENT_RATIO, NEWTON_EXIT, PROJECTION_STEPS, PROJECTION_TOL, SINGULAR_RATIO
@@ -228,7 +228,7 @@ def consistent_state(cm: ConstrainedModel, x0, fixed_names, p) -> np.ndarray:
             return g, G[:, free]
 
         x, _ = gauss_newton(holonomic, x, free, iterations=200, small=1e-13 * scale, polish=200,
-                            step_tol=1e-15 * scale, max_step=1.0, nudge=1e-3)
+                            step_tol=STEP_ROUND_OFF * scale, max_step=1.0, nudge=NUDGE)
     if len(cm.holonomic):
         g, G = cm._holonomic(0.0, x, p)
         bad = [k for k, v in zip(cm.holonomic, g) if not abs(v) <= 1e-9 * scale]
