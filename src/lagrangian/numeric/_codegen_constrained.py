@@ -54,7 +54,7 @@ from ._codegen import _cfunc_head, _Printer
 from ._kernels import EVENT_RATIO, SINGULAR_RATIO
 
 __all__ = ["C_DECLARATIONS", "EVENT_RATIO", "MET", "NEWTON_EXIT", "NOT_FINITE", "PROJECTION_STEPS", "PROJECTION_TOL",
-           "SINGULAR", "SINGULAR_RATIO", "compiled_project", "compiled_solve", "constrained_c", "constrained_main",
+           "SINGULAR", "SINGULAR_RATIO", "compiled_multipliers", "compiled_project", "compiled_solve", "constrained_c", "constrained_main",
            "layout", "work_size"]
 
 #: Gauss-Newton steps of one projection of the coordinates (each converges quadratically from a
@@ -158,7 +158,9 @@ class _Emit:
              doc: str = ""):
         """A helper function; `args`: (name, C type); `doubles`, `ints`: the C locals."""
         if self.lang == "py":
-            self.lines += ["", "", "@njit(cache=True)", f"def {name}({', '.join(a for a, _ in args)}):"]
+            # error_model="numpy": no ZeroDivisionError test at each division (every divisor is checked
+            # positive first), as in C
+            self.lines += ["", "", '@njit(cache=True, error_model="numpy")', f"def {name}({', '.join(a for a, _ in args)}):"]
             self.depth = 1
             if doc:
                 self.line(f'"""{doc}"""')
@@ -521,6 +523,33 @@ def compiled_solve(fast, t, x, u, p):
     L0 = layout(n, m)["L0"]
     lam = work[L0:L0 + m] if r > SINGULAR_RATIO else np.full(m, np.nan)
     return dx[n:], lam.copy(), float(r)
+
+
+def compiled_multipliers(fast, times, X, U, p) -> np.ndarray:
+    """lambda at each row of (times, X, U) by the compiled rhs (one row each); the row where the
+    measure is at most SINGULAR_RATIO (or -1.0) raises ConstraintSingular as ConstrainedModel.solve
+    does there."""
+    from ._constrained import ConstraintSingular
+    from ._fast import _address
+
+    rhs_t, _, D = _calls()
+    rhs = rhs_t(_address(fast.rhs_c))
+    n, m = fast.n, len(fast.equations.model.constraints)
+    L0 = layout(n, m)["L0"]
+    x, u = np.empty(2 * n), np.zeros(max(1, np.shape(U)[1] if np.ndim(U) == 2 else 0))
+    p = np.ascontiguousarray(p, float) if len(p) else np.zeros(1)
+    dx, work = np.empty(2 * n), np.empty(work_size(n, m))
+    px, pu, pp, pdx, pw = (_pointer(a, D) for a in (x, u, p, dx, work))
+    Lam = np.empty((len(times), m))
+    for k, t in enumerate(times):
+        x[:] = X[k]
+        if np.ndim(U) == 2 and np.shape(U)[1]:
+            u[:] = U[k]
+        r = rhs(float(t), px, pu, pp, pdx, pw)
+        if not r > SINGULAR_RATIO:
+            raise ConstraintSingular(t, x, r)
+        Lam[k] = work[L0:L0 + m]
+    return Lam
 
 
 def compiled_project(fast, t, x, p):

@@ -260,10 +260,16 @@ def consistent_state(cm: ConstrainedModel, x0, fixed_names, p) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------- integration
-def multipliers_and_drift(cm: ConstrainedModel, times, X, U, p) -> tuple[np.ndarray, dict]:
+def multipliers_and_drift(cm: ConstrainedModel, times, X, U, p, fast=None) -> tuple[np.ndarray, dict]:
     """The multipliers at the outputs (one row each), and the largest |g| ("position") and
-    |G q_dot + b| ("velocity") there: the trajectory's constraint_drift."""
-    Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
+    |G q_dot + b| ("velocity") there: the trajectory's constraint_drift. `fast`: the compiled model
+    the run integrated, whose rhs gives the multipliers (the same algorithm, in compiled code)."""
+    if fast is not None and getattr(fast, "project_c", None) is not None:
+        from ._codegen_constrained import compiled_multipliers
+
+        Lam = compiled_multipliers(fast, times, X, U, p)
+    else:
+        Lam = np.array([cm.solve(t, x, u, p)[1] for t, x, u in zip(times, X, U)]).reshape(len(times), cm.m)
     drift_q = drift_v = 0.0
     for t, x in zip(times, X):
         g, w = cm.residuals(t, x, p)

@@ -1122,7 +1122,7 @@ def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol,
     if stopped:  # the outputs of the stopping step come from its interpolant, not yet projected
         _project_rows(cm, t, X, p)
     U, _ = inputs_and_energy(fast, t, X, p, prog, held if held is None else (held[0], held[1][:reached]))
-    Lam, drift = multipliers_and_drift(cm, t, X, U, p)
+    Lam, drift = multipliers_and_drift(cm, t, X, U, p, fast=fast)
     stats = {"nfev": raw.nfev, "nstep": raw.nstep, "nreject": raw.nreject,
              "projection": "coordinate projection after every step",
              "constraint_drift": drift}
