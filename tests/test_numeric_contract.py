@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+import sympy
 
 import lagrangian as lg
 from lagrangian.numeric._cache import CACHE
@@ -120,8 +121,13 @@ def test_constraint_parts_and_statics_of_the_cartesian_pendulum(cartesian, backe
     assert g == pytest.approx([1.0 - r], rel=1e-14)
     assert w == pytest.approx([-(x * vx + y * vy) / r], rel=1e-14)
     assert c == pytest.approx([(vx**2 + vy**2) / r - (x * vx + y * vy) ** 2 / r**3], rel=1e-13)
+    G1, g1, w1 = nm.constraint_residuals(0.0, [x, y, vx, vy], [], p)  # the same without c
+    assert np.array_equal(G1, G) and np.array_equal(g1, g) and np.array_equal(w1, w)
     qdd, ratio = nm.solve(0.0, [x, y, vx, vy], [], p)
     assert ratio > SINGULAR_RATIO and G @ qdd == pytest.approx(c, rel=1e-12)
+    X, Y, L = sympy.symbols("x y l")
+    radius = nm.function("radius and its excess", lambda: [sympy.sqrt(X**2 + Y**2), sympy.sqrt(X**2 + Y**2) - L])
+    assert radius(0.0, [x, y, vx, vy], [], p) == pytest.approx([r, r - 1.0], rel=1e-14)
     F, g0, J, G0 = nm.statics(0.0, [0.0, -1.0, 9.81], [], p)  # the bob at rest at the bottom, lambda = m g
     assert np.allclose(F, 0.0, atol=1e-14) and g0 == pytest.approx([0.0], abs=1e-15)
     assert np.allclose(G0, [[0.0, 1.0]], atol=1e-15)

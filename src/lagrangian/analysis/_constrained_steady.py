@@ -45,7 +45,6 @@ the vertical changes as friction turns it), so rates are given, not momenta.
 
 from __future__ import annotations
 
-import weakref
 from types import MappingProxyType
 
 import numpy as np
@@ -53,6 +52,7 @@ import numpy as np
 from ..equations import Equations
 from ..errors import ModelError
 from ..model._constraints import VELOCITY
+from ..numeric._compiled import compile_equations
 from ._setting import Setting
 from ._stationary import StationaryProblem, periodic_in
 
@@ -63,10 +63,23 @@ _SAME = 1e-9
 
 
 def _model(equations: Equations):
-    from ..numeric._compiled import compile_equations
+    """The saddle-point solve and the projection (numeric._constrained): the accelerations, the
+    multipliers and a state moved onto the constraints."""
     from ..numeric._constrained import constrained_model
 
     return constrained_model(equations, compile_equations(equations))
+
+
+def _constraints(equations: Equations, t, x, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(W, g, w) at the state: the constraint Jacobian, the residuals g and w = W q_dot + b, by the one
+    numeric model (they take no input)."""
+    return compile_equations(equations).constraint_residuals(t, x, np.zeros(len(equations.inputs)), p)
+
+
+def _holonomic(equations: Equations, cm, t, x, p) -> tuple[np.ndarray, np.ndarray]:
+    """(g, G) of the holonomic constraints at the state."""
+    W, g, _ = _constraints(equations, t, x, p)
+    return g[cm.holonomic], W[cm.holonomic]
 
 
 def _dependent_speeds_at(equations: Equations, cm, t, q, p) -> list[int]:
@@ -75,29 +88,28 @@ def _dependent_speeds_at(equations: Equations, cm, t, q, p) -> list[int]:
 
     n = cm.n
     hol = [int(k) for k in cm.holonomic]
-    W = cm._velocity_parts(t, np.concatenate((q, np.zeros(n))), p)[1]
+    W = _constraints(equations, t, np.concatenate((q, np.zeros(n))), p)[0]
     dep_q = [] if not hol else [i for i in range(n) if i not in _independent(equations, W[hol])]
     return _dependent_speeds(equations, W, hol, dep_q)
 
 
-def _completed(cm, t, q, qd, dep, p) -> np.ndarray:
+def _completed(equations: Equations, cm, t, q, qd, dep, p) -> np.ndarray:
     """The state (q, q_dot) with the dependent speeds `dep` solved from the constraints."""
     n = cm.n
     x = np.concatenate((q, qd))
     x[n + np.array(dep, int)] = 0.0
-    w0, W, _ = cm._velocity_parts(t, x, p)
+    W, _, w0 = _constraints(equations, t, x, p)
     x[n + np.array(dep, int)] = np.linalg.solve(W[:, dep], -w0) if dep else []
     return x
-
-
-_IGNORABLE: "weakref.WeakKeyDictionary[Equations, dict]" = weakref.WeakKeyDictionary()
 
 
 def ignorable_coordinates(equations: Equations, setting: Setting) -> tuple[int, ...]:
     """Indices of the coordinates on whose values the motion reduced to the independent speeds does
     not depend (see the module), at the setting's parameter values."""
+    from ..numeric._cache import per_equations
+
     key = (tuple(setting.p), tuple(setting.u), setting.t)
-    cache = _IGNORABLE.setdefault(equations, {})
+    cache = per_equations(equations).setdefault("ignorable coordinates", {})
     if key in cache:
         return cache[key]
     from ..numeric._constrained import ConstraintSingular
@@ -115,10 +127,10 @@ def ignorable_coordinates(equations: Equations, setting: Setting) -> tuple[int, 
                 ind_v = [i for i in range(n) if i not in dep_v]
                 qd = np.zeros(n)
                 qd[ind_v] = rng.uniform(-1.5, 1.5, len(ind_v))
-                x = _completed(cm, t, x[:n], qd, dep_v, p)
+                x = _completed(equations, cm, t, x[:n], qd, dep_v, p)
                 with np.errstate(all="ignore"):
                     qdd = cm.solve(t, x, u, p)[0]
-                    G = cm._holonomic(t, x, p)[1]
+                    G = _holonomic(equations, cm, t, x, p)[1]
             except (ConstraintSingular, np.linalg.LinAlgError):
                 continue
             if np.all(np.isfinite(qdd)) and np.all(np.isfinite(x)):
@@ -136,7 +148,7 @@ def ignorable_coordinates(equations: Equations, setting: Setting) -> tuple[int, 
             shifted = x[:n].copy()
             shifted[i] += 1.3
             try:
-                y = _completed(cm, t, shifted, x[n:], dep_v, p)
+                y = _completed(equations, cm, t, shifted, x[n:], dep_v, p)
                 with np.errstate(all="ignore"):
                     qdd1 = cm.solve(t, y, u, p)[0]
             except (ConstraintSingular, np.linalg.LinAlgError):
@@ -169,7 +181,7 @@ class SteadyState:
         x = np.concatenate((np.asarray(q, float)[:n], np.zeros(n)))
         for i, v in self.given.items():
             x[n + i] = v
-        w, W, _ = self.cm._velocity_parts(setting.t, x, setting.p)
+        W, _, w = _constraints(self.equations, setting.t, x, setting.p)
         if self.free:
             # least squares, cut off against W as a whole: where the free rates' columns vanish (a
             # knife edge across its rail) they stay finite and the constraint row is left unmet
@@ -190,7 +202,7 @@ class SteadyState:
             try:
                 x, w, _ = self._state(setting, q)
                 qdd, lam = cm.solve(t, x, setting.u, p)
-                g = cm._holonomic(t, x, p)[0]
+                g = _holonomic(self.equations, cm, t, x, p)[0]
             except (ConstraintSingular, np.linalg.LinAlgError, ValueError):
                 nan = np.full(n, np.nan)
                 return np.concatenate((q[:n], nan)), nan, np.full(cm.m, np.nan), np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan)
@@ -201,7 +213,7 @@ class SteadyState:
         root must: next to a singular configuration, the bicycle lying flat, the residual's
         Jacobian grows without bound and a residual of the size of the forces looks small)."""
         with np.errstate(all="ignore"):
-            g = self.cm._holonomic(setting.t, self.state(setting, np.asarray(q, float)), setting.p)[0]
+            g = _holonomic(self.equations, self.cm, setting.t, self.state(setting, np.asarray(q, float)), setting.p)[0]
         return bool(np.all(np.isfinite(g)) and np.all(np.abs(g) <= 1e-9 * (1.0 + float(np.max(np.abs(q))))))
 
     def term_scale(self, setting: Setting, q: np.ndarray) -> float:
@@ -209,7 +221,9 @@ class SteadyState:
         the constraints' c, the squared rates): the scale against which a residual is round-off."""
         with np.errstate(all="ignore"):
             x = self.state(setting, np.asarray(q, float))
-            M, f, _, c = self.cm.parts(setting.t, x, setting.u, setting.p)
+            nm = compile_equations(self.equations)
+            M, f = nm.mass_matrix(setting.t, x, setting.u, setting.p), nm.forcing(setting.t, x, setting.u, setting.p)
+            c = nm.constraint_parts(setting.t, x, setting.u, setting.p)[1]
         n = self.cm.n
         mass = float(np.max(np.abs(np.diag(M)), initial=0.0))
         forces = float(np.max(np.abs(f), initial=0.0)) / mass if mass > 0 else 0.0
@@ -302,7 +316,7 @@ def _coupled(evaluator: SteadyState, setting: Setting) -> bool:
     dependent) while the given rates push them (a right-hand side that is not 0): at rest, the
     free rates stay 0, as cyclic coordinates given no rate do without constraints. Tested at the
     zero shape and two random ones."""
-    cm, n, free = evaluator.cm, evaluator.cm.n, evaluator.free
+    n, free = evaluator.cm.n, evaluator.free
     rng = np.random.default_rng(5)
     for k in range(3):
         q = np.zeros(n)
@@ -311,7 +325,7 @@ def _coupled(evaluator: SteadyState, setting: Setting) -> bool:
         x = evaluator.state(setting, q)
         x[n + np.array(free)] = 0.0
         with np.errstate(all="ignore"):
-            w0, W, _ = cm._velocity_parts(setting.t, x, setting.p)
+            W, _, w0 = _constraints(evaluator.equations, setting.t, x, setting.p)
         if not (np.all(np.isfinite(W)) and np.all(np.isfinite(w0))):
             continue
         Wf = W[:, free]
@@ -339,11 +353,15 @@ def _heights(equations: Equations):
     names = tuple(e.name for e in masses)
     if not wheels:
         return (lambda q, p: (np.zeros(0), np.zeros(0))), names
-    args = [list(equations.coordinates), list(equations.parameters)]
-    f = sympy.lambdify(args, wheels, modules="numpy")
-    g = sympy.lambdify(args, [sympy.sympify(e.position[2]) for e in masses], modules="numpy") if masses else None
-    return (lambda q, p: (np.asarray(f(list(q), list(p)), float),
-                          np.asarray(g(list(q), list(p)), float) if g else np.zeros(0))), names
+    heights = compile_equations(equations).function(
+        "heights", lambda: wheels + [sympy.sympify(e.position[2]) for e in masses])
+    n, k, u = equations.n, len(wheels), np.zeros(len(equations.inputs))
+
+    def height(q, p):
+        z = heights(0.0, np.concatenate((q, np.zeros(n))), u, p)
+        return z[:k], z[k:]
+
+    return height, names
 
 
 def above_ground(problem: StationaryProblem, setting: Setting, points: list) -> tuple[list, tuple[str, ...]]:

@@ -12,6 +12,7 @@ from the NumericModel they carry. All of it is cached in one place (``_cache``),
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -111,6 +112,13 @@ class NumericContract(Protocol):
         residuals g (g(q, t) of a holonomic constraint, the velocity residual of the others) and the
         velocity residuals w = G q_dot + b."""
 
+    def constraint_residuals(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(G, g, w): ``constraint_parts`` without c."""
+
+    def function(self, name: str, build) -> Callable[..., np.ndarray]:
+        """``(t, x, u, p) -> array`` of the expressions ``build()`` gives (positions, outputs), kept
+        with the model under `name`."""
+
     def jacobians(self, t, x, u, p, qdd=None) -> dict[str, np.ndarray]:
         """M, f and their derivatives: {"M": (n, n), "f": (n,), "fq": df/dq (n, n), "fqd": df/dq_dot
         (n, n), "fu": df/du (n, k), "Maq": d(M a)/dq at a = qdd (n, n); 0 when qdd is None}."""
@@ -132,7 +140,7 @@ class NumericContract(Protocol):
         """At rest, in z = (q, lambda): (F = f + G^T lambda, g, dF/dq, G): shapes (n,), (m,), (n, n), (m, n)."""
 
 
-def _lambdify(args, exprs):
+def _evaluator_of(args, exprs):
     """The one SymEngine evaluator of every group of expressions (common subexpressions shared)."""
     return se.Lambdify(args, list(exprs) or [se.Integer(0)], cse=True, real=True)
 
@@ -179,8 +187,10 @@ def _group(equations: Equations, name: str):
         F = [fi.subs(rest) + sum((core.G[r, i] * lam[r] for r in range(m)), zero) for i, fi in enumerate(core.f)]
         return (F + list(core.g) + [Fi.diff(qj) for Fi in F for qj in q] + G, lam,
                 [(n,), (m,), (n, n), (m, n)])
-    if name == "constraints":
-        return G + list(core.c) + list(core.g) + list(core.w), [], [(m, n), (m,), (m,), (m,)]
+    if name == "constraints":  # without c (the largest: the constraints differentiated twice)
+        return G + list(core.g) + list(core.w), [], [(m, n), (m,), (m,)]
+    if name == "bias":
+        return list(core.c), [], [(m,)]
     raise KeyError(name)
 
 
@@ -231,20 +241,31 @@ class NumericModel:
     def m(self) -> int:
         return len(self.equations.core.g)
 
-    def _group(self, name: str) -> _Evaluator:
+    def _group(self, name: str, build=None) -> _Evaluator:
         ev = self._groups.get(name)
         if ev is None:
             eq = self.equations
-            exprs, extra, shapes = _group(eq, name)
+            exprs, extra, shapes = _group(eq, name) if build is None else build()
             args = [eq.core.t, *eq.core.q, *eq.core.qd, *(se.Symbol(s.name) for s in eq.inputs),
                     *(se.Symbol(s.name) for s in eq.parameters), *extra]
-            ev = self._groups.setdefault(name, _Evaluator(_lambdify(args, exprs) if exprs else None, tuple(shapes)))
+            ev = self._groups.setdefault(name, _Evaluator(_evaluator_of(args, exprs) if exprs else None, tuple(shapes)))
         return ev
 
     def _at(self, name: str, t, x, u, p, extra=()) -> list[np.ndarray]:
         args = np.concatenate(([t], np.asarray(x, float).ravel(), np.asarray(u, float).ravel(),
                                np.asarray(p, float).ravel(), np.asarray(extra, float).ravel()))
         return self._group(name)(args)
+
+    def function(self, name: str, build) -> Callable[..., np.ndarray]:
+        """``(t, x, u, p) -> array``: other expressions of the model's symbols evaluated in the same
+        argument order, by the same evaluator, kept with the model under `name` (``build()`` gives
+        them, SymPy or SymEngine, on first use): positions, heights, outputs."""
+        def make():
+            exprs = [se.sympify(e) for e in build()]
+            return exprs, [], [(len(exprs),)]
+
+        self._group(f"function {name}", make)
+        return lambda t, x, u, p: self._at(f"function {name}", t, x, u, p)[0]
 
     def _evaluate(self, t, x, u, p):
         return self._at("dynamics", t, x, u, p)
@@ -307,6 +328,12 @@ class NumericModel:
     def constraint_parts(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(G, c, g, w), shapes (m, n), (m,), (m,), (m,) (empty without constraints): see
         :meth:`NumericContract.constraint_parts`."""
+        G, g, w = self._at("constraints", t, x, u, p)
+        return G, self._at("bias", t, x, u, p)[0], g, w
+
+    def constraint_residuals(self, t, x, u, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(G, g, w): ``constraint_parts`` without c, for the searches and projections that need no
+        acceleration (one evaluation of the smaller expressions)."""
         return tuple(self._at("constraints", t, x, u, p))
 
     def jacobians(self, t, x, u, p, qdd=None) -> dict[str, np.ndarray]:

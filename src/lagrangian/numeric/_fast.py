@@ -38,8 +38,9 @@ class CompiledModel:
     does, every function taking ``(t, x, u, p)`` (the generated module's docstring, ``source``,
     lists the state, input and parameter names in argument order): rhs, solve, mass_matrix,
     forcing, accelerations and energy by the generated code; the constraint parts and the
-    Jacobians analysis needs (``constraint_parts``, ``jacobians``, ``state_jacobians``,
-    ``momenta``, ``damping``, ``static``, ``statics``) by the NumericModel it carries (``numeric``).
+    Jacobians analysis needs (``constraint_parts``, ``constraint_residuals``, ``jacobians``,
+    ``state_jacobians``, ``momenta``, ``damping``, ``static``, ``statics``) by the NumericModel it
+    carries (``numeric``).
 
     Attributes
     ----------
@@ -82,6 +83,14 @@ class CompiledModel:
     def constraint_parts(self, t, x, u, p):
         """(G, c, g, w), shapes (m, n), (m,), (m,), (m,) (by ``numeric``)."""
         return self.numeric.constraint_parts(*self._args(t, x, u, p, trim=True))
+
+    def function(self, name: str, build):
+        """(t, x, u, p) -> array of other expressions of the model's symbols (by ``numeric``)."""
+        return self.numeric.function(name, build)
+
+    def constraint_residuals(self, t, x, u, p):
+        """(G, g, w) (by ``numeric``)."""
+        return self.numeric.constraint_residuals(*self._args(t, x, u, p, trim=True))
 
     def jacobians(self, t, x, u, p, qdd=None):
         """M, f, df/dq, df/dq_dot, df/du, d(M a)/dq at a = qdd (by ``numeric``)."""
