@@ -37,8 +37,12 @@ energy, q_dot -= M^-1 G^T S^-1 w = L^-T D^-1 Q R^-T w (steps 1 and 2 again). Whe
 measure is at most SINGULAR_RATIO the step is not taken (the result code says SINGULAR).
 
 The work array holds, in order: M (n*n, its lower triangle row-major, L below the diagonal after
-the factorization), f (n), G (m*n), c (m), D (n), a (n), Z then Q (m columns of n), R (m*m, upper),
+the factorization), f (n), G (m*n), c (m), D (n), 1/D (n), a (n), Z then Q (m columns of n), R (m*m, upper),
 lambda (m), w (m), v (n), and the holonomic g (m) and G_h (m*n) of the projection.
+
+A change of the template changes the generated code: bump numeric._codegen.GENERATOR_VERSION with
+it (the compiled modules are found in the cache by a fingerprint of the equations and that
+version, and Python reads lambda from the work array by this layout).
 """
 
 from __future__ import annotations
@@ -54,8 +58,8 @@ from ._codegen import _cfunc_head, _Printer
 from ._kernels import EVENT_RATIO, SINGULAR_RATIO
 
 __all__ = ["C_DECLARATIONS", "EVENT_RATIO", "MET", "NEWTON_EXIT", "NOT_FINITE", "PROJECTION_STEPS", "PROJECTION_TOL",
-           "SINGULAR", "SINGULAR_RATIO", "compiled_multipliers", "compiled_project", "compiled_solve", "constrained_c", "constrained_main",
-           "layout", "work_size"]
+           "SINGULAR", "SINGULAR_RATIO", "compiled_multipliers", "compiled_project", "compiled_solve",
+           "constrained_c", "constrained_main", "layout", "work_size"]
 
 #: Gauss-Newton steps of one projection of the coordinates (each converges quadratically from a
 #: step's error).
@@ -72,7 +76,7 @@ MET, SINGULAR, NOT_FINITE = 0, 3, 4
 def layout(n: int, m: int) -> dict[str, int]:
     """The offsets of the work array's parts (see the module) and its size, "size"."""
     out, at = {}, 0
-    for name, size in (("F0", 0), ("G0", n), ("C0", m * n), ("D0", m), ("A0", n), ("Q0", n), ("R0", n * m),
+    for name, size in (("F0", 0), ("G0", n), ("C0", m * n), ("D0", m), ("E0", n), ("A0", n), ("Q0", n), ("R0", n * m),
                        ("L0", m * m), ("W0", m), ("V0", m), ("P0", n), ("H0", m), ("size", m * n)):
         at += size if name != "F0" else n * n
         out[name] = at
@@ -160,7 +164,8 @@ class _Emit:
         if self.lang == "py":
             # error_model="numpy": no ZeroDivisionError test at each division (every divisor is checked
             # positive first), as in C
-            self.lines += ["", "", '@njit(cache=True, error_model="numpy")', f"def {name}({', '.join(a for a, _ in args)}):"]
+            self.lines += ["", "", '@njit(cache=True, error_model="numpy")',
+                           f"def {name}({', '.join(a for a, _ in args)}):"]
             self.depth = 1
             if doc:
                 self.line(f'"""{doc}"""')
@@ -183,7 +188,7 @@ def _algorithm(e: _Emit, mh: int) -> None:
     N, M, MH and the offsets are e's constants."""
     w = "double *"
     with e.func("lg_ldl", "double", [("work", w)], "r, d, s, inv", "i, j, k",
-                "M = L D L^T in place (M's lower triangle in work[0:N*N], D at D0); the inertia measure "
+                "M = L D L^T in place (M's lower triangle in work[0:N*N], D at D0, 1/D at E0); the inertia measure "
                 "min_j D_j / M_jj (0 where M is not positive definite)"):
         e.do("r = 1.0")
         with e.loop("j", "0", "N"):
@@ -195,6 +200,7 @@ def _algorithm(e: _Emit, mh: int) -> None:
             e.do("r = fmin(r, d / work[j * N + j])")
             e.do("work[D0 + j] = d")
             e.do("inv = 1.0 / d")
+            e.do("work[E0 + j] = inv")
             with e.loop("i", "j + 1", "N"):
                 e.do("s = work[i * N + j]")
                 with e.loop("k", "0", "j"):
@@ -209,7 +215,7 @@ def _algorithm(e: _Emit, mh: int) -> None:
         e.do("work[b + i] = s")
     with e.func("lg_upper", "void", [("work", w), ("b", "int")], "s", "i, k",
                 "work[b:b+N] <- L^-T D^-1 work[b:b+N]"), e.down("i", "N"):
-        e.do("s = work[b + i] / work[D0 + i]")
+        e.do("s = work[b + i] * work[E0 + i]")
         with e.loop("k", "i + 1", "N"):
             e.do("s -= work[k * N + i] * work[b + k]")
         e.do("work[b + i] = s")
@@ -221,7 +227,7 @@ def _algorithm(e: _Emit, mh: int) -> None:
         with e.loop("k", "0", "m"):
             e.do("s = 0.0")
             with e.loop("i", "0", "N"):
-                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] / work[D0 + i]")
+                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] * work[E0 + i]")
             e.do("big = fmax(big, s)")
         with e.when("!(big > 0.0 && big < INFINITY)"):
             e.ret("0.0")
@@ -230,20 +236,21 @@ def _algorithm(e: _Emit, mh: int) -> None:
             with e.loop("j", "0", "k"):
                 e.do("s = 0.0")
                 with e.loop("i", "0", "N"):
-                    e.do("s += work[Q0 + j * N + i] * work[Q0 + k * N + i] / work[D0 + i]")
+                    e.do("s += work[Q0 + j * N + i] * work[Q0 + k * N + i] * work[E0 + i]")
                 e.do("work[R0 + j * M + k] = s")
                 with e.loop("i", "0", "N"):
                     e.do("work[Q0 + k * N + i] -= s * work[Q0 + j * N + i]")
             e.do("s = 0.0")
             with e.loop("i", "0", "N"):
-                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] / work[D0 + i]")
+                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] * work[E0 + i]")
             with e.when("!(s > 0.0 && s < INFINITY)"):
                 e.ret("0.0")
             e.do("rho = fmin(rho, s / big)")
             e.do("s = sqrt(s)")
             e.do("work[R0 + k * M + k] = s")
+            e.do("s = 1.0 / s")
             with e.loop("i", "0", "N"):
-                e.do("work[Q0 + k * N + i] /= s")
+                e.do("work[Q0 + k * N + i] *= s")
         e.ret("sqrt(rho)")
     with e.func("lg_rt", "void", [("work", w), ("m", "int"), ("b", "int")], "s", "j, k",
                 "work[b:b+m] <- R^-T work[b:b+m]"), e.loop("k", "0", "m"):
@@ -329,7 +336,7 @@ def _algorithm(e: _Emit, mh: int) -> None:
                     with e.loop("i", "0", "N"):
                         e.do("work[Q0 + k * N + i] = work[H0 + k * N + i]")
                 with e.loop("i", "0", "N"):
-                    e.do("work[D0 + i] = 1.0")
+                    e.do("work[E0 + i] = 1.0")
                 with e.when("lg_qr(work, MH) <= SINGULAR_RATIO"):
                     e.ret("SINGULAR")
                 e.do("lg_rt(work, MH, W0)")
