@@ -107,8 +107,6 @@ D6_0, D6_5, D6_6 = -25.69393346270375, -154.18974869023643, -231.5293791760455
 D6_7, D6_8, D6_9 = 357.6391179106141, 93.40532418362432, -37.45832313645163
 D6_10, D6_11, D6_12 = 104.0996495089623, 29.8402934266605, -43.53345659001114
 D6_13, D6_14, D6_15 = 96.32455395918828, -39.17726167561544, -149.72683625798564
-#: The nodes indexed by stage (NODES[s] = C<s>).
-NODES = (0.0, C1, C2, C3, C4, C5, C6, C7, C8, C9, C10, C11, C12, C13, C14, C15)
 
 
 # ------------------------------------------------------------------ calls of the model's functions
@@ -422,35 +420,30 @@ def mass_forcing(mf, n, t, x, u, p):
 
 # -------------------------------------------------------------------------------- output stage
 @njit(cache=True)
-def _output_row(en, t, x, p, ops, args, starts, stack, u, modes, U, E, k, hold):
-    """Row k of the output stage: U[k, i] = input i at (t, x) (a sampled input, hold[i] = 1, is
-    read from U[k, i], where the caller put its held value) and E[k] = the Jacobi integral there."""
-    for i in range(starts.shape[0] - 1):
-        if hold[i]:
-            u[i] = U[k, i]
-        else:
-            u[i] = _run(ops, args, starts[i], starts[i + 1], t, x, u, p, stack, modes, True)
-            U[k, i] = u[i]
-    E[k] = _en(en, t, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0))
-
-
-@njit(cache=True)
 def energies(en, times, X, p, ops, args, starts, nstack, out, U, hold):
     """The Jacobi integral and the inputs at each row of (times, X); the sampled inputs
     (hold[i] = 1) are read from U, where the caller put their held values."""
     stack = np.empty(nstack)
     u = np.empty(max(1, starts.shape[0] - 1))
     modes = np.empty(max(1, ops.shape[0]))
-    for k in range(times.shape[0]):
-        _output_row(en, times[k], np.ascontiguousarray(X[k]), p, ops, args, starts, stack, u, modes, U, out, k, hold)
+    _outputs(en, 0, times.shape[0], times, X, p, ops, args, starts, stack, u, modes, U, out, hold)
 
 
 @njit(cache=True)
-def _outputs(en, lo, hi, t_out, X_out, p, ops, args, starts, stack, uo, mo, U_out, E_out, hold):
-    """The output stage of the rows lo .. hi - 1 of a run (en: the energy's address; 0: none)."""
-    if en != 0:
-        for k in range(lo, hi):
-            _output_row(en, t_out[k], X_out[k], p, ops, args, starts, stack, uo, mo, U_out, E_out, k, hold)
+def _outputs(en, lo, hi, times, X, p, ops, args, starts, stack, u, modes, U, E, hold):
+    """The output stage of the rows lo .. hi - 1 of a run: U[k, i] = input i at (times[k], X[k])
+    (a sampled input, hold[i] = 1, is read from U[k, i], where the caller put its held value) and
+    E[k] = the Jacobi integral there (en: the energy's address). Returns hi."""
+    m = starts.shape[0] - 1
+    for k in range(lo, hi):
+        xk = np.ascontiguousarray(X[k])
+        for i in range(m):
+            if hold[i]:
+                u[i] = U[k, i]
+            else:
+                u[i] = _run(ops, args, starts[i], starts[i + 1], times[k], xk, u, p, stack, modes, True)
+                U[k, i] = u[i]
+        E[k] = _en(en, times[k], _ptr(xk, 0), _ptr(u, 0), _ptr(p, 0))
     return hi
 
 
@@ -468,7 +461,7 @@ def _fail(r, t, x, info, stats, nfev, nstep, nrej, j):
     return 3 if r < 0.0 else 2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # (a call per output: no call, no reference counts)
 def _dense_at(t, h, y, F, tq, out, k, L):
     """The order-7 interpolant of the step from (t, y) of size h, at tq: out[i] for the
     components y[i * L + k] (all of y for k = 0, L = 1; lane k in dop853_lanes),
@@ -487,146 +480,10 @@ def _dense_at(t, h, y, F, tq, out, k, L):
         out[i] = y[w] + v
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # (a call per output: no call, no reference counts)
 def _dense(t, h, y, F, tq, out):
     """The order-7 interpolant of the step from (t, y) of size h, at tq."""
     _dense_at(t, h, y, F, tq, out, 0, 1)
-
-
-@njit(cache=True)
-def _stage_state(s, h, HW, y, K, xs):
-    """xs = y + h sum_j A[s, j] K[j] for stage s (1 .. 15) of DOP853: a step h (HW empty) or, in
-    dop853_lanes, HW[w], the step of the lane of component w."""
-    if HW.shape[0] == 0:
-        if s == 1:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A1_0 * K[0, i])
-        elif s == 2:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A2_0 * K[0, i] + A2_1 * K[1, i])
-        elif s == 3:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A3_0 * K[0, i] + A3_2 * K[2, i])
-        elif s == 4:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A4_0 * K[0, i] + A4_2 * K[2, i] + A4_3 * K[3, i])
-        elif s == 5:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A5_0 * K[0, i] + A5_3 * K[3, i] + A5_4 * K[4, i])
-        elif s == 6:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A6_0 * K[0, i] + A6_3 * K[3, i] + A6_4 * K[4, i] + A6_5 * K[5, i])
-        elif s == 7:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A7_0 * K[0, i] + A7_3 * K[3, i] + A7_4 * K[4, i] + A7_5 * K[5, i] + A7_6 * K[6, i])
-        elif s == 8:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A8_0 * K[0, i] + A8_3 * K[3, i] + A8_4 * K[4, i] + A8_5 * K[5, i] + A8_6 * K[6, i]
-                    + A8_7 * K[7, i])
-        elif s == 9:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A9_0 * K[0, i] + A9_3 * K[3, i] + A9_4 * K[4, i] + A9_5 * K[5, i] + A9_6 * K[6, i]
-                    + A9_7 * K[7, i] + A9_8 * K[8, i])
-        elif s == 10:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A10_0 * K[0, i] + A10_3 * K[3, i] + A10_4 * K[4, i] + A10_5 * K[5, i]
-                    + A10_6 * K[6, i] + A10_7 * K[7, i] + A10_8 * K[8, i] + A10_9 * K[9, i])
-        elif s == 11:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A11_0 * K[0, i] + A11_3 * K[3, i] + A11_4 * K[4, i] + A11_5 * K[5, i]
-                    + A11_6 * K[6, i] + A11_7 * K[7, i] + A11_8 * K[8, i] + A11_9 * K[9, i] + A11_10 * K[10, i])
-        elif s == 12:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A12_0 * K[0, i] + A12_5 * K[5, i] + A12_6 * K[6, i] + A12_7 * K[7, i]
-                    + A12_8 * K[8, i] + A12_9 * K[9, i] + A12_10 * K[10, i] + A12_11 * K[11, i])
-        elif s == 13:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A13_0 * K[0, i] + A13_6 * K[6, i] + A13_7 * K[7, i] + A13_8 * K[8, i]
-                    + A13_9 * K[9, i] + A13_10 * K[10, i] + A13_11 * K[11, i] + A13_12 * K[12, i])
-        elif s == 14:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A14_0 * K[0, i] + A14_5 * K[5, i] + A14_6 * K[6, i] + A14_7 * K[7, i]
-                    + A14_10 * K[10, i] + A14_11 * K[11, i] + A14_12 * K[12, i] + A14_13 * K[13, i])
-        elif s == 15:
-            for i in range(xs.shape[0]):
-                xs[i] = y[i] + h * (A15_0 * K[0, i] + A15_5 * K[5, i] + A15_6 * K[6, i] + A15_7 * K[7, i]
-                    + A15_8 * K[8, i] + A15_12 * K[12, i] + A15_13 * K[13, i] + A15_14 * K[14, i])
-    else:
-        if s == 1:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A1_0 * K[0, w])
-        elif s == 2:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A2_0 * K[0, w] + A2_1 * K[1, w])
-        elif s == 3:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A3_0 * K[0, w] + A3_2 * K[2, w])
-        elif s == 4:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A4_0 * K[0, w] + A4_2 * K[2, w] + A4_3 * K[3, w])
-        elif s == 5:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A5_0 * K[0, w] + A5_3 * K[3, w] + A5_4 * K[4, w])
-        elif s == 6:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A6_0 * K[0, w] + A6_3 * K[3, w] + A6_4 * K[4, w] + A6_5 * K[5, w])
-        elif s == 7:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A7_0 * K[0, w] + A7_3 * K[3, w] + A7_4 * K[4, w] + A7_5 * K[5, w]
-                    + A7_6 * K[6, w])
-        elif s == 8:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A8_0 * K[0, w] + A8_3 * K[3, w] + A8_4 * K[4, w] + A8_5 * K[5, w]
-                    + A8_6 * K[6, w] + A8_7 * K[7, w])
-        elif s == 9:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A9_0 * K[0, w] + A9_3 * K[3, w] + A9_4 * K[4, w] + A9_5 * K[5, w]
-                    + A9_6 * K[6, w] + A9_7 * K[7, w] + A9_8 * K[8, w])
-        elif s == 10:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A10_0 * K[0, w] + A10_3 * K[3, w] + A10_4 * K[4, w] + A10_5 * K[5, w]
-                    + A10_6 * K[6, w] + A10_7 * K[7, w] + A10_8 * K[8, w] + A10_9 * K[9, w])
-        elif s == 11:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A11_0 * K[0, w] + A11_3 * K[3, w] + A11_4 * K[4, w] + A11_5 * K[5, w]
-                    + A11_6 * K[6, w] + A11_7 * K[7, w] + A11_8 * K[8, w] + A11_9 * K[9, w] + A11_10 * K[10, w])
-        elif s == 12:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A12_0 * K[0, w] + A12_5 * K[5, w] + A12_6 * K[6, w] + A12_7 * K[7, w]
-                    + A12_8 * K[8, w] + A12_9 * K[9, w] + A12_10 * K[10, w] + A12_11 * K[11, w])
-        elif s == 13:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A13_0 * K[0, w] + A13_6 * K[6, w] + A13_7 * K[7, w] + A13_8 * K[8, w]
-                    + A13_9 * K[9, w] + A13_10 * K[10, w] + A13_11 * K[11, w] + A13_12 * K[12, w])
-        elif s == 14:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A14_0 * K[0, w] + A14_5 * K[5, w] + A14_6 * K[6, w] + A14_7 * K[7, w]
-                    + A14_10 * K[10, w] + A14_11 * K[11, w] + A14_12 * K[12, w] + A14_13 * K[13, w])
-        elif s == 15:
-            for w in range(xs.shape[0]):
-                xs[w] = y[w] + HW[w] * (A15_0 * K[0, w] + A15_5 * K[5, w] + A15_6 * K[6, w] + A15_7 * K[7, w]
-                    + A15_8 * K[8, w] + A15_12 * K[12, w] + A15_13 * K[13, w] + A15_14 * K[14, w])
-
-
-@njit(cache=True)
-def _interpolant(F, K, y, ynew, h, i):
-    """F[:, i], the coefficients of the order-7 interpolant of component i over a step of size h."""
-    dy = ynew[i] - y[i]
-    F[0, i] = dy
-    F[1, i] = h * K[0, i] - dy
-    F[2, i] = 2.0 * dy - h * (K[12, i] + K[0, i])
-    F[3, i] = h * (D3_0 * K[0, i] + D3_5 * K[5, i] + D3_6 * K[6, i] + D3_7 * K[7, i] + D3_8 * K[8, i] + D3_9 * K[9, i]
-        + D3_10 * K[10, i] + D3_11 * K[11, i] + D3_12 * K[12, i] + D3_13 * K[13, i] + D3_14 * K[14, i]
-        + D3_15 * K[15, i])
-    F[4, i] = h * (D4_0 * K[0, i] + D4_5 * K[5, i] + D4_6 * K[6, i] + D4_7 * K[7, i] + D4_8 * K[8, i] + D4_9 * K[9, i]
-        + D4_10 * K[10, i] + D4_11 * K[11, i] + D4_12 * K[12, i] + D4_13 * K[13, i] + D4_14 * K[14, i]
-        + D4_15 * K[15, i])
-    F[5, i] = h * (D5_0 * K[0, i] + D5_5 * K[5, i] + D5_6 * K[6, i] + D5_7 * K[7, i] + D5_8 * K[8, i] + D5_9 * K[9, i]
-        + D5_10 * K[10, i] + D5_11 * K[11, i] + D5_12 * K[12, i] + D5_13 * K[13, i] + D5_14 * K[14, i]
-        + D5_15 * K[15, i])
-    F[6, i] = h * (D6_0 * K[0, i] + D6_5 * K[5, i] + D6_6 * K[6, i] + D6_7 * K[7, i] + D6_8 * K[8, i] + D6_9 * K[9, i]
-        + D6_10 * K[10, i] + D6_11 * K[11, i] + D6_12 * K[12, i] + D6_13 * K[13, i] + D6_14 * K[14, i]
-        + D6_15 * K[15, i])
 
 
 @njit(cache=True)
@@ -635,15 +492,47 @@ def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, st
     """The three extra stages and the coefficients F of the order-7 interpolant."""
     nx = 2 * n
     nin = starts.shape[0] - 1
-    no_lanes = np.empty(0)
-    for s in range(13, 16):
-        _stage_state(s, h, no_lanes, y, K, xs)
-        ts = t + NODES[s] * h
-        if nin:
-            eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
-        _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, s * nx), _ptr(work, 0))
+    # stage 13
     for i in range(nx):
-        _interpolant(F, K, y, ynew, h, i)
+        xs[i] = y[i] + h * (A13_0 * K[0, i] + A13_6 * K[6, i] + A13_7 * K[7, i] + A13_8 * K[8, i] + A13_9 * K[9, i]
+                            + A13_10 * K[10, i] + A13_11 * K[11, i] + A13_12 * K[12, i])
+    ts = t + C13 * h
+    if nin:
+        eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+    _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 13 * nx), _ptr(work, 0))
+    # stage 14
+    for i in range(nx):
+        xs[i] = y[i] + h * (A14_0 * K[0, i] + A14_5 * K[5, i] + A14_6 * K[6, i] + A14_7 * K[7, i] + A14_10 * K[10, i]
+                            + A14_11 * K[11, i] + A14_12 * K[12, i] + A14_13 * K[13, i])
+    ts = t + C14 * h
+    if nin:
+        eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+    _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 14 * nx), _ptr(work, 0))
+    # stage 15
+    for i in range(nx):
+        xs[i] = y[i] + h * (A15_0 * K[0, i] + A15_5 * K[5, i] + A15_6 * K[6, i] + A15_7 * K[7, i] + A15_8 * K[8, i]
+                            + A15_12 * K[12, i] + A15_13 * K[13, i] + A15_14 * K[14, i])
+    ts = t + C15 * h
+    if nin:
+        eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+    _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 15 * nx), _ptr(work, 0))
+    for i in range(nx):
+        dy = ynew[i] - y[i]
+        F[0, i] = dy
+        F[1, i] = h * K[0, i] - dy
+        F[2, i] = 2.0 * dy - h * (K[12, i] + K[0, i])
+        F[3, i] = h * (D3_0 * K[0, i] + D3_5 * K[5, i] + D3_6 * K[6, i] + D3_7 * K[7, i] + D3_8 * K[8, i]
+            + D3_9 * K[9, i] + D3_10 * K[10, i] + D3_11 * K[11, i] + D3_12 * K[12, i] + D3_13 * K[13, i]
+            + D3_14 * K[14, i] + D3_15 * K[15, i])
+        F[4, i] = h * (D4_0 * K[0, i] + D4_5 * K[5, i] + D4_6 * K[6, i] + D4_7 * K[7, i] + D4_8 * K[8, i]
+            + D4_9 * K[9, i] + D4_10 * K[10, i] + D4_11 * K[11, i] + D4_12 * K[12, i] + D4_13 * K[13, i]
+            + D4_14 * K[14, i] + D4_15 * K[15, i])
+        F[5, i] = h * (D5_0 * K[0, i] + D5_5 * K[5, i] + D5_6 * K[6, i] + D5_7 * K[7, i] + D5_8 * K[8, i]
+            + D5_9 * K[9, i] + D5_10 * K[10, i] + D5_11 * K[11, i] + D5_12 * K[12, i] + D5_13 * K[13, i]
+            + D5_14 * K[14, i] + D5_15 * K[15, i])
+        F[6, i] = h * (D6_0 * K[0, i] + D6_5 * K[5, i] + D6_6 * K[6, i] + D6_7 * K[7, i] + D6_8 * K[8, i]
+            + D6_9 * K[9, i] + D6_10 * K[10, i] + D6_11 * K[11, i] + D6_12 * K[12, i] + D6_13 * K[13, i]
+            + D6_14 * K[14, i] + D6_15 * K[15, i])
 
 
 @njit(cache=True)
@@ -701,9 +590,9 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
     if en != 0:  # the rows written where it stopped (an event, a failure)
         ops, args, starts, nstack = prog
         X_out, _, stats, U_out, E_out = out
-        nin = starts.shape[0] - 1
-        _outputs(en, done[0], stats[3], t_out, X_out, p, ops, args, starts, np.empty(nstack), np.empty(max(1, nin)),
-                 np.empty(max(1, ops.shape[0])), U_out, E_out, sampling[0])
+        if stats[3] > done[0]:
+            _outputs(en, done[0], stats[3], t_out, X_out, p, ops, args, starts, np.empty(nstack),
+                     np.empty(max(1, starts.shape[0] - 1)), np.empty(max(1, ops.shape[0])), U_out, E_out, sampling[0])
     return status
 
 
@@ -724,7 +613,6 @@ def _dop853(model, x0, t_out, p, prog, control, events, sampling, out, done):
     ynew = np.empty(nx)
     xs = np.empty(nx)
     sc = np.empty(nx)
-    no_lanes = np.empty(0)
     nin = starts.shape[0] - 1
     u = np.empty(max(1, nin))
     held = np.zeros(max(1, nin))
@@ -820,18 +708,164 @@ def _dop853(model, x0, t_out, p, prog, control, events, sampling, out, done):
                 tnew = samples[si]
             h = tnew - t
             h_abs = abs(h)
-            failed = False
-            for s in range(1, 13):  # the stages; the 12th gives the solution and its derivative
-                _stage_state(s, h, no_lanes, y, K, xs)
-                ts = t + NODES[s] * h
-                if nin:
-                    eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
-                r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, s * nx), _ptr(work, 0))
-                nfev += 1
-                if r < 0.0 or r <= SINGULAR_RATIO:
-                    failed = True
-                    break
-            if failed:
+            # stage 1
+            for i in range(nx):
+                xs[i] = y[i] + h * (A1_0 * K[0, i])
+            ts = t + C1 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 1 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 2
+            for i in range(nx):
+                xs[i] = y[i] + h * (A2_0 * K[0, i] + A2_1 * K[1, i])
+            ts = t + C2 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 2 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 3
+            for i in range(nx):
+                xs[i] = y[i] + h * (A3_0 * K[0, i] + A3_2 * K[2, i])
+            ts = t + C3 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 3 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 4
+            for i in range(nx):
+                xs[i] = y[i] + h * (A4_0 * K[0, i] + A4_2 * K[2, i] + A4_3 * K[3, i])
+            ts = t + C4 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 4 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 5
+            for i in range(nx):
+                xs[i] = y[i] + h * (A5_0 * K[0, i] + A5_3 * K[3, i] + A5_4 * K[4, i])
+            ts = t + C5 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 5 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 6
+            for i in range(nx):
+                xs[i] = y[i] + h * (A6_0 * K[0, i] + A6_3 * K[3, i] + A6_4 * K[4, i] + A6_5 * K[5, i])
+            ts = t + C6 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 6 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 7
+            for i in range(nx):
+                xs[i] = y[i] + h * (A7_0 * K[0, i] + A7_3 * K[3, i] + A7_4 * K[4, i] + A7_5 * K[5, i] + A7_6 * K[6, i])
+            ts = t + C7 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 7 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 8
+            for i in range(nx):
+                xs[i] = y[i] + h * (A8_0 * K[0, i] + A8_3 * K[3, i] + A8_4 * K[4, i] + A8_5 * K[5, i] + A8_6 * K[6, i]
+                                    + A8_7 * K[7, i])
+            ts = t + C8 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 8 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 9
+            for i in range(nx):
+                xs[i] = y[i] + h * (A9_0 * K[0, i] + A9_3 * K[3, i] + A9_4 * K[4, i] + A9_5 * K[5, i] + A9_6 * K[6, i]
+                                    + A9_7 * K[7, i] + A9_8 * K[8, i])
+            ts = t + C9 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 9 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 10
+            for i in range(nx):
+                xs[i] = y[i] + h * (A10_0 * K[0, i] + A10_3 * K[3, i] + A10_4 * K[4, i] + A10_5 * K[5, i]
+                                    + A10_6 * K[6, i] + A10_7 * K[7, i] + A10_8 * K[8, i] + A10_9 * K[9, i])
+            ts = t + C10 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 10 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 11
+            for i in range(nx):
+                xs[i] = y[i] + h * (A11_0 * K[0, i] + A11_3 * K[3, i] + A11_4 * K[4, i] + A11_5 * K[5, i]
+                                    + A11_6 * K[6, i] + A11_7 * K[7, i] + A11_8 * K[8, i] + A11_9 * K[9, i]
+                                    + A11_10 * K[10, i])
+            ts = t + C11 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 11 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
+                if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
+                    live = True           # take this step again with the switches live
+                    continue
+                return _fail(r, ts, xs, info, stats, nfev, nstep, nrej, j)
+            # stage 12
+            for i in range(nx):
+                xs[i] = y[i] + h * (A12_0 * K[0, i] + A12_5 * K[5, i] + A12_6 * K[6, i] + A12_7 * K[7, i]
+                                    + A12_8 * K[8, i] + A12_9 * K[9, i] + A12_10 * K[10, i] + A12_11 * K[11, i])
+            ts = t + C12 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            r = _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 12 * nx), _ptr(work, 0))
+            nfev += 1
+            if r < 0.0 or r <= SINGULAR_RATIO:
                 if r < 0.0 and not live:  # a branch of a switch evaluated out of its region:
                     live = True           # take this step again with the switches live
                     continue
@@ -1036,8 +1070,18 @@ def _dop853(model, x0, t_out, p, prog, control, events, sampling, out, done):
             # same as last): they differ by the projection's correction, of the size of the local error,
             # so the stale derivative adds an error h L |correction|, of higher order than the step's
             _vf(proj, tnew, _ptr(ynew, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
-        if en != 0:  # the output stage of this step's outputs
-            done[0] = _outputs(en, done[0], j, t_out, X_out, p, ops, args, starts, stack, uo, mo, U_out, E_out, hold)
+        if en != 0:  # the output stage of this step's outputs, written out here (a call per step costs more)
+            for jj in range(done[0], j):
+                if nin:
+                    xk = X_out[jj]
+                    for i in range(nin):
+                        if hold[i]:
+                            uo[i] = U_out[jj, i]
+                        else:
+                            uo[i] = _run(ops, args, starts[i], starts[i + 1], t_out[jj], xk, uo, p, stack, mo, True)
+                            U_out[jj, i] = uo[i]
+                E_out[jj] = _en(en, t_out[jj], _ptr(X_out, jj * nx), _ptr(uo, 0), _ptr(p, 0))
+            done[0] = j
         stats[3] = j  # outputs done so far: read by a progress bar while this runs without the GIL
         if si < ns and tnew >= samples[si]:  # a sample instant: new held inputs, a new f there
             _sample(tnew, ynew, p, ops, args, starts, stack, u, modes, hold, held, which, hist, si)
@@ -1115,16 +1159,52 @@ def _lane_dense_coefficients(rc, L, nx, T, H, HW, y, ynew, K, F, xs, TS, P, PL, 
     """_dense_coefficients of dop853_lanes: every lane's, each of its own step."""
     W = nx * L
     nin = starts.shape[0] - 1
-    for s in range(13, 16):
-        _stage_state(s, 0.0, HW, y, K, xs)
-        for k in range(L):
-            TS[k] = T[k] + NODES[s] * H[k]
-        if nin:
-            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
-        _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, s * W), _ptr(work, 0), L)
+    # stage 13
+    for w in range(W):
+        xs[w] = y[w] + HW[w] * (A13_0 * K[0, w] + A13_6 * K[6, w] + A13_7 * K[7, w] + A13_8 * K[8, w]
+                                + A13_9 * K[9, w] + A13_10 * K[10, w] + A13_11 * K[11, w] + A13_12 * K[12, w])
+    for k in range(L):
+        TS[k] = T[k] + C13 * H[k]
+    if nin:
+        _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+    _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 13 * W), _ptr(work, 0), L)
+    # stage 14
+    for w in range(W):
+        xs[w] = y[w] + HW[w] * (A14_0 * K[0, w] + A14_5 * K[5, w] + A14_6 * K[6, w] + A14_7 * K[7, w]
+                                + A14_10 * K[10, w] + A14_11 * K[11, w] + A14_12 * K[12, w] + A14_13 * K[13, w])
+    for k in range(L):
+        TS[k] = T[k] + C14 * H[k]
+    if nin:
+        _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+    _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 14 * W), _ptr(work, 0), L)
+    # stage 15
+    for w in range(W):
+        xs[w] = y[w] + HW[w] * (A15_0 * K[0, w] + A15_5 * K[5, w] + A15_6 * K[6, w] + A15_7 * K[7, w]
+                                + A15_8 * K[8, w] + A15_12 * K[12, w] + A15_13 * K[13, w] + A15_14 * K[14, w])
+    for k in range(L):
+        TS[k] = T[k] + C15 * H[k]
+    if nin:
+        _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+    _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 15 * W), _ptr(work, 0), L)
     for i in range(nx):
         for k in range(L):
-            _interpolant(F, K, y, ynew, H[k], i * L + k)
+            w = i * L + k
+            dy = ynew[w] - y[w]
+            F[0, w] = dy
+            F[1, w] = H[k] * K[0, w] - dy
+            F[2, w] = 2.0 * dy - H[k] * (K[12, w] + K[0, w])
+            F[3, w] = H[k] * (D3_0 * K[0, w] + D3_5 * K[5, w] + D3_6 * K[6, w] + D3_7 * K[7, w] + D3_8 * K[8, w]
+                + D3_9 * K[9, w] + D3_10 * K[10, w] + D3_11 * K[11, w] + D3_12 * K[12, w] + D3_13 * K[13, w]
+                + D3_14 * K[14, w] + D3_15 * K[15, w])
+            F[4, w] = H[k] * (D4_0 * K[0, w] + D4_5 * K[5, w] + D4_6 * K[6, w] + D4_7 * K[7, w] + D4_8 * K[8, w]
+                + D4_9 * K[9, w] + D4_10 * K[10, w] + D4_11 * K[11, w] + D4_12 * K[12, w] + D4_13 * K[13, w]
+                + D4_14 * K[14, w] + D4_15 * K[15, w])
+            F[5, w] = H[k] * (D5_0 * K[0, w] + D5_5 * K[5, w] + D5_6 * K[6, w] + D5_7 * K[7, w] + D5_8 * K[8, w]
+                + D5_9 * K[9, w] + D5_10 * K[10, w] + D5_11 * K[11, w] + D5_12 * K[12, w] + D5_13 * K[13, w]
+                + D5_14 * K[14, w] + D5_15 * K[15, w])
+            F[6, w] = H[k] * (D6_0 * K[0, w] + D6_5 * K[5, w] + D6_6 * K[6, w] + D6_7 * K[7, w] + D6_8 * K[8, w]
+                + D6_9 * K[9, w] + D6_10 * K[10, w] + D6_11 * K[11, w] + D6_12 * K[12, w] + D6_13 * K[13, w]
+                + D6_14 * K[14, w] + D6_15 * K[15, w])
 
 
 @njit(cache=True)
@@ -1255,18 +1335,131 @@ def dop853_lanes(rc, n, X0, t_out, P, prog, control, X_out, STATS):
         for i in range(nx):
             for k in range(L):
                 HW[i * L + k] = H[k]
-        failed = False
-        for s in range(1, 13):  # the stages of every lane at once
-            _stage_state(s, 0.0, HW, y, K, xs)
-            for k in range(L):
-                TS[k] = T[k] + NODES[s] * H[k]
-            if nin:
-                _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
-            r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, s * W), _ptr(work, 0), L)
-            if r < EVENT_RATIO:
-                failed = True
-                break
-        if failed:
+        # stage 1
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A1_0 * K[0, w])
+        for k in range(L):
+            TS[k] = T[k] + C1 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 1 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 2
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A2_0 * K[0, w] + A2_1 * K[1, w])
+        for k in range(L):
+            TS[k] = T[k] + C2 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 2 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 3
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A3_0 * K[0, w] + A3_2 * K[2, w])
+        for k in range(L):
+            TS[k] = T[k] + C3 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 3 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 4
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A4_0 * K[0, w] + A4_2 * K[2, w] + A4_3 * K[3, w])
+        for k in range(L):
+            TS[k] = T[k] + C4 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 4 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 5
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A5_0 * K[0, w] + A5_3 * K[3, w] + A5_4 * K[4, w])
+        for k in range(L):
+            TS[k] = T[k] + C5 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 5 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 6
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A6_0 * K[0, w] + A6_3 * K[3, w] + A6_4 * K[4, w] + A6_5 * K[5, w])
+        for k in range(L):
+            TS[k] = T[k] + C6 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 6 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 7
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A7_0 * K[0, w] + A7_3 * K[3, w] + A7_4 * K[4, w] + A7_5 * K[5, w] + A7_6 * K[6, w])
+        for k in range(L):
+            TS[k] = T[k] + C7 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 7 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 8
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A8_0 * K[0, w] + A8_3 * K[3, w] + A8_4 * K[4, w] + A8_5 * K[5, w] + A8_6 * K[6, w]
+                                    + A8_7 * K[7, w])
+        for k in range(L):
+            TS[k] = T[k] + C8 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 8 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 9
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A9_0 * K[0, w] + A9_3 * K[3, w] + A9_4 * K[4, w] + A9_5 * K[5, w] + A9_6 * K[6, w]
+                                    + A9_7 * K[7, w] + A9_8 * K[8, w])
+        for k in range(L):
+            TS[k] = T[k] + C9 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 9 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 10
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A10_0 * K[0, w] + A10_3 * K[3, w] + A10_4 * K[4, w] + A10_5 * K[5, w]
+                                    + A10_6 * K[6, w] + A10_7 * K[7, w] + A10_8 * K[8, w] + A10_9 * K[9, w])
+        for k in range(L):
+            TS[k] = T[k] + C10 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 10 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 11
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A11_0 * K[0, w] + A11_3 * K[3, w] + A11_4 * K[4, w] + A11_5 * K[5, w]
+                                    + A11_6 * K[6, w] + A11_7 * K[7, w] + A11_8 * K[8, w] + A11_9 * K[9, w]
+                                    + A11_10 * K[10, w])
+        for k in range(L):
+            TS[k] = T[k] + C11 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 11 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
+            return 1
+        # stage 12
+        for w in range(W):
+            xs[w] = y[w] + HW[w] * (A12_0 * K[0, w] + A12_5 * K[5, w] + A12_6 * K[6, w] + A12_7 * K[7, w]
+                                    + A12_8 * K[8, w] + A12_9 * K[9, w] + A12_10 * K[10, w] + A12_11 * K[11, w])
+        for k in range(L):
+            TS[k] = T[k] + C12 * H[k]
+        if nin:
+            _lane_inputs(TS, P, ops, args, starts, stack, u1, U, lm, lh)
+        r = _rl(rc, _ptr(TS, 0), _ptr(xs, 0), _ptr(U, 0), _ptr(PL, 0), _ptr(K, 12 * W), _ptr(work, 0), L)
+        if r < EVENT_RATIO:
             return 1
         for w in range(W):
             ynew[w] = xs[w]
