@@ -16,7 +16,12 @@ import sympy
 import lagrangian as lg
 from lagrangian.numeric._cache import CACHE
 from lagrangian.numeric._cbackend import c_compiler
-from lagrangian.numeric._compiled import NOT_FINITE, SINGULAR_RATIO, NumericContract, NumericModel
+from lagrangian.numeric._compiled import (
+    NOT_FINITE,
+    SINGULAR_RATIO,
+    NumericContract,
+    NumericModel,
+)
 
 HAVE_C = importlib.util.find_spec("cffi") is not None and c_compiler() is not None
 BACKENDS = ["scipy", "numba"] + (["c"] if HAVE_C else [])
@@ -45,7 +50,7 @@ def hoop(**values) -> lg.Model:
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_every_backend_implements_the_contract_in_t_x_u_p(double, backend):
     nm = lg.compile(double, backend=backend)
-    assert isinstance(nm, NumericContract)
+    assert isinstance(nm, NumericContract) and lg.numeric.NumericContract is NumericContract
     portable = lg.compile(double, backend="scipy")
     rng = np.random.default_rng(3)
     p = nm.parameter_values
@@ -72,7 +77,8 @@ def test_one_failure_value_for_every_backend(backend):
     x = np.zeros(4)
     x[eqs.state_names.index("q2")] = -math.pi / 2
     qdd, ratio = nm.solve(0.0, x, [], nm.parameter_values)
-    assert ratio <= SINGULAR_RATIO and np.all(np.isnan(qdd)) and np.all(np.isnan(nm.rhs(0.0, x, [], nm.parameter_values)[2:]))
+    assert ratio <= SINGULAR_RATIO and np.all(np.isnan(qdd))
+    assert np.all(np.isnan(nm.rhs(0.0, x, [], nm.parameter_values)[2:]))
     root = lg.derive(lg.Model("root", coordinates=["x"], parameters={"k": 1.0}, T="x_dot**2/2", V="k*x*sqrt(x)"))
     nm = lg.compile(root, backend=backend)
     qdd, ratio = nm.solve(0.0, [-1.0, 0.0], [], [1.0])  # sqrt of a negative number
@@ -178,7 +184,8 @@ def test_continuation_of_the_bead_on_a_rotating_hoop(exact):
             assert b.stable[O > critical + 1e-6].all()
     assert sides == 2
     point = sweep.to_dict()["branches"][0][0]
-    assert set(point) == {"param", "coordinates", "stable", "multipliers"} and set(point["multipliers"]) == {"lambda_hoop"}
+    assert set(point) == {"param", "coordinates", "stable", "multipliers"}
+    assert set(point["multipliers"]) == {"lambda_hoop"}
 
 
 def test_continuation_of_the_cartesian_pendulum_in_g(cartesian):

@@ -282,7 +282,8 @@ def _exact_branches(problem: StationaryProblem, settings: list[Setting], paramet
     unique: list[Branch] = []
     for b in branches:
         if not any(len(b.points) == len(o.points) and all(
-                p.param == r.param and same_point(_z(problem, p), _z(problem, r), problem.angles) for p, r in zip(b.points, o.points))
+                p.param == r.param and same_point(_z(problem, p), _z(problem, r), problem.angles)
+                for p, r in zip(b.points, o.points))
                 for o in unique):
             unique.append(b)
     # check on a few values that no equilibrium is missing
