@@ -162,9 +162,10 @@ class _Emit:
              doc: str = ""):
         """A helper function; `args`: (name, C type); `doubles`, `ints`: the C locals."""
         if self.lang == "py":
-            # error_model="numpy": no ZeroDivisionError test at each division (every divisor is checked
-            # positive first), as in C
-            self.lines += ["", "", '@njit(cache=True, error_model="numpy")',
+            # error_model="numpy": no ZeroDivisionError test at each division (each divisor is tested
+            # positive first, as in C); inline="always": the sizes become constants in rhs and project,
+            # whose loops LLVM can then unroll
+            self.lines += ["", "", '@njit(cache=True, error_model="numpy", inline="always")',
                            f"def {name}({', '.join(a for a, _ in args)}):"]
             self.depth = 1
             if doc:
