@@ -333,6 +333,7 @@ class RawRun:
     u: np.ndarray | None = None  # the output stage: the inputs at the output times (None: not computed)
     energy: np.ndarray | None = None  # and the Jacobi integral there
 
+
 def stage_table() -> tuple:
     """Nothing any more: the kernels write DOP853's stages out with their coefficients as named
     constants (kept for callers that passed ``*stage_table()``)."""
@@ -471,13 +472,20 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     watched = (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
     held = (sampling.hold, sampling.samples, sampling.which, hist)
 
+    p = _nonempty(np.ascontiguousarray(p, dtype=float))
+    done = np.zeros(1, np.int64)
+
     def call():
-        return kernels().dop853(model, np.array(x0, dtype=float), times, _nonempty(np.ascontiguousarray(p, dtype=float)),
-                                program, control, watched, held, (X, info, stats, U, E))
+        return kernels().dop853(model, np.array(x0, dtype=float), times, p, program, control, watched, held,
+                                (X, info, stats, U, E, done))
 
     status = call() if progress is False else _with_progress(call, stats, len(times), progress,
                                                               lambda: not compiled(kernels().dop853))
     k = int(stats[3])
+    if outputs and k > done[0]:  # the rows written where it stopped: their output stage
+        d = int(done[0])
+        kernels().energies(energy, times[d:k], X[d:k], p, prog.ops, prog.args, prog.starts, prog.nstack, E[d:k], U[d:k],
+                           sampling.hold)
     m = int(ev_n[0]) if nev else 0
     order = np.argsort(ev_t[:m], kind="stable") if m else slice(None)
     return RawRun(int(status), times[:k], X[:k], float(info[0]), float(info[1]), info[2:].copy(),

@@ -26,9 +26,10 @@ The integrators take their problem as a few small tuples (see _kernels.py: Model
 Events, Sampling, Outputs), unpacked by name at the top of each kernel: numba types a plain tuple as
 fast as its fields (a NamedTuple costs its dispatcher about 6 us more a call). DOP853 is Hairer,
 Norsett and Wanner's 8(5,3) pair with its order-7 dense output; its coefficients are the named
-constants below, equal to SciPy's table (tests/test_integrators.py checks it), so that this
-integrator and SciPy's ``solve_ivp(method="DOP853")`` take the same steps; the step-size control
-follows SciPy's too.
+constants below, equal to SciPy's table (tests/test_kernels.py checks it), so that this integrator
+and SciPy's ``solve_ivp(method="DOP853")`` take the same steps; the step-size control follows
+SciPy's too. Its stages are written out, the zero coefficients left out, as in Hairer's dop853.f
+(a loop over the stages with a branch per stage costs a tenth of the run).
 """
 
 import math
@@ -461,7 +462,7 @@ def _fail(r, t, x, info, stats, nfev, nstep, nrej, j):
     return 3 if r < 0.0 else 2
 
 
-@njit(cache=True, inline="always")  # (a call per output: no call, no reference counts)
+@njit(cache=True)
 def _dense_at(t, h, y, F, tq, out, k, L):
     """The order-7 interpolant of the step from (t, y) of size h, at tq: out[i] for the
     components y[i * L + k] (all of y for k = 0, L = 1; lane k in dop853_lanes),
@@ -480,7 +481,7 @@ def _dense_at(t, h, y, F, tq, out, k, L):
         out[i] = y[w] + v
 
 
-@njit(cache=True, inline="always")  # (a call per output: no call, no reference counts)
+@njit(cache=True)
 def _dense(t, h, y, F, tq, out):
     """The order-7 interpolant of the step from (t, y) of size h, at tq."""
     _dense_at(t, h, y, F, tq, out, 0, 1)
@@ -558,7 +559,7 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
     size of the work array its rhs needs, 0: the default n * n + 2 n; energy: 0 for no output stage);
     prog = (ops, args, starts, nstack), the inputs' programs; control = (t0, rtol, atol, max_step,
     first_step); events = (ops, args, starts, terminal, ev_t, ev_k, ev_x, ev_n); sampling = (hold,
-    samples, which, hist); out = (X_out, info, stats, U_out, E_out).
+    samples, which, hist); out = (X_out, info, stats, U_out, E_out, done).
 
     A constrained model's projection project(t, x, u, p, work, drift) is called on the state after
     every accepted step and on the outputs of the step (the step's last derivative is kept: see
@@ -566,8 +567,9 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
 
     The output stage: with an energy address, U_out[j] and E_out[j] receive the inputs and the
     Jacobi integral at each output (t_out[j], X_out[j]), evaluated in the loop as the outputs are
-    written (projected first), without a second pass (the sampled inputs' values are the caller's,
-    who then passes no energy address).
+    written (projected first), without a second pass; done[0] counts them (the rows written where
+    a run stops, at an event or a failure, are left to the caller: energies; the sampled inputs'
+    values are the caller's, who then passes no energy address).
 
     Returns the status (see lagrangian.numeric._kernels.STATUS); unless 0, info = [t, inertia
     measure (or, status 4, the event's index), x...] where it stopped; stats = [nfev, accepted
@@ -584,27 +586,12 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
     the switches live, under the error control alone. Sampled inputs (hold[i] = 1) are
     evaluated at the times `samples` (those with which[s, i]) and held in between; no step
     crosses a sample time; hist[s] receives the held values at samples[s]."""
-    done = np.zeros(1, np.int64)
-    status = _dop853(model, x0, t_out, p, prog, control, events, sampling, out, done)
-    en = model[4]
-    if en != 0:  # the rows written where it stopped (an event, a failure)
-        ops, args, starts, nstack = prog
-        X_out, _, stats, U_out, E_out = out
-        if stats[3] > done[0]:
-            _outputs(en, done[0], stats[3], t_out, X_out, p, ops, args, starts, np.empty(nstack),
-                     np.empty(max(1, starts.shape[0] - 1)), np.empty(max(1, ops.shape[0])), U_out, E_out, sampling[0])
-    return status
-
-
-@njit(cache=True)
-def _dop853(model, x0, t_out, p, prog, control, events, sampling, out, done):
-    """dop853's integration; done[0] receives how many outputs have had their output stage."""
     rc, n, proj, nwork, en = model
     ops, args, starts, nstack = prog
     t0, rtol, atol, max_step, first_step = control
     eops, eargs, estarts, eterm, ev_t, ev_k, ev_x, ev_n = events
     hold, samples, which, hist = sampling
-    X_out, info, stats, U_out, E_out = out
+    X_out, info, stats, U_out, E_out, done = out
     nx = 2 * n
     nout = t_out.shape[0]
     K = np.empty((16, nx))
@@ -1122,7 +1109,7 @@ def _single_run(model, x0, t_out, p, prog, control, X_out, info, stats):
               np.zeros(1, np.int64), np.zeros((1, 2 * n)), np.zeros(1, np.int64))
     sampling = (np.zeros(max(1, nin), np.int64), np.zeros(0), np.zeros((1, 1), np.int64), np.zeros((1, max(1, nin))))
     return dop853((model[0], n, model[2], model[3], 0), x0, t_out, p, prog, control, events, sampling,
-                  (X_out, info, stats, np.zeros((1, 1)), np.zeros(1)))
+                  (X_out, info, stats, np.zeros((1, 1)), np.zeros(1), np.zeros(1, np.int64)))
 
 
 @njit(cache=True)
