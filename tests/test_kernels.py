@@ -65,7 +65,7 @@ def test_the_tableau_s_invariants():
 def test_the_integrators_take_a_few_small_tuples():
     K = kernels()
     assert len(inspect.signature(K.dop853.py_func).parameters) == 9  # was 35
-    assert len(inspect.signature(K.dop853_batch.py_func).parameters) == 7  # was 21
+    assert len(inspect.signature(K.dop853_batch.py_func).parameters) == 10  # was 21
     assert len(inspect.signature(K.variational.py_func).parameters) == 9  # was 16
 
 

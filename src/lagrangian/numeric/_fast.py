@@ -524,9 +524,9 @@ def run_batch(rc: int, rcl: int | None, n: int, lanes: int, X0, times, P, prog, 
     program = (prog.ops, prog.args, prog.starts, prog.nstack)
     control = (0.0, float(rtol), float(atol), float(max_step), 0.0)
     if rcl:
-        kernels().dop853_batch_lanes(model, rcl, lanes, X0, times, P, program, control, (X, INFO, STATS, STATUS_))
+        kernels().dop853_batch_lanes(model, rcl, lanes, X0, times, P, program, control, X, INFO, STATS, STATUS_)
     else:
-        kernels().dop853_batch(model, X0, times, P, program, control, (X, INFO, STATS, STATUS_))
+        kernels().dop853_batch(model, X0, times, P, program, control, X, INFO, STATS, STATUS_)
 
 
 def inputs_and_energy(cm: CompiledModel, times, X, p, prog, held=None, run: RawRun | None = None

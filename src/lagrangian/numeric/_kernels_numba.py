@@ -1102,28 +1102,23 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
 # ---------------------------------------------------------------------------------------- batches
 @njit(cache=True)
 def _single_run(model, x0, t_out, p, prog, control, X_out, info, stats):
-    """dop853 of one run of a batch: no events, no sampled inputs, no output stage."""
+    """dop853 of one run of a batch: no events, no sampled inputs, no output stage (the same types as
+    run_dop853's call, so that numba compiles dop853 once)."""
     n = model[1]
     nin = prog[2].shape[0] - 1
     events = (np.zeros(1, np.int64), np.zeros(1), np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1),
               np.zeros(1, np.int64), np.zeros((1, 2 * n)), np.zeros(1, np.int64))
     sampling = (np.zeros(max(1, nin), np.int64), np.zeros(0), np.zeros((1, 1), np.int64), np.zeros((1, max(1, nin))))
-    return dop853((model[0], n, model[2], model[3], 0), x0, t_out, p, prog, control, events, sampling,
+    return dop853(model, x0, t_out, p, prog, control, events, sampling,  # model: its energy address 0
                   (X_out, info, stats, np.zeros((1, 1)), np.zeros(1), np.zeros(1, np.int64)))
 
 
-@njit(cache=True)
-def dop853_batch(model, X0, t_out, P, prog, control, results):
-    """dop853 for each row of X0 (initial states) and P (parameters), in parallel; model = (rhs, n,
-    project, nwork, 0) as dop853 takes it; results = (X_out, INFO, STATS, STATUS), a row per run.
-    (The parallel loop takes the result arrays one by one: numba's parallel loops lose the writes
-    to an array unpacked from a tuple argument.)"""
-    X_out, INFO, STATS, STATUS = results
-    _batch(model, X0, t_out, P, prog, control, X_out, INFO, STATS, STATUS)
-
-
 @njit(cache=True, parallel=True)
-def _batch(model, X0, t_out, P, prog, control, X_out, INFO, STATS, STATUS):
+def dop853_batch(model, X0, t_out, P, prog, control, X_out, INFO, STATS, STATUS):
+    """dop853 for each row of X0 (initial states) and P (parameters), in parallel; model = (rhs, n,
+    project, nwork, 0) as dop853 takes it; X_out, INFO, STATS and STATUS: a row per run. (The result
+    arrays come one by one, not as a tuple: numba's parallel loops lose the writes to an array
+    unpacked from a tuple argument.)"""
     for b in prange(X0.shape[0]):
         STATUS[b] = _single_run(model, X0[b], t_out, P[b], prog, control, X_out[b], INFO[b], STATS[b])
 
@@ -1511,18 +1506,12 @@ def dop853_lanes(rc, n, X0, t_out, P, prog, control, X_out, STATS):
         STATS[k, 3] = J[k]
     return 0
 
-@njit(cache=True)
-def dop853_batch_lanes(model, rcl, lanes, X0, t_out, P, prog, control, results):
+@njit(cache=True, parallel=True)
+def dop853_batch_lanes(model, rcl, lanes, X0, t_out, P, prog, control, X_out, INFO, STATS, STATUS):
     """dop853_batch in blocks of `lanes` runs integrated together by dop853_lanes (rcl: the
     address of rhs_lanes for blocks of `lanes`), in parallel. The runs left over after the
     last full block, and a block that dop853_lanes hands back, are run one by one by dop853
     (model: as dop853_batch's), so that each of them stops or fails as alone."""
-    X_out, INFO, STATS, STATUS = results
-    _batch_lanes(model, rcl, lanes, X0, t_out, P, prog, control, X_out, INFO, STATS, STATUS)
-
-
-@njit(cache=True, parallel=True)
-def _batch_lanes(model, rcl, lanes, X0, t_out, P, prog, control, X_out, INFO, STATS, STATUS):
     n = model[1]
     B = X0.shape[0]
     for b in prange((B + lanes - 1) // lanes):
