@@ -1,5 +1,16 @@
+import sys
+from pathlib import Path
+
 import sympy
 import pytest
+
+# The tests live in folders that mirror the package (tests/numeric/ for lagrangian/numeric, ...). Some
+# import helpers of others across folders (test_crosscheck_sympy.check, serve_support.Server): every folder is
+# on the import path, as pytest puts each test file's own. The folders have no __init__.py, so the file
+# names are unique across them (pytest says so when they are not).
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(d) for d in sorted(HERE.iterdir())
+                if d.is_dir() and d.name not in ("models", "__pycache__") and not d.name.startswith(".")]
 
 pytest_plugins = ["pytester"]  # tests/test_quick_selection.py runs pytest on small projects
 

@@ -17,7 +17,7 @@ when the tests are collected, so a command added to a page is run without touchi
 
 `lagrangian serve` runs until Ctrl-C: each one shown runs with `--no-browser --port 0`, gets SIGINT
 (Ctrl-C) after SERVE_SECONDS, and must have printed its address and stopped cleanly (the playground's
-own tests, tests/test_serve_*.py, drive the real server and page).
+own tests, tests/serve/test_serve_*.py, drive the real server and page).
 
 A command that writes an .mp4 needs ffmpeg: it must succeed where ffmpeg is installed, and each is
 also run with ffmpeg off PATH, where it must exit 2 with one line that says how to install it.
@@ -61,7 +61,7 @@ EXCLUDED_PYTHON = {
     "sys = lin.to_control()": "python-control is the optional `control` extra",
     "from dask.distributed import Client": "Dask is the optional `dask` extra (the whole block uses its client)",
     "from fmpy import simulate_fmu":
-        "fmpy is the optional `fmu` extra (tests/test_export.py runs the FMUs with it)",
+        "fmpy is the optional `fmu` extra (tests/export/test_export.py runs the FMUs with it)",
 }
 
 #: Text of a shell command replaced before it runs, with the reason.

@@ -26,7 +26,7 @@ The integrators take their problem as a few small tuples (see _kernels.py: Model
 Events, Sampling, Outputs), unpacked by name at the top of each kernel: numba types a plain tuple as
 fast as its fields (a NamedTuple costs its dispatcher about 6 us more a call). DOP853 is Hairer,
 Norsett and Wanner's 8(5,3) pair with its order-7 dense output; its coefficients are the named
-constants below, equal to SciPy's table (tests/test_kernels.py checks it), so that this integrator
+constants below, equal to SciPy's table (tests/numeric/test_kernels.py checks it), so that this integrator
 and SciPy's ``solve_ivp(method="DOP853")`` take the same steps; the step-size control follows
 SciPy's too. Its stages are written out, the zero coefficients left out, as in Hairer's dop853.f
 (a loop over the stages with a branch per stage costs a tenth of the run).

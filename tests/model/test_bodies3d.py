@@ -174,7 +174,7 @@ def test_robot_arm_with_motor_torques_against_lagranges_method():
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from derive_arm import sympy_arm  # the arm the benchmark times, built with SymPy's mechanics
 
     q, bodies, loads, N, _, _ = sympy_arm(3, "lagrange")
@@ -290,7 +290,7 @@ def test_the_top_of_the_model_files_page_is_a_model_file():
     import re
     from pathlib import Path
 
-    page = (Path(__file__).resolve().parents[1] / "docs" / "model-files.md").read_text()
+    page = (Path(__file__).resolve().parents[2] / "docs" / "model-files.md").read_text()
     (block,) = [b for b in re.findall(r"```toml\n(.*?)```", page, re.S) if "[[frames]]" in b]
     eqs = lg.derive(lg.io.loads_model(block))
     assert eqs.input_matrix[:, 0] == sp.Matrix([0, sp.cos(S("theta")), 1])

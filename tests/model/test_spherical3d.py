@@ -4,7 +4,7 @@ constraint, its multiplier the rod's tension.
 Checked against closed forms: two small-oscillation modes at sqrt(g/l) about the hanging
 position; the conical pendulum (omega^2 = g/(l cos theta0), tension m g / cos theta0) staying on
 its circle; the tension m (|v|^2 - g z)/l along any motion; the constraint's drift at round-off
-over a long run; and its equations equal to sympy.physics.mechanics' (tests/test_constraints_sympy.py).
+over a long run; and its equations equal to sympy.physics.mechanics' (tests/equations/test_constraints_sympy.py).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ import sympy
 
 from lagrangian.equations import _search as search
 
-SOURCE = Path(__file__).resolve().parents[1] / "src" / "lagrangian"
+SOURCE = Path(__file__).resolve().parents[2] / "src" / "lagrangian"
 
 
 # ----------------------------------------------------------------------------- angles

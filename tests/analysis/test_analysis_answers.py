@@ -18,7 +18,7 @@ from lagrangian.analysis import equilibria, linearize
 from lagrangian.analysis._linearize import vector_names
 from lagrangian.cli import main
 
-ARM2 = (pathlib.Path(__file__).parent / "models" / "arm2.toml").read_text()
+ARM2 = (pathlib.Path(__file__).parents[1] / "models" / "arm2.toml").read_text()
 
 #: The arm's equilibria: hanging (th1 = -pi/2) or upright, the forearm straight or folded back.
 ARM2_EQUILIBRIA = [(-math.pi / 2, 0.0, True), (-math.pi / 2, math.pi, False), (math.pi / 2, 0.0, False),

@@ -701,7 +701,7 @@ def test_missing_model_argument_and_unknown_command(capsys):
 def test_simulate_massless_cart_reaches_singular_configuration(capsys):
     rc, out, err = run_cli(capsys, "simulate", "cart-pendulum-massless", "--t-end", "5")
     assert rc == 1, err
-    # the rows up to the failure are kept, marked as partial (tests/test_files_safety.py)
+    # the rows up to the failure are kept, marked as partial (tests/io/test_files_safety.py)
     assert out.startswith("# partial: the mass matrix became singular at t = ")
     assert "were written to stdout, marked as partial in the CSV's first line" in err
     assert "Traceback" not in err
@@ -838,7 +838,7 @@ def test_failed_simulation_keeps_an_existing_output_file(capsys, tmp_path):
     rc, out, err = run_cli(capsys, "simulate", "cart-pendulum-massless", "--t-end", "5", "--output", str(target))
     assert rc == 1
     assert target.read_text() == "precious\n"
-    # the rows before the failure go beside it, marked as partial (tests/test_files_safety.py)
+    # the rows before the failure go beside it, marked as partial (tests/io/test_files_safety.py)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv", "out.partial.csv"]
     assert (tmp_path / "out.partial.csv").read_text().startswith("# partial: the mass matrix became singular")
 

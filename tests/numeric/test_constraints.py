@@ -180,7 +180,7 @@ def test_errors_of_constrained_models():
     with pytest.raises(lg.ModelError, match=r"the configuration x = 1, y = 0 is not at rest: the constrained "
                                             r"accelerations there are .*y_ddot"):
         lg.linearize(cartesian, {"x": 1.0, "y": 0.0})
-    # events are watched (tests/test_constrained_simulation.py): the bob crosses x = 0 every half period
+    # events are watched (tests/numeric/test_constrained_simulation.py): the bob crosses x = 0 every half period
     tr = lg.simulate(cartesian, t_end=3.0, initial={"x": 0.6}, events={"e": "x"}, rtol=1e-11, atol=1e-11)
     crossings = tr.events["e"]["t"]
     assert len(crossings) == 2 and np.allclose(tr.events["e"]["x"][:, 0], 0.0, atol=1e-12)
@@ -229,7 +229,7 @@ def test_every_refusal_of_a_constrained_model_says_what_to_do_instead(tmp_path):
     with pytest.raises(lg.ModelError, match=r"method 'variational' does not integrate constrained models: use "
                                             r"method='DOP853'"):
         lg.simulate(cartesian, t_end=1.0, method="variational")
-    # sampled inputs are held (tests/test_constrained_simulation.py); this model has no input to sample
+    # sampled inputs are held (tests/numeric/test_constrained_simulation.py); this model has no input to sample
     with pytest.raises(lg.ModelError, match=r"sample_time is given but the model has no inputs to sample"):
         lg.simulate(cartesian, t_end=1.0, sample_time=0.1)
 

@@ -485,7 +485,7 @@ def _doc_blocks():
     import re
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "docs" / "analysis.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "analysis.md").read_text()
     return text, re.findall(r"```(\w*)\n(.*?)```", text, re.S)
 
 

@@ -93,7 +93,7 @@ def test_the_fmi_headers_ship_with_their_license_in_the_package():
 
     import lagrangian.export
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     if not (root / "pyproject.toml").exists():
         pytest.skip("not a source checkout: no pyproject.toml")
     patterns = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["lagrangian"]
