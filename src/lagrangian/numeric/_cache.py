@@ -26,8 +26,11 @@ _LOCK = threading.Lock()
 
 def per_equations(equations: Equations) -> dict:
     """The dict of what is cached for `equations` (created empty on first use)."""
-    with _LOCK:
-        return CACHE.setdefault(equations, {})
+    per = CACHE.get(equations)
+    if per is None:
+        with _LOCK:
+            per = CACHE.setdefault(equations, {})
+    return per
 
 
 def cached(equations: Equations, key: str, build: Callable[[], T]) -> T:

@@ -16,6 +16,7 @@ from .._limits import MAX_ROWS, MAX_STEPS, number_problem
 from .._util import did_you_mean, named_values, read_only
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError, Status
 from ..model import Model
+from ._cache import cached, per_equations
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations, raise_on_failure
 from ._fast import BACKENDS, CompiledModel
 from ._options import SimulationOptions
@@ -43,16 +44,34 @@ def output_times(t_end: float, dt: float) -> np.ndarray:
 
 class _Names:
     """The names and parameter values of a model, for checking the arguments before anything is
-    compiled."""
+    compiled (one per Equations: :func:`_names`)."""
 
     def __init__(self, equations: Equations):
         self.equations = equations
-        self.state_names = equations.state_names
+        self.states = (*equations.coordinates, *equations.velocities)
+        self.state_names = tuple(s.name for s in self.states)
         self.input_names = tuple(u.name for u in equations.inputs)
         self.parameter_names = tuple(p.name for p in equations.parameters)
-        self.parameter_values = np.array([np.nan if v is None else v for v in equations.parameters.values()],
-                                         dtype=float)
+        self.parameter_values = read_only([np.nan if v is None else v for v in equations.parameters.values()], float)
         self.n = equations.n
+
+
+def _names(equations: Equations) -> _Names:
+    """The _Names of `equations`, built once (the one cache)."""
+    return cached(equations, "simulate.names", lambda: _Names(equations))
+
+
+def _last(equations: Equations, key: str, arguments, build):
+    """``build()`` for these `arguments`, kept per Equations until other arguments come: what
+    simulate() would otherwise redo on every call for the same model (the output times, the inputs'
+    programs)."""
+    per = per_equations(equations)
+    hit = per.get(key)
+    if hit is not None and hit[0] == arguments:
+        return hit[1]
+    value = build()
+    per[key] = (arguments, value)
+    return value
 
 
 def requested_times(t_end: float, dt: float, t_eval=None) -> np.ndarray:
@@ -96,7 +115,7 @@ def _as_numeric(system):
     if isinstance(system, Model):
         system = derive(system)
     if isinstance(system, Equations):
-        return _Names(system)
+        return _names(system)
     raise TypeError(f"simulate() expects a Model, Equations or NumericModel, got {type(system).__name__}")
 
 
@@ -461,8 +480,12 @@ def _prepare(nm, opts: SimulationOptions) -> _Run:
     problems += _work_problems(opts.t_end, opts.dt, opts.t_eval, step, name)
     if problems:
         raise ModelError(problems)
-    return _Run(solver, requested_times(opts.t_end, opts.dt, opts.t_eval), p, x0, u_of, u_exprs, sampling,
-                event_exprs)
+    if opts.t_eval is None:  # the same grid as the last run's, as a rule (read-only, shared)
+        times = _last(eq, "simulate.times", (float(opts.t_end), float(opts.dt)),
+                      lambda: read_only(output_times(float(opts.t_end), float(opts.dt))))
+    else:
+        times = requested_times(opts.t_end, opts.dt, opts.t_eval)
+    return _Run(solver, times, p, x0, u_of, u_exprs, sampling, event_exprs)
 
 
 def _simulate_scipy(nm: NumericModel, run: _Run, opts: SimulationOptions) -> Trajectory:
@@ -667,7 +690,7 @@ def _compiled_model(nm, backend: str, method: "str | Solver", u_exprs):
             if u_exprs is None:
                 raise ModelError(_CALLABLE_INPUT)
             return nm
-        nm = _Names(nm.equations)
+        nm = _names(nm.equations)
     from ._codegen import Unsupported
     from ._inputs import NotCompilable
 
@@ -683,10 +706,12 @@ def _compiled_model(nm, backend: str, method: "str | Solver", u_exprs):
 
 
 def _input_programs(eq: Equations, u_exprs):
-    """The compiled programs of the inputs (expressions of t, the state and the parameters)."""
+    """The compiled programs of the inputs (expressions of t, the state and the parameters), kept
+    for the next run with the same inputs."""
     from ._inputs import programs
 
-    return programs(u_exprs, eq.t, list(eq.parameters), states=(*eq.coordinates, *eq.velocities))
+    return _last(eq, "simulate.inputs", tuple(u_exprs), lambda: programs(
+        u_exprs, eq.t, list(eq.parameters), states=_names(eq).states))
 
 
 _CALLABLE_INPUT = ("an input is a Python function, which compiled code cannot call: give it as an expression "
@@ -699,6 +724,8 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
     from ..errors import ExpressionError
     from ..model._expr import parse_expression
 
+    if not events and not stop_on:
+        return {}
     events = dict(events or {})
     eq = nm.equations
     names = {"t": eq.t, **{s.name: s for s in (*eq.coordinates, *eq.velocities, *eq.inputs)},

@@ -86,8 +86,8 @@ class Trajectory:
         if self.energy is not None:
             object.__setattr__(self, "energy", read_only(self.energy, float))
         if self.multipliers is not None:
-            object.__setattr__(self, "multipliers", read_only(np.reshape(self.multipliers,
-                                                                       (len(self.t), len(self.multiplier_names))), float))
+            shape = (len(self.t), len(self.multiplier_names))
+            object.__setattr__(self, "multipliers", read_only(np.reshape(self.multipliers, shape), float))
 
     @property
     def n(self) -> int:
@@ -250,18 +250,29 @@ def run_trajectory(equations, t, x, u, p, *, energy=None, stats: dict, status, m
     name and ``stats["status"]`` (a :class:`~lagrangian.errors.Status`) from `equations`, the
     parameter values `p` and the run's `status`; `message` defaults to the status's."""
     from ..errors import Status
+    from ._cache import cached
 
     status = None if status is None else Status.of(status)  # None: a failed run's rows (see `failure`)
-    name = equations.energy_name
+    names = cached(equations, "trajectory.names", lambda: _Names(equations))
+    name = names.energy_name
     stats = {**stats, "status": status} if status is not None else dict(stats)
     return Trajectory(
-        t=t, x=x, state_names=tuple(equations.state_names), u=u,
-        input_names=tuple(s.name for s in equations.inputs),
+        t=t, x=x, state_names=names.state_names, u=u, input_names=names.input_names,
         energy=None if name is None or energy is None else np.asarray(energy, float), energy_name=name,
-        conservative=equations.is_conservative,
-        parameters=dict(zip((s.name for s in equations.parameters), map(float, p))),
+        conservative=names.conservative, parameters=dict(zip(names.parameter_names, map(float, p))),
         nfev=int(stats.get("nfev", 0)),
         message=message if message is not None else getattr(status, "message", f"status {status}"),
         stats=stats, events=events or {}, model=equations.model, multipliers=multipliers,
-        multiplier_names=tuple(m.name for m in equations.multipliers) if multipliers is not None else (),
-        failure=failure)
+        multiplier_names=names.multiplier_names if multipliers is not None else (), failure=failure)
+
+
+class _Names:
+    """What every Trajectory of one Equations object shares (run_trajectory builds it once)."""
+
+    def __init__(self, equations):
+        self.state_names = tuple(equations.state_names)
+        self.input_names = tuple(s.name for s in equations.inputs)
+        self.energy_name = equations.energy_name
+        self.conservative = equations.is_conservative
+        self.parameter_names = tuple(s.name for s in equations.parameters)
+        self.multiplier_names = tuple(m.name for m in equations.multipliers)
