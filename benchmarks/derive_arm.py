@@ -46,7 +46,7 @@ def sympy_arm(n: int, method: str = "kane"):
     N = me.ReferenceFrame("N")
     O = me.Point("O")
     O.set_vel(N, 0)
-    frames, joints, bodies, loads, kd = [], [], [], [], []
+    frames, bodies, loads, kd = [], [], [], []
     parent, joint = N, O
     for k in range(n):
         A = parent.orientnew(f"A{k + 1}", "Axis", (q[k], getattr(parent, axes[k])))

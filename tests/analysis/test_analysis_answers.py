@@ -101,8 +101,8 @@ def test_exact_solution_depends_on_a_count_of_work(arm2, arm2_found, monkeypatch
     monkeypatch.setattr(stationary, "EXACT_CALL_BUDGET", 100_000)
     found = equilibria(arm2)
     assert len(found) == 4 and all(e.exact is None for e in found)
-    assert found.notes == (f"found by a numerical search from 76 starting points, SymPy not having solved for the "
-                           f"equilibria: there may be others",)
+    assert found.notes == ("found by a numerical search from 76 starting points, SymPy not having solved for the "
+                           "equilibria: there may be others",)
 
 
 @pytest.mark.slow

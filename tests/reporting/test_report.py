@@ -9,14 +9,13 @@ import re
 import shutil
 import subprocess
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import pytest
 import sympy
 
 import lagrangian as lg
 from lagrangian.cli import main
-from lagrangian.reporting import Math, Paragraph, Report, Table, format_of
+from lagrangian.reporting import Paragraph, Report, Table, format_of
 
 S = sympy.Symbol
 q1, q2, q1d, q2d, q1dd, q2dd = (S(n) for n in ("q1", "q2", "q1_dot", "q2_dot", "q1_ddot", "q2_ddot"))
@@ -158,7 +157,7 @@ def test_rotating_pendulum_shows_preumonts_centrifugal_potential():
 
 def test_dampers_springs_bodies_and_the_linear_form():
     rep = lg.report("mck-elements", equilibria=False)
-    x1, x2, x1d, x2d = S("x1"), S("x2"), S("x1_dot"), S("x2_dot")
+    x1d, x2d = S("x1_dot"), S("x2_dot")
     c1, c2, k1, k2 = S("c1"), S("c2"), S("k1"), S("k2")
     assert same(rep.expression("D"), c1 * x1d**2 / 2 + c2 * (x2d - x1d) ** 2 / 2)
     assert same(rep.expression("linear.K"), sympy.Matrix([[k1 + k2, -k2], [-k2, k2]]))

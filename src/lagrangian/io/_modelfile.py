@@ -131,7 +131,6 @@ from .._util import closest, did_you_mean
 from ..errors import ExpressionError, ModelError, ModelFileError, Problem, UnknownNameError
 from ..model._elements import Element, shape_problems
 from ..model._model import Model
-from ..model._symbols import t
 from ._expr import parse_expression
 
 __all__ = ["load_model_file", "loads_model"]
