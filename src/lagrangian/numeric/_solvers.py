@@ -21,6 +21,7 @@ from __future__ import annotations
 import numbers
 from dataclasses import dataclass
 
+from .._limits import number_problem
 from .._util import did_you_mean
 from ..errors import Problem
 
@@ -112,6 +113,9 @@ class Variational(Solver):
 
     def problems(self, *, velocity_dependent_mass: bool = False, **asked) -> list[Problem]:
         out = super().problems(**asked)
+        if self.step is not None and number_problem(self.step, "step", positive=True):
+            out.append(Problem(number_problem(self.step, "step", positive=True) + " (Variational(step=...): the fixed "
+                               "step in seconds)", key="step"))
         if velocity_dependent_mass:
             out.append(Problem(f"method '{self.name}' needs T* quadratic in the velocities (M free of q_dot); "
                                "use method='DOP853'", key="method"))
@@ -132,6 +136,14 @@ class SciPyMethod(Solver):
     name: str = "Radau"
     compiled: bool = False
     events: bool = False
+
+    def problems(self, **asked) -> list[Problem]:
+        out = super().problems(**asked)
+        if self.name not in SCIPY_METHODS:
+            out.append(Problem(f"SciPyMethod('{self.name}') is not one of SciPy's solve_ivp methods"
+                               f"{did_you_mean(str(self.name), SCIPY_METHODS, 0.5)}; choose one of "
+                               f"{', '.join(SCIPY_METHODS)}", key="method"))
+        return out
 
 
 def solver_of(method, step=None, problems: list[Problem] | None = None) -> Solver | None:
