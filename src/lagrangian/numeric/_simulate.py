@@ -418,14 +418,10 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         progress=progress, sample_time=sample_time, constraints=constraints)
     run = _prepare(nm, opts)
     if eq.is_constrained:
-        return _simulate_constrained(nm, run.x0, run.times, run.p, run.u_of, float(opts.rtol), float(opts.atol),
-                                     opts.max_step, run.solver.name, opts.given, base.initial, opts.backend,
-                                     run.u_exprs,
-                                     opts.progress, opts.constraints, event_exprs=run.event_exprs,
-                                     stop_on=opts.stop_on, sampling=run.sampling)
+        return _simulate_constrained(nm, run, opts, base.initial)
     fast = _compiled_model(nm, opts.backend, run.solver, run.u_exprs)
     if fast is not None:
-        return _simulate_compiled(fast, run, opts)
+        return _run_compiled(fast, run, opts, run.x0)
     if run.event_exprs:
         raise ModelError("events are watched by the compiled integrators: give inputs as expression strings "
                          "and use backend='auto', 'numba' or 'c'")
@@ -749,70 +745,128 @@ def _event_expressions(nm, events, stop_on, problems) -> dict:
     return out
 
 
-def _simulate_compiled(cm: CompiledModel, run: _Run, opts: SimulationOptions) -> Trajectory:
-    """The run in compiled code: DOP853 (events and sampled inputs included) or the variational
-    integrator."""
-    from ._fast import run_dop853, run_variational
+def _run_compiled(fast: CompiledModel, run: _Run, opts: SimulationOptions, x0, cm=None) -> Trajectory:
+    """The one compiled run, from x0: DOP853 in numba or C (events and sampled inputs included) or the
+    variational integrator. A model with constraints (`cm`, its ConstrainedModel: m > 0, and x0
+    consistent) integrates the saddle-point right-hand side with the projection onto the constraints
+    after every accepted step (see _codegen_constrained), and its Trajectory has the multipliers and
+    the constraint drift; at m = 0 nothing is projected. A failure raises its error with the finite
+    output rows reached (SimulationError.partial)."""
+    from ._fast import _address, run_dop853, run_variational
     from ._inputs import programs
 
-    eq = cm.equations
-    solver, times, p, x0, sampling, event_exprs = run.solver, run.times, run.p, run.x0, run.sampling, run.event_exprs
+    eq = fast.equations
+    solver, times, p, event_exprs = run.solver, run.times, run.p, run.event_exprs
     prog = _input_programs(eq, run.u_exprs)
-    if isinstance(solver, Variational):
+    if isinstance(solver, Variational):  # (not for constrained models: _constrained_problems)
         every = solver.steps(float(opts.dt))
-        raw = run_variational(cm, x0, float(opts.dt) / every, every * (len(times) - 1), every, p, prog)
+        raw = run_variational(fast, x0, float(opts.dt) / every, every * (len(times) - 1), every, p, prog)
     else:
         eprog, terminal = None, ()
         if event_exprs:
-            eprog = programs(list(event_exprs.values()), eq.t, list(eq.parameters),
-                             states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs, switches=False)
+            eprog = _last(eq, "simulate.events", tuple(event_exprs.values()), lambda: programs(
+                list(event_exprs.values()), eq.t, list(eq.parameters), states=_names(eq).states, inputs=eq.inputs,
+                switches=False))
             terminal = [int(name in opts.stop_on) for name in event_exprs]
-        raw = run_dop853(cm, x0, times, p, prog, float(opts.rtol), float(opts.atol), opts.max_step, events=eprog,
-                         terminal=terminal, progress=opts.progress, sampling=sampling)
-    error = failure(cm, raw.status, raw.stop_t, raw.stop_x, raw.stop_measure, p, x0=x0)
+        projection = {}
+        if cm is not None:
+            from ._codegen_constrained import work_size
+
+            projection = {"project": _address(fast.project_c), "nwork": work_size(cm.n, cm.m)}
+        raw = run_dop853(fast, x0, times, p, prog, float(opts.rtol), float(opts.atol), opts.max_step, events=eprog,
+                         terminal=terminal, progress=opts.progress, sampling=run.sampling, **projection)
+    stats = {"backend": fast.backend, "method": solver.name, "nfev": raw.nfev}
+    error = _compiled_failure(fast, cm, raw, p, x0)
     if error is not None:
-        reached = _finite_rows(raw.x[:len(raw.t)])
-        if reached:
-            error.partial = _compiled_trajectory(cm, solver.name, times[:reached], raw, p, prog, sampling,
-                                                 {"backend": cm.backend, "method": solver.name, "nfev": raw.nfev},
-                                                 failure=str(error))
+        error.partial = _compiled_trajectory(fast, cm, times, raw, p, prog, run.sampling, stats, failure=error)
         raise error
-    stats = {"backend": cm.backend, "method": solver.name, "nfev": raw.nfev, "nstep": raw.nstep,
-             "nreject": raw.nreject}
+    stats.update(nstep=raw.nstep, nreject=raw.nreject)
     if prog.nswitch:
         stats["switches"] = raw.nswitch
+    stopped = raw.status == Status.EVENT_STOP
     found = {}
     if event_exprs:
         names = list(event_exprs)
-        stop_t = raw.stop_t if raw.status == Status.EVENT_STOP else math.inf
-        keep = raw.event_t <= stop_t
+        keep = raw.event_t <= (raw.stop_t if stopped else math.inf)
         for k, name in enumerate(names):
             sel = keep & (raw.event_k == k)
-            found[name] = {"t": read_only(raw.event_t[sel], float), "x": read_only(raw.event_x[sel], float)}
-        if raw.status == Status.EVENT_STOP:
+            xe = np.array(raw.event_x[sel], float).reshape(-1, 2 * fast.n)
+            if cm is not None:  # on the constraints, as the outputs
+                _project_rows(cm, raw.event_t[sel], xe, p, every=True)
+            found[name] = {"t": read_only(raw.event_t[sel], float), "x": read_only(xe, float)}
+        if stopped:
             stats["stopped_by"] = names[int(raw.stop_measure)]
             stats["stop_time"] = raw.stop_t
             times = times[: len(raw.t)]
     if not np.all(np.isfinite(raw.x)):
-        raise failure(cm, Status.SOLUTION_NOT_FINITE, None, None, None, p)
-    return _compiled_trajectory(cm, solver.name, times, raw, p, prog, sampling, stats, found)
+        raise failure(fast, Status.SOLUTION_NOT_FINITE, None, None, None, p)
+    return _compiled_trajectory(fast, cm, times, raw, p, prog, run.sampling, stats, found, stopped=stopped)
 
 
-def _compiled_trajectory(cm: CompiledModel, method, times, raw, p, prog, sampling, stats, events=None,
-                         failure: str | None = None) -> Trajectory:
-    """The Trajectory of a compiled run's output rows at `times` (all of them, or those before a
-    failure, whose message is `failure`)."""
+def _compiled_failure(fast: CompiledModel, cm, raw, p, x0):
+    """The error of a compiled run (None: it ended as asked), by the one map `failure`; with
+    constraints (`cm`), a singular saddle-point system is told apart by its two measures: the kernel's
+    is min(r_M, rho_G) (_codegen_constrained), and the smaller of the two, in the same algorithm
+    transcribed in NumPy, says whether G lost rank (a dead point) or M is singular."""
+    if cm is None:
+        return failure(fast, raw.status, raw.stop_t, raw.stop_x, raw.stop_measure, p, x0=x0)
+    if raw.status in (1, 2) or (raw.status not in (0, 3, 4) and raw.stop_measure < 1e-6):
+        r_M, rho = cm.measures(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)
+        if rho < r_M:
+            return _dead_point(cm, raw.stop_t, raw.stop_x, p)
+        return _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure, p)
+    return failure(fast, raw.status, raw.stop_t, raw.stop_x, None, p)  # status 3, -1, ...
+
+
+def _dead_point(cm, t, x, p) -> SimulationError:
+    """The error of a constrained model whose constraints' Jacobian G lost rank at (t, x)."""
+    from ._constrained import singular_constraint_message
+
+    return SimulationError(singular_constraint_message(cm, t, x, p), status=Status.SINGULAR_CONSTRAINTS,
+                           time=float(t))
+
+
+def _compiled_trajectory(fast: CompiledModel, cm, times, raw, p, prog, sampling, stats, events=None, *,
+                         failure=None, stopped: bool = False) -> Trajectory | None:
+    """The Trajectory of a compiled run's output rows at `times` (all of them, or those up to an
+    event's stop, whose last rows, from the stopping step's interpolant, are projected here when the
+    model has constraints); with `failure` (the run's error), the finite rows before it as a partial
+    Trajectory (its status the error's; with constraints, without the last rows where the
+    multipliers cannot be solved for), None without rows."""
+    from ._constrained import ConstraintSingular, multipliers_and_drift
     from ._fast import inputs_and_energy
 
-    held = None
-    if sampling is not None:
-        U0 = np.zeros((len(times), len(cm.input_names)))
-        U0[:] = held_inputs(sampling, raw.held[:, :len(cm.input_names)], times)
-        held = (sampling.hold, U0)
-        stats["samples"] = int(np.searchsorted(sampling.samples, times[-1], side="right"))
-    U, energy = inputs_and_energy(cm, times, raw.x[:len(times)], p, prog, held, run=raw)
-    return run_trajectory(cm.equations, times, raw.x[:len(times)], U, p, energy=energy, stats=stats,
-                          status=raw.status, events=events, failure=failure)
+    reached = len(times) if failure is None else _finite_rows(raw.x[:len(raw.t)])
+    m = len(fast.input_names)
+    while reached:
+        t, X = times[:reached], raw.x[:reached]
+        held = None
+        if sampling is not None:
+            held = (sampling.hold, held_inputs(sampling, raw.held[:, :m], t))
+            stats["samples"] = int(np.searchsorted(sampling.samples, t[-1], side="right"))
+        if cm is not None and stopped:
+            X = np.array(X)
+            _project_rows(cm, t, X, p)
+        U, energy = inputs_and_energy(fast, t, X, p, prog, held, run=raw if cm is None else None)
+        Lam = None
+        if cm is not None:
+            try:  # the compiled rhs's multipliers after a run, the NumPy solve (it tells a dead point) after a failure
+                Lam, drift = multipliers_and_drift(cm, t, X, U, p, fast=fast if failure is None else None)
+            except ConstraintSingular:
+                if failure is None:
+                    raise
+                reached -= 1  # the last row already at the dead point: keep those before it
+                continue
+            stats.update(projection="coordinate projection after every step", constraint_drift=drift)
+        return run_trajectory(fast.equations, t, X, U, p, energy=energy, stats=stats, events=events,
+                              status=raw.status if failure is None else _status(failure), multipliers=Lam,
+                              failure=None if failure is None else str(failure))
+    return None
+
+
+def _status(error) -> Status:
+    """The status of a failed run's error (the singular-mass-matrix error has none of its own)."""
+    return error.status if isinstance(error, SimulationError) else Status.SINGULAR_MASS_MATRIX
 
 
 def _finite_rows(x: np.ndarray) -> int:
@@ -921,78 +975,67 @@ def _constrained_numbers(eq: Equations):
     return constrained_model(eq, compile_equations(eq))
 
 
-def _simulate_constrained(nm, x0, times, p, u_of, rtol, atol, max_step, method, initial, model_initial,
-                          backend="scipy", u_exprs=None, progress=None, constraints="project", *,
-                          event_exprs=None, stop_on=(), sampling=None):
+def _simulate_constrained(nm, run: _Run, opts: SimulationOptions, model_initial) -> Trajectory:
     """simulate() of a model with constraints: consistent initial state, then the projected
-    integration of M q_ddot = f + G^T lambda, G q_ddot = c (see _constrained).
+    integration of M q_ddot = f + G^T lambda, G q_ddot = c (see _constrained): the one compiled run
+    with its projection (_run_compiled), or SciPy's integrators.
 
     The initial state is moved onto the constraints keeping fixed the independent coordinates
     ([simulation] independent) and the independent speeds ([simulation] independent_speeds; default:
-    the independent coordinates' velocities), and the values the caller gave (`initial`);
+    the independent coordinates' velocities), and the values the caller gave (``opts.given``);
     the model file's other initial values are starting guesses (the assembly closest to them is
-    found). Without independent coordinates and without `initial`, the model file's values are kept.
+    found). Without independent coordinates and without given values, the model file's are kept.
 
-    `event_exprs` (with `stop_on`) are watched by the compiled projected integration: the crossings
-    are located on the interpolant of each step, which starts from the projected state, and the
-    states recorded there are projected as the outputs are. `sampling` (sampled inputs) holds the
-    inputs there too, and on SciPy's projected integration one run from one sample instant to the
-    next (_integrate_sampled)."""
-    from ._constrained import (
-        ConstraintSingular,
-        consistent_state,
-        constrained_model,
-        integrate,
-        singular_constraint_message,
-    )
+    Events are watched by the compiled run: the crossings are located on the interpolant of each
+    step, which starts from the projected state, and the states recorded there are projected as the
+    outputs are. Sampled inputs are held there too, and on SciPy's projected integration one run
+    goes from one sample instant to the next (_integrate_sampled)."""
+    from ._constrained import ConstraintSingular, consistent_state, constrained_model, integrate
 
     eq = nm.equations
-    fast = None if constraints == "eliminate" else _compiled_constrained(nm, backend, method, u_exprs)
-    if fast is None and event_exprs:  # as for a model without constraints
+    fast = None if opts.constraints == "eliminate" else _compiled_model(nm, opts.backend, run.solver, run.u_exprs)
+    if fast is None and run.event_exprs:  # as for a model without constraints
         raise ModelError("events are watched by the compiled projected integration of a constrained model: give "
                          "the inputs as expression strings and use method='DOP853' with a compiled backend "
                          "(backend='auto')")
     if not isinstance(nm, NumericModel):
         nm = compile_equations(eq)
     cm = constrained_model(eq, nm)
-    names = nm.state_names
-    independent = [str(q) for q in eq.model.simulation.get("independent", ())]
-    x0, fixed = _consistent_guess(eq, x0, initial, model_initial)
-    found: dict = {}
+    times, p, u_of, sampling, method = run.times, run.p, run.u_of, run.sampling, run.solver.name
+    x0, fixed = _consistent_guess(eq, run.x0, opts.given, model_initial)
     try:
         x0 = consistent_state(cm, x0, fixed, p)
         if fast is not None:
-            X, U, Lam, stats, found = _integrate_compiled_constrained(
-                fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress, event_exprs=event_exprs,
-                stop_on=stop_on, sampling=sampling)
-        else:  # SciPy's integrators: the projected integration, or the ODE in the independent coordinates
-            if constraints == "eliminate":
-                from ._constrained import integrate_eliminated
+            return _run_compiled(fast, run, opts, x0, cm)
+        # SciPy's integrators: the projected integration, or the ODE in the independent coordinates
+        rtol, atol, max_step = float(opts.rtol), float(opts.atol), opts.max_step
+        if opts.constraints == "eliminate":
+            from ._constrained import integrate_eliminated
 
-                ind = [names.index(q) for q in independent]
+            ind = [nm.state_names.index(str(q)) for q in eq.model.simulation.get("independent", ())]
 
-                def run(x, run_times, u):
-                    return integrate_eliminated(cm, x, run_times, p, u, rtol, atol, max_step, method, ind)
-            else:
-                def run(x, run_times, u):
-                    return integrate(cm, x, run_times, p, u, rtol, atol, max_step, method)
-            if sampling is not None:
-                X, U, Lam, stats = _integrate_sampled(run, cm, x0, times, p, u_of, sampling)
-            else:
-                X, U, Lam, stats = run(x0, times, u_of)
+            def integration(x, run_times, u):
+                return integrate_eliminated(cm, x, run_times, p, u, rtol, atol, max_step, method, ind)
+        else:
+            def integration(x, run_times, u):
+                return integrate(cm, x, run_times, p, u, rtol, atol, max_step, method)
+        if sampling is not None:
+            X, U, Lam, stats = _integrate_sampled(integration, cm, x0, times, p, u_of, sampling)
+        else:
+            X, U, Lam, stats = integration(x0, times, u_of)
     except ConstraintSingular as s:
-        error = SimulationError(singular_constraint_message(cm, s.t, s.x, p), status=Status.SINGULAR_CONSTRAINTS,
-                                time=float(s.t))
-        error.partial = _constrained_partial(nm, cm, fast, method, times, getattr(s, "rows", None), u_of, p,
+        error = _dead_point(cm, s.t, s.x, p)
+        error.partial = _constrained_partial(nm, cm, method, times, getattr(s, "rows", None), u_of, p,
                                              str(error), getattr(s, "inputs", None))
         raise error from None
     except (SimulationError, SingularMassMatrixError) as exc:
-        exc.partial = _constrained_partial(nm, cm, fast, method, times, getattr(exc, "rows", None), u_of, p,
-                                           str(exc), getattr(exc, "inputs", None))
+        if fast is None:  # (the compiled run's errors carry their rows already)
+            exc.partial = _constrained_partial(nm, cm, method, times, getattr(exc, "rows", None), u_of, p,
+                                               str(exc), getattr(exc, "inputs", None))
         raise
     if not np.all(np.isfinite(X)):
         raise failure(nm, Status.SOLUTION_NOT_FINITE, None, None, None, p)
-    return _constrained_trajectory(nm, fast, method, times[:len(X)], X, U, Lam, stats, p, events=found)
+    return _constrained_trajectory(nm, method, times[:len(X)], X, U, Lam, stats, p)
 
 
 def _integrate_sampled(run, cm, x0, times, p, u_of, sampling):
@@ -1058,21 +1101,17 @@ def _integrate_sampled(run, cm, x0, times, p, u_of, sampling):
     return X, U, Lam, stats
 
 
-def _constrained_trajectory(nm, fast, method, times, X, U, Lam, stats, p, failure: str | None = None,
-                            events=None) -> Trajectory:
-    """The Trajectory of a constrained run's output rows at `times` (all of them, or those before a
-    failure, whose message is `failure`); `events`: the crossings found, by event name."""
+def _constrained_trajectory(nm, method, times, X, U, Lam, stats, p, failure: str | None = None) -> Trajectory:
+    """The Trajectory of a constrained run on SciPy's integrators at `times` (all of them, or those
+    before a failure, whose message is `failure`)."""
     eq = nm.equations
     energy = None if eq.explicit_time else [nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)]
-    stats = {"backend": "scipy" if fast is None else fast.backend, "method": method, **stats}
-    status = Status.EVENT_STOP if "stopped_by" in stats else Status.SUCCESS if failure is None else None
-    message = ("stopped" if failure is not None else status.message if "stopped_by" in stats
-               else "constrained integration finished")
-    return run_trajectory(eq, times, X, U, p, energy=energy, stats=stats, status=status, message=message,
-                          events=events, failure=failure, multipliers=Lam)
+    return run_trajectory(eq, times, X, U, p, energy=energy, stats={"backend": "scipy", "method": method, **stats},
+                          status=Status.SUCCESS if failure is None else None, failure=failure, multipliers=Lam,
+                          message="stopped" if failure is not None else "constrained integration finished")
 
 
-def _constrained_partial(nm, cm, fast, method, times, rows, u_of, p, failure: str,
+def _constrained_partial(nm, cm, method, times, rows, u_of, p, failure: str,
                          inputs=None) -> Trajectory | None:
     """The rows a failed constrained run reached (`rows`: its states at the first output times, as
     the integrators attach them to their error; `inputs`: the inputs there, where they were held by a
@@ -1092,84 +1131,7 @@ def _constrained_partial(nm, cm, fast, method, times, rows, u_of, p, failure: st
     else:
         return None
     stats = {"nfev": 0, "projection": "coordinate projection after every step", "constraint_drift": drift}
-    return _constrained_trajectory(nm, fast, method, t, X, U, Lam, stats, p, failure)
-
-
-def _compiled_constrained(nm, backend: str, method: str, u_exprs):
-    """The compiled constrained model to integrate with (numba or C: its rhs is the saddle-point
-    solve and it carries the projection, both from _codegen_constrained's one template), or None
-    for the SciPy path, as _compiled_model decides."""
-    return _compiled_model(nm, backend, method, u_exprs)
-
-
-def _integrate_compiled_constrained(fast, cm, x0, times, p, u_exprs, rtol, atol, max_step, progress, *,
-                                   event_exprs=None, stop_on=(), sampling=None):
-    """The projected integration in compiled code: DOP853 on the saddle-point right-hand side with
-    the projection after every accepted step (see _codegen_constrained); (X, U, Lambda, stats,
-    events): X, U and Lambda at the output times reached (all of them, or those up to the stop of an
-    event in `stop_on`), stats as _constrained.integrate gives them, and the crossings of the events
-    (`event_exprs`) as Trajectory.events. `sampling`: the sampled inputs, held between samples."""
-    from ._codegen_constrained import work_size
-    from ._constrained import ConstraintSingular, multipliers_and_drift
-    from ._fast import _address, inputs_and_energy, run_dop853
-    from ._inputs import programs
-    eq = fast.equations
-    prog = _input_programs(eq, u_exprs)
-    stop_on = (stop_on,) if isinstance(stop_on, str) else tuple(stop_on)
-    eprog, terminal = None, ()
-    if event_exprs:
-        eprog = programs(list(event_exprs.values()), eq.t, list(eq.parameters),
-                         states=(*eq.coordinates, *eq.velocities), inputs=eq.inputs, switches=False)
-        terminal = [int(name in stop_on) for name in event_exprs]
-    raw = run_dop853(fast, x0, times, p, prog, rtol, atol, max_step, events=eprog, terminal=terminal,
-                     progress=progress, sampling=sampling, project=_address(fast.project_c),
-                     nwork=work_size(cm.n, cm.m))
-    stopped = raw.status == 4 and bool(event_exprs)
-    reached = len(raw.t) if stopped else len(times)
-    held = None
-    if sampling is not None:  # the held values at the output times, as _compiled_trajectory reads them
-        held = (sampling.hold, held_inputs(sampling, raw.held[:, :len(fast.input_names)], times[:len(raw.t)]))
-    try:
-        if raw.status in (1, 2) or (raw.status not in (0, 4) and raw.stop_measure < 1e-6 and raw.status != 3):
-            # the kernel's measure is min(r_M, rho_G) (_codegen_constrained): the smaller of the two, in the
-            # same algorithm transcribed in NumPy, says whether G lost rank (a dead point) or M is singular
-            r_M, rho = cm.measures(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)
-            if rho < r_M:
-                raise ConstraintSingular(raw.stop_t, raw.stop_x, rho)
-            raise _singular_error(fast, raw.stop_t, raw.stop_x, raw.stop_measure, p)
-        error = failure(fast, raw.status, raw.stop_t, raw.stop_x, None, p)  # the one map: status 3, -1, ...
-        if error is not None:  # (None for 0 and 4, an event's stop)
-            raise error
-    except (ConstraintSingular, SimulationError, SingularMassMatrixError) as exc:
-        exc.rows = raw.x[:len(raw.t)]  # the output rows reached: simulate keeps them (SimulationError.partial)
-        if held is not None:
-            exc.inputs = inputs_and_energy(fast, raw.t, exc.rows, p, prog, held)[0]
-        raise
-    t, X = times[:reached], np.array(raw.x[:reached])
-    if stopped:  # the outputs of the stopping step come from its interpolant, not yet projected
-        _project_rows(cm, t, X, p)
-    U, _ = inputs_and_energy(fast, t, X, p, prog, held if held is None else (held[0], held[1][:reached]))
-    Lam, drift = multipliers_and_drift(cm, t, X, U, p, fast=fast)
-    stats = {"nfev": raw.nfev, "nstep": raw.nstep, "nreject": raw.nreject,
-             "projection": "coordinate projection after every step",
-             "constraint_drift": drift}
-    if prog.nswitch:
-        stats["switches"] = raw.nswitch
-    if sampling is not None:
-        stats["samples"] = int(np.searchsorted(sampling.samples, t[-1], side="right"))
-    found = {}
-    if event_exprs:
-        names = list(event_exprs)
-        keep = raw.event_t <= (raw.stop_t if stopped else math.inf)
-        for k, name in enumerate(names):
-            sel = keep & (raw.event_k == k)
-            xe = np.array(raw.event_x[sel], float).reshape(-1, 2 * cm.n)
-            _project_rows(cm, raw.event_t[sel], xe, p, every=True)  # on the constraints, as the outputs
-            found[name] = {"t": read_only(raw.event_t[sel], float), "x": read_only(xe, float)}
-        if stopped:
-            stats["stopped_by"] = names[int(raw.stop_measure)]
-            stats["stop_time"] = raw.stop_t
-    return X, U, Lam, stats, found
+    return _constrained_trajectory(nm, method, t, X, U, Lam, stats, p, failure)
 
 
 def _project_rows(cm, times, X, p, every: bool = False) -> None:
