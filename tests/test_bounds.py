@@ -47,7 +47,8 @@ MODEL_FILES = [
     ("a 5000-digit integer", oscillator(**{"k = 4.0": "k = " + "9" * 5000}), 4, None,
      "invalid TOML: an integer too long to read (Exceeds the limit (4300 digits)"),
     ("a 400-digit integer in an expression", oscillator(**{'"k*x**2/2"': '"%s*x**2"' % ("9" * 400)}), 7, "energy.V",
-     "number too large: the number 99999999999999999999... is beyond the largest floating-point number (about 1.8e308)"),
+     "number too large: the number 99999999999999999999... is beyond the largest floating-point number "
+     "(about 1.8e308)"),
     ("a 400-digit integer as an expression", oscillator(**{'"k*x**2/2"': "9" * 400}), 7, "energy.V",
      "expected a finite number, got an integer of 400 digits; the largest a simulation can compute is about 1.8e308"),
     ("arrays nested 100k deep", OSCILLATOR + "[simulation]\nt_end = " + "[" * 100_000 + "]" * 100_000 + "\n", 9, None,
@@ -215,7 +216,8 @@ def test_an_input_that_leaves_its_domain_during_a_run_is_a_failed_computation(ca
 
 # ------------------------------------------------------------------ the CLI's numeric options
 @pytest.mark.parametrize("argv, message", [
-    (["simulate", "cart-pendulum", "--t-end", "-1"], "--t-end must be a positive number, got -1; for example --t-end 10"),
+    (["simulate", "cart-pendulum", "--t-end", "-1"],
+     "--t-end must be a positive number, got -1; for example --t-end 10"),
     (["simulate", "cart-pendulum", "--t-end", "inf"], "--t-end must be a finite number, got inf"),
     (["simulate", "cart-pendulum", "--t-end", "ten"], "--t-end must be a number, got 'ten'"),
     (["simulate", "cart-pendulum", "--dt", "nan"], "--dt must be a finite number, got nan; for example --dt 0.01"),

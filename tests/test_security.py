@@ -133,7 +133,8 @@ def test_modelica_string_cannot_end_early(text):
     ("c", "Math", "Math_model"), ("c", "fmi2Functions", "fmi2Functions_model"), ("c", "int", "int_model"),
     ("c", "2link", "m_2link"), ("c", "**", "model"), ("c", 'x"""\nimport os', "x____import_os"), ("c", "a\x00b", "a_b"),
     ("modelica", "cart-pendulum", "CartPendulum"), ("modelica", "Real", "RealModel"),
-    ("modelica", "end", "End"), ("modelica", "Modelica", "ModelicaModel"), ("modelica", "String", "StringModel"), ("modelica", "2link", "M2link"),
+    ("modelica", "end", "End"), ("modelica", "Modelica", "ModelicaModel"), ("modelica", "String", "StringModel"),
+    ("modelica", "2link", "M2link"),
 ])
 def test_module_identifiers_are_never_reserved(target, name, expected):
     assert ct.module_identifier(name, target) == expected
@@ -352,7 +353,8 @@ def _seeded_cache(folder: Path) -> Path:
 
     kernels()
     (folder / "__pycache__").mkdir(parents=True)
-    for path in [*cache_dir().glob("lagrangian_kernels_*"), *(cache_dir() / "__pycache__").glob("lagrangian_kernels_*")]:
+    for path in [*cache_dir().glob("lagrangian_kernels_*"),
+                 *(cache_dir() / "__pycache__").glob("lagrangian_kernels_*")]:
         shutil.copy2(path, folder / path.relative_to(cache_dir()))
     return folder
 

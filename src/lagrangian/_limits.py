@@ -3,13 +3,15 @@
 Every computation whose size the user's input decides is bounded by a count (never a clock), and
 a request past a bound is refused before the work starts, with the bound and how to raise it:
 
-| limit | default | environment variable | bounds |
-|---|---|---|---|
-| ``max_rows`` | 1,000,000 | ``LAGRANGIAN_MAX_ROWS`` | output rows of a simulation (``t_end / dt + 1``, or ``len(t_eval)``) and its input samples (``t_end / sample_time + 1``) |
-| ``max_steps`` | 100,000,000 | ``LAGRANGIAN_MAX_STEPS`` | fixed steps of the variational integrator (``t_end / step``) |
-| ``max_terms`` | 100,000 | ``LAGRANGIAN_MAX_TERMS`` | terms of the expansion of T, V, D, Q and each constraint, counted on the tree |
-| ``max_exponent`` | 1,000 | ``LAGRANGIAN_MAX_EXPONENT`` | the exponent of a power of a variable (``x**1000``) |
-| ``max_coordinates`` | 100 | ``LAGRANGIAN_MAX_COORDINATES`` | coordinates of a model |
+- ``max_rows`` (default 1,000,000, ``LAGRANGIAN_MAX_ROWS``): output rows of a simulation
+  (``t_end / dt + 1``, or ``len(t_eval)``) and its input samples (``t_end / sample_time + 1``);
+- ``max_steps`` (default 100,000,000, ``LAGRANGIAN_MAX_STEPS``): fixed steps of the variational
+  integrator (``t_end / step``);
+- ``max_terms`` (default 100,000, ``LAGRANGIAN_MAX_TERMS``): terms of the expansion of T, V, D, Q
+  and each constraint, counted on the tree;
+- ``max_exponent`` (default 1,000, ``LAGRANGIAN_MAX_EXPONENT``): the exponent of a power of a
+  variable (``x**1000``);
+- ``max_coordinates`` (default 100, ``LAGRANGIAN_MAX_COORDINATES``): coordinates of a model.
 
 The numeric options (``t_end``, ``dt``, ``rtol``, ...) are checked by :func:`number_problem`, the
 one rule used by the command line's options and by the library's functions where the same value

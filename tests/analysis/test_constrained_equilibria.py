@@ -178,7 +178,8 @@ def test_velocity_constraints_and_moving_constraints_are_refused_with_the_reason
     knife = lg.Model("knife", coordinates=["x", "y", "phi"], parameters={"m": 1.0})
     knife.add_energy(T="m*(x_dot**2 + y_dot**2 + phi_dot**2)/2")
     knife.add_velocity_constraint("x_dot*sin(phi) - y_dot*cos(phi)", name="blade")
-    (rest,) = lg.equilibria(lg.derive(knife))  # handled now (tests/analysis/test_constrained_steady.py): at rest anywhere
+    # handled now (tests/analysis/test_constrained_steady.py): at rest anywhere
+    (rest,) = lg.equilibria(lg.derive(knife))
     assert rest.family == ("x", "y") and rest.dimension == 1
     lift = lg.Model("lift", coordinates=["x", "y"], parameters={"m": 1.0, "g": 9.81})
     lift.add_particle("m", ("x", "y"), name="bead")

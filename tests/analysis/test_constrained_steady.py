@@ -133,7 +133,8 @@ def test_a_conical_pendulum_written_with_a_length_constraint():
     s = found[0]
     assert s.coordinates["r"] == pytest.approx(1.5, rel=1e-12)
     assert math.cos(s.coordinates["theta"]) == pytest.approx(9.81 / (1.5 * Omega ** 2), rel=1e-9)
-    assert abs(s.multipliers["lambda_rod"]) == pytest.approx(2.0 * 1.5 * Omega ** 2, rel=1e-9)  # the tension m l Omega**2
+    # the tension m l Omega**2
+    assert abs(s.multipliers["lambda_rod"]) == pytest.approx(2.0 * 1.5 * Omega ** 2, rel=1e-9)
     assert s.stability == "marginally stable"  # Routh's theorem is not applied with constraints
 
 

@@ -891,7 +891,8 @@ def test_simulate_records_events_and_stops_on_one(capsys, tmp_path):
                                                  "the events are zero"]),
     (["--stop-on", "zz"], ["stop_on names 'zz', which is not one of the events; no events are given: define it "
                            "first, e.g. events={'zz': 'q1'} (on the command line: --event zz=EXPR)"]),
-    (["--event", "zero=x1", "--method", "RK45"], ["events are watched by the compiled DOP853 only, not by method 'RK45'"]),
+    (["--event", "zero=x1", "--method", "RK45"],
+     ["events are watched by the compiled DOP853 only, not by method 'RK45'"]),
     (["--event", "zero=x1+"], ["event 'zero': missing operand after '+'"]),
     (["--event", "zero"], ["--event 'zero': expected NAME=VALUE"]),
 ])

@@ -359,7 +359,8 @@ def test_planar_body_pinned_at_a_point_by_two_constraints_is_a_compound_pendulum
         # (J + m d^2) theta_ddot = -m g d sin(theta) + tau
         assert qdd[2] == pytest.approx((-m * g * d * np.sin(th) + v["tau"]) / (J + m * d**2), rel=1e-10)
         # the pin's force (lambda: its components, G = dg/dq has the identity in x, y) moves the centre
-        acc = np.array([d * (np.cos(th) * qdd[2] - np.sin(th) * thd**2), d * (np.sin(th) * qdd[2] + np.cos(th) * thd**2)])
+        acc = np.array([d * (np.cos(th) * qdd[2] - np.sin(th) * thd**2),
+                        d * (np.sin(th) * qdd[2] + np.cos(th) * thd**2)])
         assert np.allclose(lam, m * acc + np.array([0.0, m * g]), rtol=1e-10, atol=1e-10)
 
 
@@ -451,7 +452,8 @@ def test_wheel_rolling_upright_on_a_moving_belt_mixes_holonomic_and_time_depende
     for v, qdd, lam in s.check_solution():
         # the contact's normal force carries the weight (z stays at R): lambda_contact = m g
         assert qdd[2] == pytest.approx(0.0, abs=1e-12) and lam[0] == pytest.approx(v["m"] * v["g"], rel=1e-12)
-        # the belt drives the wheel's centre: x_ddot = R (theta_ddot cos phi - theta_dot phi_dot sin phi) + V omega cos(omega t)
+        # the belt drives the wheel's centre:
+        # x_ddot = R (theta_ddot cos phi - theta_dot phi_dot sin phi) + V omega cos(omega t)
         phi, pd, td = v["phi"], v["phi_dot"], v["theta_dot"]
         assert qdd[0] == pytest.approx(v["R"] * (qdd[4] * np.cos(phi) - td * pd * np.sin(phi))
                                        + v["V"] * v["omega"] * np.cos(v["omega"] * v["t"]), rel=1e-9, abs=1e-9)

@@ -393,7 +393,8 @@ def test_frame_and_body_errors_name_the_problem():
         m.add_frame("base")
     with pytest.raises(lg.ModelError, match=r"frame 'world': the name is taken \(the inertial frame\)"):
         m.add_frame("world")
-    with pytest.raises(lg.ModelError, match=r"frame 'f'.rotation\[0\].axis: 'w' is not an axis; use \"x\", \"y\", \"z\""):
+    with pytest.raises(lg.ModelError,
+                       match=r"frame 'f'.rotation\[0\].axis: 'w' is not an axis; use \"x\", \"y\", \"z\""):
         m.add_frame("f", rotation=[("w", "q")])
     with pytest.raises(lg.ModelError, match=r"frame 'f'.rotation\[0\]: expected \(axis, angle\)"):
         m.add_frame("f", rotation=[("z",)])
@@ -437,7 +438,8 @@ def test_inertia_and_rotation_checks_at_derive():
 
 def test_torque_errors():
     m = _arm_model()
-    with pytest.raises(lg.ModelError, match=r"torque 'bad'.torque: a torque on the body 'link' in space has 3 components"):
+    with pytest.raises(lg.ModelError,
+                       match=r"torque 'bad'.torque: a torque on the body 'link' in space has 3 components"):
         m.add_torque((1, 0), body="link", name="bad")
     with pytest.raises(lg.ModelError, match=r"torque 'bad2'.frame: only a torque on a body in space has axes"):
         m.add_torque(1, angle="q1", frame="link", name="bad2")

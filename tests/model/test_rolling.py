@@ -107,7 +107,8 @@ g = "g"
     contact = {c.name: c for c in model.constraints}["w_contact"]
     assert contact.kind == "holonomic"
     for value in (0.0, 0.3, -1.1):  # z - r |cos(phi)|: the lowest point of the rim
-        assert float(contact.expression.subs({z: 0.7, phi: value, r: 0.5})) == pytest.approx(0.7 - 0.5 * abs(math.cos(value)))
+        assert (float(contact.expression.subs({z: 0.7, phi: value, r: 0.5}))
+                == pytest.approx(0.7 - 0.5 * abs(math.cos(value))))
     from lagrangian.numeric._compiled import compile_equations
     from lagrangian.numeric._constrained import constrained_model
     cm = constrained_model(eqs, compile_equations(eqs))
@@ -273,8 +274,8 @@ def test_a_state_that_is_not_a_steady_motion_is_refused_with_what_changes(bicycl
     ('[[wheels]]\nframe = "disk"\nradius = "r*phi"\n', "wheels[0]", "a wheel's radius is a number or an expression "
                                                                     "of parameters"),
     ('[operating_point]\nphi_dott = 1\n', "operating_point.phi_dott", "'phi_dott' is not a coordinate or a velocity"),
-    ('[operating_point]\ntheta_dot = "phi/r"\n', "operating_point.theta_dot", "an operating point's value is a "
-                                                                            "number or an expression of the parameters"),
+    ('[operating_point]\ntheta_dot = "phi/r"\n', "operating_point.theta_dot",
+     "an operating point's value is a number or an expression of the parameters"),
     ('[simulation]\nindependent_speeds = ["phi"]\n', "simulation.independent_speeds", "'phi' is not a velocity"),
     ('[simulation]\nindependent_speeds = "phi_dot"\n', "simulation.independent_speeds", "expected a list of velocity "
                                                                                          "names"),

@@ -210,8 +210,8 @@ def test_a_batch_run_that_reaches_a_dead_point_is_reported_alone():
 
 def test_a_batch_run_whose_loop_cannot_close_names_the_run(four_bar):
     with pytest.raises(lg.ModelError, match=r"\[initial\]: run 1 of the batch \(a = 2, b = 0\.6, c = 0\.45, d = 0\.5, "
-                                            r"ma = 0\.4, mb = 1\.2, mc = 0\.9, g = 9\.81\): the initial coordinates do not "
-                                            r"meet constraint 'loop_x' .*give fewer coordinates"):
+                                            r"ma = 0\.4, mb = 1\.2, mc = 0\.9, g = 9\.81\): the initial "
+                                            r"coordinates do not meet constraint 'loop_x' .*give fewer coordinates"):
         lg.simulate_batch(four_bar, 0.1, params={"a": [0.2, 2.0]})  # a crank longer than b + c + d: no loop
 
 

@@ -269,7 +269,8 @@ def test_constraint_names_that_clash_and_tables_with_both_kinds(tmp_path):
         lg.load(path)
     text = str(info.value)
     assert "both.toml:5 [constraints[0]]: a constraint needs exactly one of holonomic" in text and "got both" in text
-    assert "both.toml:9 [constraints[1].name]: a constraint's name is a string such as name = \"rod\", got the number 3" in text
+    assert ("both.toml:9 [constraints[1].name]: a constraint's name is a string such as name = \"rod\", "
+            "got the number 3") in text
 
 
 @pytest.mark.parametrize("name", ["four-bar", "slider-crank"])

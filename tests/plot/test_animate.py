@@ -152,7 +152,8 @@ def test_bad_arguments(cart):
     with pytest.raises(lg.ModelError, match="fps and speed must be positive numbers, got fps=0"):
         plot.animate(cart, fps=0)
     bare = lg.Trajectory(cart.t, cart.x, cart.state_names)
-    with pytest.raises(lg.ModelError, match=r"this trajectory does not carry its model, so it cannot be drawn: pass model="):
+    with pytest.raises(lg.ModelError,
+                       match=r"this trajectory does not carry its model, so it cannot be drawn: pass model="):
         plot.animate(bare)
     assert len(plot.animate(bare, model=lg.load("cart-pendulum"), fps=2)) == 3
     anim = plot.animate(cart, fps=5)
@@ -168,7 +169,8 @@ def test_gif_and_html(cart, tmp_path):
         assert im.n_frames == 11 and im.size == (240, 184)
     anim.save(tmp_path / "cart.html")
     page = (tmp_path / "cart.html").read_text()
-    assert page.startswith("<!DOCTYPE html>") and page.count("data:image/png;base64,") == 11 + 1  # the frames and the first shown
+    # the frames and the first shown
+    assert page.startswith("<!DOCTYPE html>") and page.count("data:image/png;base64,") == 11 + 1
     assert '"1.000"' in page  # the time of the last frame
     assert anim._repr_html_().count("data:image/png;base64,") == 11 + 1
 
@@ -254,7 +256,8 @@ def test_cli_animate_html_with_trace_and_speed(tmp_path):
     (["cart-pendulum", "-o", "{tmp}/cart"], "unknown format '(no suffix)'"),
     (["cart-pendulum-energy", "-o", "{tmp}/c.gif"], "model 'cart-pendulum-energy' cannot be drawn"),
     (["cart-pendulum", "--trace", "pendulm", "-o", "{tmp}/c.gif"],
-     "trace 'pendulm': model 'cart-pendulum' has no point, particle or rigid body of that name (did you mean 'pendulum'?)"),
+     "trace 'pendulm': model 'cart-pendulum' has no point, particle or rigid body of that name "
+     "(did you mean 'pendulum'?)"),
     (["cart-pendulum", "--fps", "0", "-o", "{tmp}/c.gif"], "--fps must be a positive number, got 0"),
     (["cart-pendulum", "-o", "{tmp}/missing/c.gif"], "the folder"),
 ])

@@ -207,5 +207,6 @@ def test_the_initial_values_a_simulation_takes_as_given():
     default = lg.simulate(model, t_end=0.5)
     given = lg.simulate(model, t_end=0.5, initial={"th1": 1.2, "th1_dot": 4.0})
     np.testing.assert_array_equal(given.x, default.x)
-    with pytest.raises(ModelError, match="changing the coordinates that were not given \\(none; given: th1, th2, th3\\)"):
+    with pytest.raises(ModelError,
+                       match="changing the coordinates that were not given \\(none; given: th1, th2, th3\\)"):
         lg.simulate(model, t_end=0.5, initial={"th1": 1.2, "th2": 0.2, "th3": 1.4, "th1_dot": 4.0})

@@ -63,7 +63,8 @@ def test_phase_portrait(cart):
     np.testing.assert_array_equal(x, cart["q2"])
     np.testing.assert_array_equal(y, cart["q2_dot"])
     assert len(plot.phase_portrait(cart).axes) == 2
-    with pytest.raises(lg.ModelError, match="'q2_dot' is not a coordinate of the trajectory; the coordinates are q1, q2"):
+    with pytest.raises(lg.ModelError,
+                       match="'q2_dot' is not a coordinate of the trajectory; the coordinates are q1, q2"):
         plot.phase_portrait(cart, "q2_dot")
 
 
@@ -89,7 +90,8 @@ def test_energy_drift_needs_an_energy():
     m = lg.Model("driven", coordinates=["x"], parameters={"k": 1.0}, T="x_dot**2/2", V="k*(1 + t)*x**2/2")
     traj = lg.simulate(m, t_end=0.1, initial={"x": 0.1})
     assert traj.energy is None
-    with pytest.raises(lg.ModelError, match="the trajectory has no energy to plot: its Lagrangian depends explicitly on t"):
+    with pytest.raises(lg.ModelError,
+                       match="the trajectory has no energy to plot: its Lagrangian depends explicitly on t"):
         plot.energy_drift(traj)
 
 

@@ -25,7 +25,8 @@ from lagrangian.errors import ModelFileError
 
 from serve_support import Server, alive, wait_until
 
-OSCILLATOR = 'name = "osc"\ncoordinates = ["x"]\n\n[parameters]\nm = 1.0\nk = 4.0\n\n[energy]\nT = "m*x_dot**2/2"\nV = "k*x**2/2"\n'
+OSCILLATOR = ('name = "osc"\ncoordinates = ["x"]\n\n[parameters]\nm = 1.0\nk = 4.0\n\n'
+              '[energy]\nT = "m*x_dot**2/2"\nV = "k*x**2/2"\n')
 #: docs/model-files.md's file with three mistakes
 BAD = ('coordinates = ["q1", "q2"]\n\n[parameters]\nm = "2"\ng = 9.81\n\n[energy]\n'
        'T = "1/2*m*q1_dot**2 + 1/2*m*q2_dot**2"\nV = "m*g*q3 + 1/2*k*q1_dot**2"\nD = "c*"\n')
@@ -62,8 +63,10 @@ def test_derive_reports_every_problem_at_its_line_with_the_cli_message(server):
     assert data == {"errors": [{"line": p.line, "key": p.key, "message": p.message} for p in exc.value.problems]}
     lines = [(e["line"], e["key"]) for e in data["errors"]]
     assert lines == [(4, "parameters.m"), (9, "energy.V"), (10, "energy.D")]
-    assert data["errors"][0]["message"] == "expected a number, got the string '2'; write m = 2 (a number, without quotes)"
-    assert data["errors"][1]["message"].startswith("unknown names 'q3' (did you mean 'q2'?), 'k' in the expression at position 5")
+    assert data["errors"][0]["message"] == ("expected a number, got the string '2'; "
+                                            "write m = 2 (a number, without quotes)")
+    assert data["errors"][1]["message"].startswith("unknown names 'q3' (did you mean 'q2'?), "
+                                                   "'k' in the expression at position 5")
     assert data["errors"][2]["message"].startswith("malformed expression at position 2: missing operand after '*'")
 
 
@@ -117,7 +120,8 @@ def _no_cors(headers):
 
 @pytest.mark.parametrize("origin, why", [
     ("http://evil.example", "it comes from the web page at 'http://evil.example' (its Origin header)"),
-    ("null", "it comes from a page with an opaque origin (Origin: null: a sandboxed frame, a local file or a redirect)"),
+    ("null", "it comes from a page with an opaque origin "
+             "(Origin: null: a sandboxed frame, a local file or a redirect)"),
     ("http://localhost:{port}", "it comes from the web page at 'http://localhost:{port}' (its Origin header)"),
     ("http://127.0.0.1:{other}", "it comes from the web page at 'http://127.0.0.1:{other}' (its Origin header)"),
     ("https://127.0.0.1:{port}", "it comes from the web page at 'https://127.0.0.1:{port}' (its Origin header)"),
@@ -395,8 +399,8 @@ def test_every_problem_of_a_request_is_reported_at_once(server):
     status, data = server.post_json("/api/simulate", body)
     assert status == 400
     assert [e["message"].split(":")[0] for e in data["errors"]] == [
-        "unknown field 't_ned' (did you mean 't_end'?); the fields are model, t_end, initial, inputs, params, dt, rtol, "
-        "atol, method", "t_end", "dt", "initial.x", "initial.x_dot", "inputs.F", "method",
+        "unknown field 't_ned' (did you mean 't_end'?); the fields are model, t_end, initial, inputs, params, dt, "
+        "rtol, atol, method", "t_end", "dt", "initial.x", "initial.x_dot", "inputs.F", "method",
         "'F' is not an input of the model; the choices are none"], data
     assert data["errors"][5]["message"].startswith("inputs.F: expected an expression of t, the coordinates and "
                                                    "velocities (a string such as")

@@ -123,7 +123,8 @@ def test_an_example_opens_derived_with_the_apis_equations_as_mathematics(page, s
     assert editor_text(page) == example_source("double-pendulum")
     assert text_equations(page) == api_equations(server, example_source("double-pendulum"))
     page.find_element(By.CSS_SELECTOR, '.tabs button[data-tab="equations"]').click()
-    boxes = js(page, "return [...document.querySelectorAll('#equations-math section[data-key=equations] div.math math')]"
+    boxes = js(page, "return [...document.querySelectorAll("
+                     "'#equations-math section[data-key=equations] div.math math')]"
                      ".map(m => m.getBoundingClientRect().height)")
     assert len(boxes) >= 2 and min(boxes) > 10  # Chromium lays out the MathML
     page.find_element(By.CSS_SELECTOR, '.tabs button[data-tab="diagnosis"]').click()
@@ -263,7 +264,8 @@ def test_the_file_is_highlighted_and_the_states_and_energy_plotted(page):
         const c = document.getElementById(id), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
         let n = 0;
         for (let i = 0; i < d.length; i += 4)
-          if (Math.abs(d[i] - 31) < 40 && Math.abs(d[i + 1] - 119) < 40 && Math.abs(d[i + 2] - 180) < 40 && d[i + 3] > 128) n++;
+          if (Math.abs(d[i] - 31) < 40 && Math.abs(d[i + 1] - 119) < 40 && Math.abs(d[i + 2] - 180) < 40
+              && d[i + 3] > 128) n++;
         return n; });""")
     assert min(drawn) > 100, drawn
 
@@ -300,7 +302,8 @@ def colour_counts(driver, colours) -> list[int]:
           .getImageData(0, 0, c.width, c.height).data;
         return arguments[0].map(([r, g, b]) => { let n = 0;
           for (let i = 0; i < d.length; i += 4)
-            if (Math.abs(d[i] - r) < 30 && Math.abs(d[i + 1] - g) < 30 && Math.abs(d[i + 2] - b) < 30 && d[i + 3] > 128) n++;
+            if (Math.abs(d[i] - r) < 30 && Math.abs(d[i + 1] - g) < 30 && Math.abs(d[i + 2] - b) < 30
+                && d[i + 3] > 128) n++;
           return n; });""", colours)
 
 

@@ -24,8 +24,9 @@ and the linearized dynamics M dq'' + (d(M q_ddot0)/dq - df/dq - d(W^T lambda0)/d
 saddle-point system. With z = (the independent coordinates, the independent speeds) and y = Z z
 (the dependent parts solved from the constraints at the point), z' = S L Z z. The derivatives at the
 point are central differences of the compiled M, f, W, c and w extrapolated twice (error O(h^6),
-checked against the exact ones and the bicycle's published eigenvalues in the tests). Coordinates on which nothing depends (the position of a
-rolling wheel on the ground, its heading, its spin angle: columns of zeros) are ignorable: they are
+checked against the exact ones and the bicycle's published eigenvalues in the tests). Coordinates on
+which nothing depends (the position of a rolling wheel on the ground, its heading, its spin angle:
+columns of zeros) are ignorable: they are
 left out, which is what makes a motion at constant rates steady. What remains is in second-order
 form over the coordinates of the independent speeds, with M = T^T M T (T = dq_dot/du).
 """
@@ -333,7 +334,8 @@ def linearize_steady(equations: Equations, at: dict, given: set, setting):
     if moving:
         raise ModelError(f"the state {_state_text(names, x)} is not a steady motion: "
                          f"{', '.join(moving)} change{'s' if len(moving) == 1 else ''} there and the motion depends "
-                         f"on {'it' if len(moving) == 1 else 'them'}; linearize about a motion in which only ignorable coordinates move (a rolling "
+                         f"on {'it' if len(moving) == 1 else 'them'}; linearize about a motion in which only "
+                         "ignorable coordinates move (a rolling "
                          "wheel's position and spin), or simulate it")
     if kept_q != ind_v:
         extra = [coords[i] for i in kept_q if i not in ind_v]

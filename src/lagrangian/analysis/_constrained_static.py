@@ -83,7 +83,8 @@ def constrained_problem(equations: Equations, inputs, t: float, exact: bool = Tr
     n, m = equations.n, len(core.g)
     lam = equations.multipliers
     constrained = {i for i, qs in enumerate(core.q) if any(_depends_on(g, qs) for g in core.g)}
-    family = tuple(c.name for i, c in enumerate(equations.coordinates) if c.name in base.family and i not in constrained)
+    family = tuple(c.name for i, c in enumerate(equations.coordinates)
+                   if c.name in base.family and i not in constrained)
     unknowns = tuple(i for i, c in enumerate(equations.coordinates) if c.name not in family) + tuple(range(n, n + m))
     G = [[to_sympy(core.G[k, i]) for i in range(n)] for k in range(m)]
     static = [base.static_sympy[i] + sum((G[k][i] * lam[k] for k in range(m)), sympy.Integer(0)) for i in range(n)]
@@ -143,7 +144,8 @@ def balancing_multipliers(problem: StationaryProblem, setting: Setting, z: np.nd
 
 # --------------------------------------------------------------------------- stability
 def assess_constrained(problem: StationaryProblem, setting: Setting, z: np.ndarray,
-                       tangent: np.ndarray, velocities: np.ndarray | None = None) -> tuple[Assessment, dict[str, float]]:
+                       tangent: np.ndarray,
+                       velocities: np.ndarray | None = None) -> tuple[Assessment, dict[str, float]]:
     """The linearization in independent coordinates about the equilibrium z = (q, lambda), or about
     the steady motion at q with `velocities`, its stability across the set of stationary states
     through it (`tangent`, in the variables), and the dependent coordinates' values there."""

@@ -205,7 +205,8 @@ class SteadyState:
                 g = _holonomic(self.equations, cm, t, x, p)[0]
             except (ConstraintSingular, np.linalg.LinAlgError, ValueError):
                 nan = np.full(n, np.nan)
-                return np.concatenate((q[:n], nan)), nan, np.full(cm.m, np.nan), np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan)
+                return (np.concatenate((q[:n], nan)), nan, np.full(cm.m, np.nan),
+                        np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan))
         return x, qdd, lam, np.concatenate((qdd[self.held], g, w))
 
     def meets_constraints(self, setting: Setting, q: np.ndarray) -> bool:
@@ -255,7 +256,8 @@ class SteadyState:
             x, _, W = self._state(setting, q)
             n = self.cm.n
             floor = np.concatenate((np.full(a, self.term_scale(setting, q)), np.full(k, 1.0 + np.max(np.abs(q))),
-                                    np.full(len(r) - a - k, (1.0 + np.max(np.abs(x[n:]))) * (1.0 + np.max(np.abs(W), initial=0.0)))))
+                                    np.full(len(r) - a - k, (1.0 + np.max(np.abs(x[n:])))
+                                            * (1.0 + np.max(np.abs(W), initial=0.0)))))
             J[np.abs(J) <= 1e-8 * floor[:, None]] = 0.0
         return r, J
 

@@ -188,7 +188,8 @@ class LinearModel:
         lam = np.linalg.eigvals(self.A)
         if lam.size:  # round-off (8.9e-16 beside 5.8j) as exact zeros
             tiny = 1e-12 * float(np.abs(lam).max())
-            lam = np.where(np.abs(lam.real) <= tiny, 0.0, lam.real) + 1j * np.where(np.abs(lam.imag) <= tiny, 0.0, lam.imag)
+            lam = (np.where(np.abs(lam.real) <= tiny, 0.0, lam.real)
+                   + 1j * np.where(np.abs(lam.imag) <= tiny, 0.0, lam.imag))
         lam = lam[np.lexsort((lam.imag, lam.real))]
         return read_only(lam)
 
@@ -299,9 +300,11 @@ class LinearModel:
                          + ", ".join(f"{k} = {v:.6g}" for k, v in self.constrained["multipliers"].items()))
             moving = {k: v for k, v in self.constrained.get("rates", {}).items() if v != 0}
             if moving:
-                lines.insert(2, "  about the steady motion with " + ", ".join(f"{k} = {v:.6g}" for k, v in moving.items())
+                lines.insert(2, "  about the steady motion with "
+                             + ", ".join(f"{k} = {v:.6g}" for k, v in moving.items())
                              + (f"; ignorable (left out: nothing depends on them): "
-                                f"{', '.join(self.constrained['ignorable'])}" if self.constrained.get("ignorable") else ""))
+                                f"{', '.join(self.constrained['ignorable'])}"
+                                if self.constrained.get("ignorable") else ""))
         labels = {"M": "M", "C": "C (damping)", "K": "K",
                   "G": "G (gyroscopic, Coriolis" + (", and the constraint forces' velocity terms)"
                                                     if self.constrained else ")")}

@@ -115,7 +115,8 @@ class Modes:
             lines.append(f"{k + 1:>4}  {self.kinds[k]:<8} {num(self.frequencies_hz[k], '12.6g')} "
                          f"{num(self.frequencies[k], '14.6g')} {num(self.damping_ratios[k], '10.4g')}  [{shape}]")
         lines.append("no damping (C = 0)" if not self.damped else "damping is " + (
-            "proportional (classical)" if self.proportional_damping else "not proportional: the modes couple through it"))
+            "proportional (classical)" if self.proportional_damping
+            else "not proportional: the modes couple through it"))
         if self.coupling:
             from ._linearize import _complex_text
 

@@ -39,8 +39,8 @@ from ..model._kinematics import to_sympy
 from ._setting import Setting
 from ._stationary import StationaryProblem, conditions_hold, constant_map, residual
 
-__all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "mirror_images", "RootSet", "group_roots",
-           "free_axes", "no_root_reasons", "runaway_notes", "completeness_notes"]
+__all__ = ["Search", "search_context", "is_root", "solve_from", "numeric_roots", "mirror_images", "RootSet",
+           "group_roots", "free_axes", "no_root_reasons", "runaway_notes", "completeness_notes"]
 
 #: A root's residual, relative to the scale of the forces.
 _RESIDUAL = 1e-9
@@ -467,7 +467,8 @@ def free_axes(ctx: Search, q: np.ndarray, tangent: np.ndarray) -> tuple[str, ...
         if len(big) != 1:
             return ()
         i = int(big[0])
-        shifts = (-2.5, -1.0, 1.0, 2.5) if problem.angles[i] else tuple(x * (1.0 + abs(q[i])) for x in (-3, -0.5, 0.5, 3))
+        shifts = ((-2.5, -1.0, 1.0, 2.5) if problem.angles[i]
+                  else tuple(x * (1.0 + abs(q[i])) for x in (-3, -0.5, 0.5, 3)))
         for d in shifts:
             moved = np.array(q, dtype=float)
             moved[i] += d

@@ -137,7 +137,8 @@ class StationaryProblem:
 
     def constant_values(self, setting: Setting) -> np.ndarray:
         """Values of `constants` at the setting."""
-        return np.array([*setting.p, *setting.u, *(self.velocities[i] for i in sorted(self.velocities) if self.velocities[i]),
+        return np.array([*setting.p, *setting.u,
+                         *(self.velocities[i] for i in sorted(self.velocities) if self.velocities[i]),
                          *(self.momenta[i] for i in sorted(self.momenta))], dtype=float)
 
 

@@ -129,7 +129,8 @@ def _fixed(equations: Equations, velocities: Mapping | None, momenta: Mapping | 
             "steady motions are its equilibria (lagrangian equilibria)")
     out_v: dict[int, float] = {}
     out_p: dict[int, float] = {}
-    symbols = {**{u.name: "an input" for u in equations.inputs}, **{p.name: "a parameter" for p in equations.parameters}}
+    symbols = {**{u.name: "an input" for u in equations.inputs},
+               **{p.name: "a parameter" for p in equations.parameters}}
 
     def check(kind, given, prefix, suffix, allowed, out):
         choices = f"the {word} coordinates' {'velocities' if kind == 'velocity' else 'momenta'} are " \

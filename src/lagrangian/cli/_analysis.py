@@ -87,9 +87,13 @@ def register(sub, fmt) -> None:
     s.add_argument("model", help=MODEL_HELP)
     s.add_argument("--param", action="append", default=[], metavar="NAME[=VALUE]",
                    help="the parameter to sweep (a name), and other parameter values (NAME=VALUE, repeatable)")
-    s.add_argument("--from", dest="start", type=option_number("--from", example="--from 0"), required=True, metavar="A", help="first value")
-    s.add_argument("--to", dest="stop", type=option_number("--to", example="--to 8"), required=True, metavar="B", help="last value")
-    s.add_argument("--steps", type=option_number("--steps", integer=True, minimum=1, maximum=100_000, example="--steps 200"), default=200, help="number of intervals between A and B (default 200)")
+    s.add_argument("--from", dest="start", type=option_number("--from", example="--from 0"), required=True, metavar="A",
+                   help="first value")
+    s.add_argument("--to", dest="stop", type=option_number("--to", example="--to 8"), required=True, metavar="B",
+                   help="last value")
+    s.add_argument("--steps", type=option_number("--steps", integer=True, minimum=1, maximum=100_000,
+                                                 example="--steps 200"),
+                   default=200, help="number of intervals between A and B (default 200)")
     s.add_argument("--input", action="append", default=[], metavar="NAME=VALUE",
                    help="a constant input value, a number or an expression of the model's parameters such as "
                         "\"tau1=g*l1*(m1/2+m2)\" (repeatable, or comma-separated); inputs not given are 0")
@@ -114,7 +118,8 @@ def _at(p: argparse.ArgumentParser) -> None:
                    help="the operating point: coordinates and velocities, e.g. q1=0,q2=pi/2 (values may use the "
                         "model's parameters; others are 0); "
                         "default: the stable equilibrium nearest q = 0")
-    p.add_argument("--t", type=option_number("--t", example="--t 0"), default=0.0, help="the time, for models that contain t (default 0)")
+    p.add_argument("--t", type=option_number("--t", example="--t 0"), default=0.0,
+                   help="the time, for models that contain t (default 0)")
 
 
 def _numbers(items, what: str, names: Mapping[str, float] | None = None) -> dict[str, float]:
@@ -176,7 +181,8 @@ def _operating_point(args, eqs):
                          + "; give the operating point with --at, e.g. --at "
                          + ",".join(f"{c.name}=0" for c in eqs.coordinates))
     e = min(stable, key=lambda e: sum(abs(v) for v in e.coordinates.values()))  # the one nearest q = 0
-    return e.linear_model, "about the stable equilibrium " + ", ".join(f"{k} = {v:.6g}" for k, v in e.coordinates.items())
+    return e.linear_model, "about the stable equilibrium " + ", ".join(f"{k} = {v:.6g}"
+                                                                       for k, v in e.coordinates.items())
 
 
 def _cmd_linearize(args: argparse.Namespace) -> int:

@@ -98,11 +98,12 @@ def check_numbers(args: argparse.Namespace) -> None:
 
 def add_simulation_options(s: argparse.ArgumentParser) -> None:
     """The options of a simulation, shared by every command that simulates (simulate, animate)."""
-    s.add_argument("--t-end", type=option_number("--t-end", positive=True, example="--t-end 10"), metavar="T", help="final time (s)")
+    s.add_argument("--t-end", type=option_number("--t-end", positive=True, example="--t-end 10"), metavar="T",
+                   help="final time (s)")
     s.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE,...",
-                   help="initial coordinates and velocities, e.g. q1=0,q2=0.5,q2_dot=0 (values may use pi and the model's "
-                        "parameters, at their --param values); the others keep the model file's [simulation] initial "
-                        "values (0 where it gives none)")
+                   help="initial coordinates and velocities, e.g. q1=0,q2=0.5,q2_dot=0 (values may use pi and the "
+                        "model's parameters, at their --param values); the others keep the model file's "
+                        "[simulation] initial values (0 where it gives none)")
     s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a parameter value (repeatable, or comma-separated)")
     s.add_argument("--input", action="append", default=[], metavar="NAME=EXPR",
@@ -113,16 +114,20 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
     s.add_argument("--sample-time", metavar="TS or NAME=TS",
                    help="sample the inputs every TS seconds and hold them in between (a digital controller); "
                         "NAME=TS,... samples only the named inputs")
-    s.add_argument("--dt", type=option_number("--dt", positive=True, example="--dt 0.01"), help="output interval (default: the model's, or 0.01)")
-    s.add_argument("--rtol", type=option_number("--rtol", positive=True, maximum=1, example="--rtol 1e-9"), help="relative tolerance (default 1e-9)")
-    s.add_argument("--atol", type=option_number("--atol", positive=True, example="--atol 1e-9"), help="absolute tolerance (default 1e-9)")
+    s.add_argument("--dt", type=option_number("--dt", positive=True, example="--dt 0.01"),
+                   help="output interval (default: the model's, or 0.01)")
+    s.add_argument("--rtol", type=option_number("--rtol", positive=True, maximum=1, example="--rtol 1e-9"),
+                   help="relative tolerance (default 1e-9)")
+    s.add_argument("--atol", type=option_number("--atol", positive=True, example="--atol 1e-9"),
+                   help="absolute tolerance (default 1e-9)")
     s.add_argument("--method", default="DOP853",
                    help="integrator: DOP853 (default, compiled), variational (compiled, fixed step, for long "
                         "conservative runs), or SciPy's RK45, RK23, Radau, BDF, LSODA")
     s.add_argument("--backend", default="auto", choices=("auto", "numba", "c", "scipy"),
                    help="where the integrator runs: auto (default: numba when it can), numba, c (needs a C "
                         "compiler), scipy (SciPy's solve_ivp)")
-    s.add_argument("--step", type=option_number("--step", positive=True, example="--step 0.001"), help="fixed step of --method variational (default: at most 1e-3, dividing dt)")
+    s.add_argument("--step", type=option_number("--step", positive=True, example="--step 0.001"),
+                   help="fixed step of --method variational (default: at most 1e-3, dividing dt)")
     s.add_argument("--event", action="append", default=[], metavar="NAME=EXPR",
                    help="record where an expression of t, coordinates, velocities, inputs and parameters crosses "
                         "zero, e.g. \"upright=cos(q2)\" (repeatable; compiled DOP853 only)")

@@ -73,7 +73,8 @@ def register(sub, fmt) -> None:
 
 
 def _design_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--sample-time", type=option_number("--sample-time", positive=True, example="--sample-time 0.02"), metavar="TS",
+    p.add_argument("--sample-time", type=option_number("--sample-time", positive=True, example="--sample-time 0.02"),
+                   metavar="TS",
                    help="design for a controller sampled every TS seconds (zero-order hold): the discrete design "
                         "on the exact discretization; simulate it with --sample-time TS")
     p.add_argument("--wrap", action="append", default=[], metavar="NAME",

@@ -21,7 +21,8 @@ def register(sub, fmt) -> None:
                               "  lagrangian derive rotating-pendulum --latex")
     d.add_argument("model", help=MODEL_HELP)
     g = d.add_mutually_exclusive_group()
-    g.add_argument("--json", action="store_true", help="print one JSON object (coordinates, mass_matrix, forcing, equations, ...)")
+    g.add_argument("--json", action="store_true",
+                   help="print one JSON object (coordinates, mass_matrix, forcing, equations, ...)")
     g.add_argument("--latex", action="store_true", help="print LaTeX (each equation and the matrix form)")
     d.set_defaults(handler=_cmd_derive)
 
@@ -33,7 +34,8 @@ def register(sub, fmt) -> None:
                               "--param M1=2 --input \"F=1.5*sin(3*t)\" --dt 0.05 --output out.csv")
     s.add_argument("model", help=MODEL_HELP)
     add_simulation_options(s)
-    s.add_argument("--output", "-o", default="-", metavar="FILE", help="CSV file to write ('-' for stdout, the default)")
+    s.add_argument("--output", "-o", default="-", metavar="FILE",
+                   help="CSV file to write ('-' for stdout, the default)")
     s.add_argument("--events-output", metavar="FILE",
                    help="CSV file for the --event crossings: event,t,<states>, in time order")
     s.set_defaults(handler=_cmd_simulate)
@@ -45,7 +47,8 @@ def register(sub, fmt) -> None:
                        "configurations where G loses rank (the constraints dependent: which ones, and which motions "
                        "become free) and the dead points of the coordinates that drive the mechanism ([simulation] "
                        "independent, a coordinate an input alone acts on, or --driver).",
-                       epilog="Examples:\n  lagrangian check cart-pendulum-massless\n  lagrangian check my_model.toml --json"
+                       epilog="Examples:\n  lagrangian check cart-pendulum-massless"
+                              "\n  lagrangian check my_model.toml --json"
                               "\n  lagrangian check slider-crank --driver s")
     c.add_argument("model", help=MODEL_HELP)
     c.add_argument("--json", action="store_true", help="print one JSON object (singular, det_mass_matrix, ..., "
@@ -81,7 +84,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from ..errors import SimulationError, SingularMassMatrixError
 
     if args.events_output is not None and not args.event:
-        raise ModelError("--events-output needs at least one --event NAME=EXPR, for example --event \"upright=cos(q2)\"")
+        raise ModelError("--events-output needs at least one --event NAME=EXPR, "
+                         "for example --event \"upright=cos(q2)\"")
     for option, path in (("--output", args.output), ("--events-output", args.events_output)):
         if path is not None:
             check_writable(path, option=option)

@@ -23,18 +23,25 @@ def register(sub, fmt) -> None:
                               "  lagrangian serve my_model.toml --no-browser\n"
                               "Then open the address it prints; http://127.0.0.1:PORT/?example=NAME opens an example.")
     s.add_argument("model", nargs="?", help=MODEL_HELP + "; the page opens with it (default: cart-pendulum)")
-    s.add_argument("--port", type=option_number("--port", integer=True, minimum=0, maximum=65535, example="--port 8800"), default=DEFAULT_PORT, help=f"the port (default {DEFAULT_PORT}; 0 picks a free one)")
+    s.add_argument("--port", type=option_number("--port", integer=True, minimum=0, maximum=65535,
+                                                example="--port 8800"),
+                   default=DEFAULT_PORT, help=f"the port (default {DEFAULT_PORT}; 0 picks a free one)")
     s.add_argument("--host", default="127.0.0.1",
                    help="the address to listen on (default 127.0.0.1: this machine only; another address, such as "
                         "0.0.0.0, serves the network and prints a warning)")
     s.add_argument("--no-browser", action="store_true", help="do not open the page in a browser")
-    s.add_argument("--workers", type=option_number("--workers", integer=True, minimum=1, maximum=256, example="--workers 2"), help="worker processes for derivations and simulations "
+    s.add_argument("--workers", type=option_number("--workers", integer=True, minimum=1, maximum=256,
+                                                   example="--workers 2"),
+                   help="worker processes for derivations and simulations "
                    "(default: one per core, 2 to 4); simulations, equilibria, reports and FMUs take all but one, "
                    "so that derivations never wait behind them")
-    s.add_argument("--time-limit", type=option_number("--time-limit", positive=True, example="--time-limit 30"), default=DEFAULT_TIME_LIMIT, metavar="SECONDS",
+    s.add_argument("--time-limit", type=option_number("--time-limit", positive=True, example="--time-limit 30"),
+                   default=DEFAULT_TIME_LIMIT, metavar="SECONDS",
                    help=f"the most seconds of work one request may take (default {DEFAULT_TIME_LIMIT:g}); past it "
                         "its worker is stopped, with the processes it started (the C compiler)")
-    s.add_argument("--memory-limit", type=option_number("--memory-limit", integer=True, minimum=64, example="--memory-limit 2048"), default=DEFAULT_MEMORY_LIMIT, metavar="MIB",
+    s.add_argument("--memory-limit", type=option_number("--memory-limit", integer=True, minimum=64,
+                                                        example="--memory-limit 2048"),
+                   default=DEFAULT_MEMORY_LIMIT, metavar="MIB",
                    help=f"the most memory one request may take in its worker, in MiB (default {DEFAULT_MEMORY_LIMIT}; "
                         "on Linux)")
     s.set_defaults(handler=_cmd_serve)

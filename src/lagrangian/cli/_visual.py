@@ -23,12 +23,14 @@ def register(sub, fmt) -> None:
     add_simulation_options(a)
     a.add_argument("--output", "-o", required=True, metavar="FILE",
                    help="the animation to write: FILE.gif, FILE.mp4 or FILE.html")
-    a.add_argument("--fps", type=option_number("--fps", positive=True, maximum=1000, example="--fps 25"), default=25.0, help="frames per second (default 25)")
+    a.add_argument("--fps", type=option_number("--fps", positive=True, maximum=1000, example="--fps 25"), default=25.0,
+                   help="frames per second (default 25)")
     a.add_argument("--speed", type=option_number("--speed", positive=True, example="--speed 0.5"), default=1.0,
                    help="simulated seconds per second of animation (default 1; 0.5 plays at half speed)")
     a.add_argument("--trace", action="append", default=[], metavar="NAME",
                    help="draw the path of this point, particle or body (repeatable)")
-    a.add_argument("--dpi", type=option_number("--dpi", minimum=10, maximum=1000, example="--dpi 80"), default=80.0, help="resolution in dots per inch (default 80)")
+    a.add_argument("--dpi", type=option_number("--dpi", minimum=10, maximum=1000, example="--dpi 80"), default=80.0,
+                   help="resolution in dots per inch (default 80)")
     a.add_argument("--view", choices=("auto", "fixed", "follow"), default="auto",
                    help="fixed: one box holds the whole motion; follow: the view moves with the mechanism's "
                         "centre of mass; auto (default): follow when the motion reaches more than 3 times the "

@@ -324,7 +324,8 @@ def _check_design(lin, sample_time) -> None:
     if not lin.is_equilibrium:
         qdd = ", ".join(f"{c}_ddot = {a:.3g}" for c, a in zip(lin.coordinate_names, lin.accelerations))
         raise ModelError(f"the operating point is not an equilibrium ({qdd}): a state feedback holds the system at "
-                         "an equilibrium; choose the point (--at, at=...) and the constant inputs (--input, inputs=...) "
+                         "an equilibrium; choose the point (--at, at=...) and the constant inputs "
+                         "(--input, inputs=...) "
                          "so that every acceleration is 0")
     if sample_time is not None and (not isinstance(sample_time, numbers.Real) or isinstance(sample_time, bool)
                                     or not sample_time > 0 or not math.isfinite(sample_time)):

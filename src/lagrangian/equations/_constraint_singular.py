@@ -156,7 +156,8 @@ class DeadPoints:
     def to_dict(self) -> dict:
         return {"drivers": list(self.drivers), "others": list(self.others), "reason": self.reason,
                 "determinant": None if self.determinant is None else sympy.sstr(self.determinant),
-                "never": self.never, "searched": self.searched, "configurations": [c.to_dict() for c in self.configurations],
+                "never": self.never, "searched": self.searched,
+                "configurations": [c.to_dict() for c in self.configurations],
                 "more": self.more}
 
 
@@ -752,7 +753,8 @@ class _Search:
                 break
             for fraction in (1.0, 0.5, 0.25, 0.125):  # a shorter step where the set curves away
                 moved = _search(num, [q + fraction * step], rows, cols, self.scale)
-                if moved and np.linalg.norm(angle_difference(self.initial, moved[0][0], self.angles)) < np.linalg.norm(d):
+                if moved and (np.linalg.norm(angle_difference(self.initial, moved[0][0], self.angles))
+                              < np.linalg.norm(d)):
                     q = moved[0][0]
                     break
             else:

@@ -29,8 +29,9 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 import sympy
 
-__all__ = ["NEWTON_XTOL", "NUDGE", "PRECISE", "ROUND_OFF", "SAME_POINT", "STEP_ROUND_OFF", "angle_difference", "distinct", "gauss_newton",
-           "least_squares", "minimize", "multistart", "newton", "same_point", "wrap_angle", "wrap_angles"]
+__all__ = ["NEWTON_XTOL", "NUDGE", "PRECISE", "ROUND_OFF", "SAME_POINT", "STEP_ROUND_OFF", "angle_difference",
+           "distinct", "gauss_newton", "least_squares", "minimize", "multistart", "newton", "same_point", "wrap_angle",
+           "wrap_angles"]
 
 #: Values this small (1e-17 left by cos(pi/2)) are exact zeros once wrapped.
 ROUND_OFF = 1e-13

@@ -18,7 +18,8 @@ __all__ = ["example_names", "example_descriptions", "example_source", "pendulum_
 
 #: The generated families: pattern, name shown in listings, description.
 GENERATED = {
-    "pendulum-chain": "Chain of n point masses on massless links (pendulum-chain-<n>, any n >= 1, e.g. pendulum-chain-5)",
+    "pendulum-chain": "Chain of n point masses on massless links (pendulum-chain-<n>, any n >= 1, "
+                      "e.g. pendulum-chain-5)",
     "spring-mass-damper-chain": "n masses in a row between two walls, joined by springs and dampers, force F on "
                                 "the last (spring-mass-damper-chain-<n>, e.g. spring-mass-damper-chain-3)",
     "robot-arm": "Serial arm of n revolute joints in space (z, y, y, x, y, x, ...), each link a rigid body in its "

@@ -1155,7 +1155,8 @@ class _Reader:
                                                     f"axes: remove '{name}'")  # the rest is still checked
         complete = self.check_keys(entry, keys=(_BODY3D_KEYS[0], _BODY3D_KEYS[1] + ("position", "angle")))
         mass = self.field(entry, "mass", "mass")
-        inertia = self.inertia3(entry.table.get("inertia"), f"{entry.key}.inertia") if "inertia" in entry.table else None
+        inertia = (self.inertia3(entry.table.get("inertia"), f"{entry.key}.inertia")
+                   if "inertia" in entry.table else None)
         frame = self.frame_of(entry, stand_in=True) if "frame" in entry.table else None
         center = (0, 0, 0)
         if "center" in entry.table:

@@ -8,4 +8,5 @@ from ._model import Model
 from ._symbols import FUNCTION_NAMES, RESERVED_NAMES, ddot, dot, t
 
 __all__ = ["Model", "Element", "Particle", "RigidBody", "RigidBody3D", "Point", "Spring", "Damper", "Gravity",
-           "Force", "Torque", "Torque3D", "Contribution", "Constraint", "Frame", "Factor", "WORLD", "dot", "ddot", "t", "FUNCTION_NAMES", "RESERVED_NAMES"]
+           "Force", "Torque", "Torque3D", "Contribution", "Constraint", "Frame", "Factor", "WORLD", "dot", "ddot", "t",
+           "FUNCTION_NAMES", "RESERVED_NAMES"]

@@ -331,7 +331,8 @@ class Model:
         if not isinstance(name, str) or not name.isidentifier():
             raise ModelError(f"{where}: a frame's name must be an identifier (letters, digits, _), e.g. 'body'")
         if name == WORLD or name in self._frames:
-            raise ModelError(f"{where}: the name is taken ({'the inertial frame' if name == WORLD else 'another frame'}); "
+            raise ModelError(f"{where}: the name is taken "
+                             f"({'the inertial frame' if name == WORLD else 'another frame'}); "
                              "give each frame its own name")
         parent = self._frame_name(parent, f"{where}.parent")
         local = self._vector(origin, f"{where}.origin")
@@ -368,7 +369,8 @@ class Model:
             if not isinstance(step, (list, tuple)) or len(step) != 2:
                 raise ModelError(f"{where}[{k}]: expected (axis, angle), e.g. (\"z\", \"phi\"), got {step!r}")
             axis, angle = step
-            out.append(Factor(axis=self._axis(axis, f"{where}[{k}].axis"), angle=self.expr(angle, f"{where}[{k}].angle")))
+            out.append(Factor(axis=self._axis(axis, f"{where}[{k}].axis"),
+                              angle=self.expr(angle, f"{where}[{k}].angle")))
         return tuple(out)
 
     def _axis(self, axis, where: str) -> tuple:

@@ -307,8 +307,8 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         X[i, STATS[i, 3]:] = np.nan
     stop = np.where(STATUS_ == 0, times[-1], INFO[:, 0])
     return BatchResult(read_only(times, float), read_only(X, float), names.state_names, read_only(P[:, :k], float),
-                       names.parameter_names, read_only(X0, float), read_only(STATUS_, np.int64), read_only(stop, float),
-                       read_only(STATS[:, 0], np.int64), cm.backend, eq.model)
+                       names.parameter_names, read_only(X0, float), read_only(STATUS_, np.int64),
+                       read_only(stop, float), read_only(STATS[:, 0], np.int64), cm.backend, eq.model)
 
 
 def default_lanes(n: int, runs: int) -> int:

@@ -174,7 +174,8 @@ class _Printer:
             name = f"c{k}"
             text = self._translate(self._str(expr), temps)
             temps[sym.name] = name
-            lines.append(f"{indent}{'double ' if self.lang == 'c' else ''}{name} = {text}{';' if self.lang == 'c' else ''}")
+            lines.append(f"{indent}{'double ' if self.lang == 'c' else ''}{name} = {text}"
+                         f"{';' if self.lang == 'c' else ''}")
         outputs = [self._translate(self._str(e), temps) for e in reduced]
         if first is None:
             return lines, outputs

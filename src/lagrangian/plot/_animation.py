@@ -565,7 +565,10 @@ _PLAYER = """<div id="{uid}" class="lagrangian-animation" style="display:inline-
   var button = document.getElementById("{uid}-play");
   var k = 0, timer = null;
   function show(i) {{ k = i; img.src = frames[i]; slider.value = i; label.textContent = "t = " + times[i] + " s"; }}
-  function play() {{ timer = setInterval(function() {{ show((k + 1) % {count}); }}, {interval}); button.textContent = "pause"; }}
+  function play() {{
+    timer = setInterval(function() {{ show((k + 1) % {count}); }}, {interval});
+    button.textContent = "pause";
+  }}
   function pause() {{ clearInterval(timer); timer = null; button.textContent = "play"; }}
   button.onclick = function() {{ if (timer) pause(); else play(); }};
   slider.oninput = function() {{ pause(); show(parseInt(slider.value)); }};

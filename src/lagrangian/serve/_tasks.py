@@ -486,7 +486,8 @@ def geometry(model, traj) -> dict:
         "axis_length": axis_length,
         "ground": {"step": grid_step(2 * float(np.max(framing.half[:2]) + 0.12 * framing.size))}
         if scene.ground else None,
-        "framing": {"follow": framing.follow, "centre": rounded(framing.centre if framing.follow else framing.centre[:1]),
+        "framing": {"follow": framing.follow,
+                    "centre": rounded(framing.centre if framing.follow else framing.centre[:1]),
                     "half": rounded(framing.half), "size": framing.size},
     }
 
