@@ -101,8 +101,7 @@ class SimulationOptions:
         """The options of the model file's [simulation] table (``model.simulation``), the defaults
         for what it does not give."""
         sim = getattr(model, "simulation", None) or {}
-        known = {f.name for f in fields(cls)}
-        values = {k: v for k, v in sim.items() if k in known and v is not None}
+        values = {k: v for k, v in sim.items() if k in _FIELDS and v is not None}
         for key in ("initial", "inputs"):
             values[key] = _frozen(values.get(key) or {})
         for key in ("independent", "independent_speeds"):
@@ -115,11 +114,10 @@ class SimulationOptions:
         """These options with the caller's: a value given replaces this one, a mapping given for
         initial, inputs, params, events or sample_time updates this one's name by name (see the
         module's docstring); None keeps this one. An unknown option is a TypeError."""
-        known = {f.name for f in fields(self)}
-        unknown = sorted(set(overrides) - known)
+        unknown = sorted(set(overrides) - _FIELDS)
         if unknown:
             raise TypeError(f"unknown simulation option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
-                            f"the options are {', '.join(sorted(known - {'given'}))}")
+                            f"the options are {', '.join(sorted(_FIELDS - {'given'}))}")
         changes = {}
         for key, value in overrides.items():
             if value is None:
@@ -184,3 +182,7 @@ class SimulationOptions:
             return [Problem(f"constraints must be 'project' or 'eliminate', got {self.constraints!r}",
                             key="constraints")]
         return []
+
+
+#: The names of the options (simulate() merges them on every call: read once).
+_FIELDS = frozenset(f.name for f in fields(SimulationOptions))
