@@ -254,7 +254,6 @@ def linearize_steady(equations: Equations, at: dict, given: set, setting):
     from ..numeric._constrained import ConstraintSingular, consistent_state, constrained_model, \
         singular_constraint_message
     from ._linearize import LinearModel, _clean, read_only, split_velocity_terms
-    from ._setting import derivatives
 
     n = equations.n
     names = equations.state_names
@@ -352,7 +351,7 @@ def linearize_steady(equations: Equations, at: dict, given: set, setting):
     # cyclic in the linearization, so their drift is not instability
     family = tuple(coords[i] for k, i in enumerate(ind_v) if np.max(np.abs(np.delete(Ar[:, k], k)), initial=0.0)
                    <= 1e-11 * scale)
-    C, G = split_velocity_terms(Dr, derivatives(equations).damping(q0, v0, t, u, p), T)
+    C, G = split_velocity_terms(Dr, compile_equations(equations, "scipy").damping(t, np.concatenate((q0, v0)), u, p), T)
     state = tuple(coords[i] for i in ind_v) + tuple(f"{coords[i]}_dot" for i in ind_v)
     point = {s: float(x[names.index(s)]) + 0.0 for s in state}
     return LinearModel(

@@ -38,8 +38,9 @@ from ..equations._exact import exact_number
 from ..equations._singular import inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
+from ..numeric._compiled import compile_equations
 from .._util import named_values, read_only
-from ._setting import Setting, collect_setting, derivatives
+from ._setting import Setting, collect_setting
 
 __all__ = ["linearize", "LinearModel", "SymbolicLinearization", "classify", "STABILITY"]
 
@@ -435,10 +436,9 @@ def linearize_at(equations: Equations, point: Mapping[str, float], setting: Sett
 
         space = tangent_space(equations, x, set(names) if given is None else given, setting)
         x = space.x
-    q, qd = x[:n], x[n:]
-    d = derivatives(equations)
+    nm = compile_equations(equations, "scipy")  # the one numeric model: its Jacobians, in (t, x, u, p)
     u, p = setting.u, setting.p
-    base = d.full(q, qd, setting.t, u, p, np.zeros(n))
+    base = nm.jacobians(setting.t, x, u, p, np.zeros(n))
     M, f = base["M"], base["f"]
     if space is not None:  # at rest on the constraints (checked): the accelerations are 0
         space.require_rest(M, f)
@@ -451,11 +451,11 @@ def linearize_at(equations: Equations, point: Mapping[str, float], setting: Sett
             # at the pole of spherical coordinates), which the scaled measure cannot see
             raise _singular_error(equations, point, setting.parameters)
         qdd = np.linalg.solve(M, f)
-        parts = d.full(q, qd, setting.t, u, p, qdd) if np.any(qdd) else base
+        parts = nm.jacobians(setting.t, x, u, p, qdd) if np.any(qdd) else base
     K = parts["Maq"] - parts["fq"]
     if space is not None:  # the constraint forces' stiffness, sum_k lambda_k H_k
         K = K - space.stiffness
-    M, C, G, K, B0, A, B = assembled(M, K, -parts["fqd"], parts["fu"], d.damping(q, qd, setting.t, u, p),
+    M, C, G, K, B0, A, B = assembled(M, K, -parts["fqd"], parts["fu"], nm.damping(setting.t, x, u, p),
                                      None if space is None else space.basis)
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
         bad = ", ".join(f"{k} = {v:g}" for k, v in point.items())

@@ -3,8 +3,7 @@
 The numbers an analysis needs at points (f and its Jacobians with respect to q, q_dot and u, the
 momenta, the damping matrix, the static forces and the constraint parts) are the one numeric
 model's (``numeric._compiled.NumericModel``, in the argument order (t, x, u, p), cached per
-Equations object); ``Derivatives`` keeps the old order (q, q_dot, t, u, p) for the callers not yet
-moved to it.
+Equations object).
 """
 
 from __future__ import annotations
@@ -19,7 +18,7 @@ from ..equations import Equations
 from .._util import named_values, real_number
 from ..errors import ModelError, Problem
 
-__all__ = ["Setting", "resolve_setting", "collect_setting", "derivatives"]
+__all__ = ["Setting", "resolve_setting", "collect_setting"]
 
 
 @dataclass(frozen=True)
@@ -82,28 +81,3 @@ def collect_setting(equations: Equations, params: Mapping | None, inputs: Mappin
     except ModelError as exc:
         problems.extend(exc.problems)
         return None
-
-
-class Derivatives:
-    """The old argument order (q, q_dot, t, u, p) over the one numeric model's Jacobians
-    (:meth:`NumericModel.jacobians`, :meth:`NumericModel.damping`, in (t, x, u, p)), for the callers
-    not yet moved to it (``_linearize``, ``_constrained_linear``)."""
-
-    def __init__(self, equations: Equations):
-        from ..numeric._compiled import compile_equations
-
-        self._nm = compile_equations(equations, "scipy")
-        self.n, self.m = equations.n, len(equations.inputs)
-
-    def full(self, q, qd, t, u, p, qdd) -> dict[str, np.ndarray]:
-        """M, f, df/dq, df/dq_dot, df/du and d(M a)/dq at a = qdd."""
-        return self._nm.jacobians(t, np.concatenate((q, qd)), u, p, qdd)
-
-    def damping(self, q, qd, t, u, p) -> np.ndarray:
-        """The damping matrix at the state, shape (n, n) (:meth:`NumericModel.damping`)."""
-        return self._nm.damping(t, np.concatenate((q, qd)), u, p)
-
-
-def derivatives(equations: Equations) -> Derivatives:
-    """:class:`Derivatives` of `equations` (a view of its cached NumericModel)."""
-    return Derivatives(equations)
