@@ -192,13 +192,8 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     problems: list[Problem] = []
     options = SimulationOptions.from_model(eq.model).merged(t_end=t_end, dt=dt, rtol=rtol, atol=atol,
                                                             initial=initial, inputs=inputs)  # simulate's rule
-    t_end = options.t_end
-    if t_end is None or not isinstance(t_end, numbers.Real) or not t_end > 0 or not math.isfinite(t_end):
-        problems.append(Problem(f"t_end must be a positive number, got {t_end!r}", key="t_end"))
-    dt, rtol, atol = options.dt, options.rtol, options.atol
-    for key, v in (("dt", dt), ("rtol", rtol), ("atol", atol)):
-        if not isinstance(v, numbers.Real) or not v > 0 or not math.isfinite(v):
-            problems.append(Problem(f"{key} must be a positive number, got {v!r}", key=key))
+    t_end, dt, rtol, atol = options.t_end, options.dt, options.rtol, options.atol
+    problems += options.problems()  # simulate's checks of t_end, dt, rtol and atol, and their messages
     problems += _work_problems(t_end, dt, t_eval, None, "DOP853")  # the output rows of each run (LAGRANGIAN_MAX_ROWS)
     if lanes is not None and (isinstance(lanes, bool) or not isinstance(lanes, numbers.Integral) or lanes < 1):
         problems.append(Problem(f"lanes must be a positive integer, got {lanes!r}", key="lanes"))
@@ -274,7 +269,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     if eq.is_constrained:  # each run from its consistent state, projected after every step
         project, nwork = _constrained_starts(cm, X0, P[:, :k], given_initial, defaults.get("initial"))
     prog = _input_programs(eq, u_exprs)
-    rtol = max(float(rtol), 100 * np.finfo(float).eps)
+    rtol = float(rtol)  # at least 100 machine epsilons (SimulationOptions.problems)
     X = np.full((B, len(times), 2 * names.n), np.nan)
     INFO = np.zeros((B, 2 + 2 * names.n))
     STATS = np.zeros((B, 4), dtype=np.int64)

@@ -468,7 +468,7 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
         U, E, energy = _NO_OUTPUTS[0], _NO_OUTPUTS[1], 0
     model = (cm.rhs_address, n, int(project), int(nwork), energy)
     program = (prog.ops, prog.args, prog.starts, max(prog.nstack, events.nstack))
-    control = (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), float(first_step))
+    control = (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), float(first_step))  # see MIN_RTOL
     watched = (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
     held = (sampling.hold, sampling.samples, sampling.which, hist)
 

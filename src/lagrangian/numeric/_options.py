@@ -32,6 +32,9 @@ __all__ = ["BY_NAME", "SimulationOptions"]
 BY_NAME = ("initial", "inputs", "params", "sample_time", "events")
 #: The defaults when neither the model file nor the caller gives a value.
 DEFAULTS = {"dt": 0.01, "rtol": 1e-9, "atol": 1e-9}
+#: The smallest relative tolerance an integrator can meet in double precision (as SciPy's solve_ivp): 100
+#: machine epsilons.
+MIN_RTOL = 100 * 2.220446049250313e-16
 
 
 def _name(key):
@@ -162,6 +165,10 @@ class SimulationOptions:
                                       example="rtol=1e-9 (--rtol 1e-9)")
         if rtol_problem:
             out.append(Problem(rtol_problem, key="rtol"))
+        elif self.rtol < MIN_RTOL:  # the integrators would raise it to this bound, silently (as SciPy's does)
+            out.append(Problem(f"rtol = {self.rtol:g} is smaller than a relative error double precision can meet: "
+                               f"at least 100 machine epsilons, {MIN_RTOL:.3g}; use rtol={MIN_RTOL:.3g} or larger "
+                               f"(--rtol {MIN_RTOL:.3g})", key="rtol"))
         if number_problem(self.atol, "atol", positive=True):
             out.append(Problem(number_problem(self.atol, "atol", positive=True) + " (with atol = 0 a state "
                                "component that passes through zero cannot be controlled)", key="atol"))
