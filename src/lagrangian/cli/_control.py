@@ -9,7 +9,8 @@ import os
 
 from ..errors import ModelError
 from ._analysis import _at, _load, _numbers, _operating_point, _values
-from ._common import MODEL_HELP, assignments, number, option_number, parameter_values, split_top_level
+from ._common import (MODEL_HELP, assignments, check_writable, number, option_number, parameter_values,
+                      split_top_level)
 
 
 def register(sub, fmt) -> None:
@@ -82,6 +83,9 @@ def _design_options(p: argparse.ArgumentParser) -> None:
                         "atan2(sin(q - q0), cos(q - q0)) (repeatable, or comma-separated)")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object: K, gains, closed_loop_eigenvalues, law, input_options, ...")
+    p.add_argument("--save", metavar="FILE.json",
+                   help="also write the design (K, x0, u0, the names, the parameter values and a fingerprint of "
+                        "the equations) for `lagrangian simulate MODEL --controller FILE.json`")
 
 
 def _weights(text: str | None, what: str):
@@ -111,8 +115,18 @@ def _poles(text: str) -> list[complex]:
     return out
 
 
-def _report(args, feedback) -> int:
-    wrap = [w.strip() for item in args.wrap for w in item.split(",") if w.strip()]
+def _wrapped(args) -> list[str]:
+    return [w.strip() for item in args.wrap for w in item.split(",") if w.strip()]
+
+
+def _report(args, feedback, lin) -> int:
+    wrap = _wrapped(args)
+    if args.save is not None:
+        from ..control._design import design_json
+        from ..io._files import write_atomically
+
+        text = design_json(feedback, lin.equations, _design_parameters(args, lin.equations), wrap)
+        write_atomically(args.save, text)
     if args.json:
         print(json.dumps(feedback.to_dict(wrap), indent=2))
     else:
@@ -121,6 +135,8 @@ def _report(args, feedback) -> int:
 
 
 def _linearization(args):
+    if args.save is not None:
+        check_writable(args.save, "design.json", "--save")
     eqs = _load(args)
     lin, _note = _operating_point(args, eqs)
     return lin
@@ -130,14 +146,98 @@ def _cmd_lqr(args: argparse.Namespace) -> int:
     from ..control import lqr
 
     lin = _linearization(args)
-    return _report(args, lqr(lin, _weights(args.Q, "Q"), _weights(args.R, "R"), sample_time=args.sample_time))
+    return _report(args, lqr(lin, _weights(args.Q, "Q"), _weights(args.R, "R"), sample_time=args.sample_time), lin)
 
 
 def _cmd_place(args: argparse.Namespace) -> int:
     from ..control import place
 
     lin = _linearization(args)
-    return _report(args, place(lin, _poles(args.poles), sample_time=args.sample_time))
+    return _report(args, place(lin, _poles(args.poles), sample_time=args.sample_time), lin)
+
+
+def _design_parameters(args, eqs) -> dict[str, float]:
+    """The parameter values of a design: the model's, with --param's in their place."""
+    return parameter_values(eqs, _numbers(args.param, "param"))
+
+
+# --------------------------------------------------------------------------- simulate --lqr / --controller
+
+
+def add_feedback_options(s: argparse.ArgumentParser) -> None:
+    """simulate's options that close the loop with a state feedback designed on the linearization."""
+    g = s.add_mutually_exclusive_group()
+    g.add_argument("--lqr", metavar="\"Q=...;R=...\"",
+                   help="simulate with the LQR law u = -K (x - x0) designed about --at (u0 = 0), in place of "
+                        "--input for every input: Q and R as `lagrangian lqr`'s --Q and --R, separated by ';', "
+                        "e.g. \"Q=q1=1,q2=10,q1_dot=1,q2_dot=1;R=F=1\" (either may be left out: the identity)")
+    g.add_argument("--controller", metavar="FILE.json",
+                   help="simulate with the state feedback saved by `lagrangian lqr ... --save FILE.json` (or "
+                        "`place ... --save`), refused when it was designed for another model or other parameters")
+    s.add_argument("--at", action="append", default=[], metavar="NAME=VALUE,...",
+                   help="with --lqr: the operating point, e.g. q2=pi/2 (as `lagrangian lqr --at`; default: the "
+                        "model's [operating_point], or its stable equilibrium nearest q = 0)")
+    s.add_argument("--wrap", action="append", default=[], metavar="NAME",
+                   help="with --lqr or --controller: a coordinate that is an angle, its error in the law taken "
+                        "modulo 2 pi, atan2(sin(q - q0), cos(q - q0)) (repeatable, or comma-separated)")
+
+
+def _lqr_weights(text: str) -> tuple:
+    """--lqr "Q=...;R=...": the weights as `lagrangian lqr`'s --Q and --R read them."""
+    given: dict[str, str] = {}
+    for part in (p.strip() for p in text.split(";")):
+        if not part:
+            continue
+        key, sep, value = part.partition("=")
+        key = key.strip()
+        if not sep or key not in ("Q", "R"):
+            raise ModelError(f"--lqr '{part}': expected Q=WEIGHTS or R=WEIGHTS separated by ';', for example "
+                             "--lqr \"Q=q1=1,q2=10,q1_dot=1,q2_dot=1;R=F=1\"")
+        if key in given:
+            raise ModelError(f"--lqr gives {key} twice; give it once")
+        given[key] = value.strip()
+    return _weights(given.get("Q"), "Q"), _weights(given.get("R"), "R")
+
+
+def feedback_inputs(args) -> None:
+    """Close the loop for simulate: with --lqr or --controller, the law of every input of the
+    design is added to args.input (and a discrete design's period to args.sample_time); an input
+    also given by --input is refused. Without them, --at and --wrap are refused."""
+    lqr_text, path = getattr(args, "lqr", None), getattr(args, "controller", None)
+    if lqr_text is None and path is None:
+        for option, given in (("--at", args.at), ("--wrap", args.wrap)):
+            if given:
+                raise ModelError(f"{option} is for a closed loop: give --lqr \"Q=...;R=...\" (or --controller "
+                                 f"FILE.json) with it, or leave {option} out")
+        return
+    if path is not None and args.at:
+        raise ModelError("--at is for --lqr: a --controller design keeps its own operating point; leave --at out")
+    eqs = _load(args)
+    if path is not None:
+        from ..control._design import read_design
+
+        feedback, saved_wrap = read_design(path, eqs, _design_parameters(args, eqs))
+        wrap = [*saved_wrap, *(w for w in _wrapped(args) if w not in saved_wrap)]
+        source = f"--controller {path}"
+    else:
+        from ..control import lqr
+
+        point = argparse.Namespace(param=args.param, input=[], at=args.at, t=0.0)
+        Q, R = _lqr_weights(lqr_text)
+        feedback = lqr(_operating_point(point, eqs)[0], Q, R)
+        wrap, source = _wrapped(args), "--lqr"
+    given = set(assignments(args.input, "input", split_commas=False))
+    both = [u for u in feedback.input_names if u in given]
+    if both:
+        raise ModelError(f"the input{'s' if len(both) > 1 else ''} {', '.join(both)} given both by --input and by "
+                         f"{source} (whose law sets {', '.join(feedback.input_names)}); give each input one way: "
+                         "drop its --input")
+    args.input = [*args.input, *(f"{u}={expr}" for u, expr in feedback.law(wrap).items())]
+    if feedback.sample_time is not None:
+        if args.sample_time is not None:
+            raise ModelError(f"{source} is a discrete design, sampled every {feedback.sample_time:g} s, which samples "
+                             "its inputs at that period itself; leave --sample-time out")
+        args.sample_time = ",".join(f"{u}={feedback.sample_time!r}" for u in feedback.input_names)
 
 
 def _cmd_export(args: argparse.Namespace) -> int:

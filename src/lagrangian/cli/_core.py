@@ -9,6 +9,7 @@ import sys
 
 from ..errors import ModelError
 from ..io._files import is_stdout
+from ._control import add_feedback_options, feedback_inputs
 from ._common import (MODEL_HELP, add_simulation_options, check_writable, events_csv, events_summary, run_simulation,
                       write_output)
 
@@ -38,6 +39,7 @@ def register(sub, fmt) -> None:
                    help="CSV file to write ('-' for stdout, the default)")
     s.add_argument("--events-output", metavar="FILE",
                    help="CSV file for the --event crossings: event,t,<states>, in time order")
+    add_feedback_options(s)
     s.set_defaults(handler=_cmd_simulate)
 
     c = sub.add_parser("check", help="check a model and diagnose its mass matrix and its constraints",
@@ -89,6 +91,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     for option, path in (("--output", args.output), ("--events-output", args.events_output)):
         if path is not None:
             check_writable(path, option=option)
+    feedback_inputs(args)  # --lqr, --controller: the law as --input
     to_stdout = is_stdout(args.output)
     notes = sys.stderr if to_stdout else sys.stdout
     try:
