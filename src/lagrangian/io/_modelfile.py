@@ -158,6 +158,7 @@ _TOP_LEVEL: dict[str, str] = {
     "wheels": "[[wheels]] tables (frame, radius, axis, center, name): wheels rolling on the ground z = 0",
     "operating_point": "a table [operating_point] of coordinate or velocity = number or expression of parameters",
     "simulation": "a table [simulation] with t_end, dt, rtol, atol, initial and inputs",
+    "outputs": "a table [outputs] of name = expression (or \"<point>.x\"): named outputs of the state",
 }
 
 #: Keys of each kind of element table: required ones first, then optional ones.
@@ -567,6 +568,7 @@ class _Reader:
         self.read_elements(data)
         self.read_constraints(data.get("constraints"))
         self.read_wheels(data.get("wheels"))
+        self.read_outputs(data.get("outputs"))
         self.read_simulation(data.get("simulation"))
         self.read_operating_point(data.get("operating_point"))
         self.check_model()
@@ -808,6 +810,22 @@ class _Reader:
                     self.model.add_energy(**{name: e})
                 except ModelError as exc:
                     self.model_error(key, exc)
+
+    def read_outputs(self, value: object) -> None:
+        """[outputs]: name = expression of the state, t, inputs and parameters, or "<point>.x"."""
+        table = self.table(value, "outputs", 'tip_x = "l1*sin(th1) + l2*sin(th2)"')
+        if table is None:
+            return
+        for name, item in table.items():
+            key = f"outputs.{name}"
+            try:
+                if self.model._point_component(item, key) is None:
+                    item = self.expr(item, key)
+                    if item is None:
+                        continue
+                self.model.add_output(name, item)
+            except ModelError as exc:
+                self.model_error(key, exc)
 
     def read_forces(self, value: object) -> None:
         table = self.table(value, "forces", 'q1 = "F"')

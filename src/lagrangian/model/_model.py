@@ -51,6 +51,8 @@ class Model:
     Q : mapping of coordinate name to expression, optional
         Generalized forces not already in D.
     description : str, optional
+    outputs : mapping of str to expression, optional
+        Named output expressions of the state (see :meth:`add_output`).
 
     Examples
     --------
@@ -65,7 +67,8 @@ class Model:
     def __init__(self, name: str = "model", *, coordinates: Sequence[str] = (),
                  parameters: Mapping[str, float | None] | None = None,
                  inputs: Sequence[str] = (), T=0, V=0, D=0,
-                 Q: Mapping[str, object] | None = None, description: str = ""):
+                 Q: Mapping[str, object] | None = None, description: str = "",
+                 outputs: Mapping[str, object] | None = None):
         self.name = name
         self.description = description
         self._coordinates: list[sympy.Symbol] = []
@@ -79,6 +82,7 @@ class Model:
         self._V = sympy.Integer(0)
         self._D = sympy.Integer(0)
         self._Q: dict[sympy.Symbol, sympy.Expr] = {}
+        self._outputs: dict[str, sympy.Expr] = {}
         self.simulation: dict = {}
         #: The state to linearize about when none is given: coordinate or velocity name -> an
         #: expression of the parameters (a bicycle at speed v: {"thetaR_dot": -v/rR}).
@@ -93,6 +97,8 @@ class Model:
         self.add_energy(T=T, V=V, D=D)
         for qname, expr in (Q or {}).items():
             self.add_generalized_force(qname, expr)
+        for oname, expr in (outputs or {}).items():
+            self.add_output(oname, expr)
 
     # ------------------------------------------------------------------ symbols
     def coordinate(self, *names: str):
@@ -222,7 +228,8 @@ class Model:
 
     def _all_names(self) -> set[str]:
         names = {c.name for c in self._coordinates} | {p.name for p in self._parameters}
-        return names | {u.name for u in self._inputs} | {c.multiplier.name for c in getattr(self, "_constraints", ())}
+        names |= {c.multiplier.name for c in getattr(self, "_constraints", ())} | set(getattr(self, "_outputs", ()))
+        return names | {u.name for u in self._inputs}
 
     # -------------------------------------------------------------- expressions
     def expr(self, value, where: str = "expression") -> sympy.Expr:
@@ -681,6 +688,59 @@ class Model:
         q = matches[0]
         self._Q[q] = self._Q.get(q, sympy.Integer(0)) + self.expr(expr, f"forces.{name}")
 
+    # ------------------------------------------------------------------ outputs
+    def add_output(self, name: str, expr) -> sympy.Expr:
+        """A named output: an expression of the coordinates, velocities, inputs, parameters and t
+        (a point's position, a spring's force, an angle relative to another), or ``"<point>.x"``
+        (``.y``, ``.z``) for a component of a point's, particle's or body's position.
+
+        Outputs are evaluated along a simulation (``traj["tip_x"]``, CSV columns after the others)
+        and linearized (:attr:`LinearModel.output_matrix`, the rows C and D of y = C x + D u).
+        Returns the expression."""
+        self._check_mutable()
+        why = check_name(name, "output")
+        if why is None:
+            taken = self._all_names() | {"energy", "jacobi_integral"}
+            if name in taken:
+                what = ("an output" if name in self._outputs else
+                        "an energy column" if name in ("energy", "jacobi_integral") else
+                        "a coordinate, parameter, input or multiplier")
+                why = (f"output '{name}': the name is already {what}; a trajectory's columns need distinct "
+                       "names, so rename the output")
+        if why is not None:
+            raise ModelError([Problem(why, key=f"outputs.{name}")])
+        e = self._point_component(expr, f"outputs.{name}")
+        if e is None:
+            e = self.expr(expr, f"outputs.{name}")
+        self._outputs[name] = e
+        return e
+
+    def _point_component(self, value, where: str) -> sympy.Expr | None:
+        """The component of a point's position that ``"<point>.x"`` (``.y``, ``.z``) names, or None
+        when `value` is not of that form."""
+        if not isinstance(value, str):
+            return None
+        head, dot_, axis = value.strip().rpartition(".")
+        if not dot_ or not head.isidentifier() or axis not in ("x", "y", "z"):
+            return None
+        points = self._points()
+        if head not in points:
+            raise ModelError([Problem(f"'{head}' is not a point, particle or body{did_you_mean(head, points)}: "
+                                      f"\"<point>.{axis}\" is a component of a located element's position; "
+                                      "use one of " + (", ".join(points) or "(none: add a point first)"),
+                                      key=where)])
+        position = points[head]
+        k = "xyz".index(axis)
+        if k >= len(position):
+            raise ModelError([Problem(f"'{head}' has a planar position (x, y): it has no {axis} component; "
+                                      f"use {head}.x or {head}.y", key=where)])
+        return position[k]
+
+    @property
+    def outputs(self) -> dict[str, sympy.Expr]:
+        """The named outputs, in the order they were added."""
+        return dict(getattr(self, "_outputs", {}))
+
     @property
     def T(self) -> sympy.Expr:
         """The explicit part of T (without the elements' contributions)."""
@@ -713,6 +773,7 @@ class Model:
         sources: list[tuple[str, sympy.Expr, str]] = [
             ("energy.T", self._T, "T"), ("energy.V", self._V, "V"), ("energy.D", self._D, "D")]
         sources += [(f"forces.{c.name}", e, "Q") for c, e in self._Q.items()]
+        sources += [(f"outputs.{name}", e, "output") for name, e in self.outputs.items()]
         for c in self._constraints:
             sources.append((f"constraint '{c.name}'", c.expression, c.kind))
         el_of = {}
@@ -819,6 +880,7 @@ class Model:
         self._constraints = list(self._constraints)
         self._wheels = list(self._wheels)
         self._Q = dict(self._Q)
+        self._outputs = dict(getattr(self, "_outputs", {}))
         self.simulation = copy.deepcopy(self.simulation)
         self.operating_point = dict(self.operating_point)
         return self
