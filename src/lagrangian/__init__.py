@@ -12,7 +12,7 @@ from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileErro
                      SingularMassMatrixError, Status, UnknownNameError)
 from .io import load
 from .model import Model, ddot, dot, t
-from .numeric import BatchResult, CompiledModel, NumericModel, Trajectory, grid, simulate, simulate_batch
+from .numeric import BatchResult, CompiledModel, NumericModel, Signal, Trajectory, grid, simulate, simulate_batch
 from .numeric import compile
 from .analysis import (Continuation, Equilibria, Equilibrium, LinearModel, Modes, SteadyMotion, SteadyMotions,
                        continuation, equilibria, linearize, modes, steady_motions)
@@ -36,7 +36,7 @@ __all__ = [
     "DeadPoints", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate",
-    "simulate_batch", "BatchResult", "grid", "Trajectory", "dot", "ddot", "t",
+    "simulate_batch", "BatchResult", "grid", "Trajectory", "Signal", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
     "SingularMassMatrixError", "SimulationError", "Status", "OutputFileError",
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp", "log",

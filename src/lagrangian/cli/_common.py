@@ -109,8 +109,10 @@ def add_simulation_options(s: argparse.ArgumentParser) -> None:
     s.add_argument("--input", action="append", default=[], metavar="NAME=EXPR",
                    help="an input as an expression of t, the coordinates, velocities and parameters, e.g. "
                         "\"F=1.5*sin(3*t)\" or the feedback law \"F=-20*(q2-pi/2)-5*q2_dot\", which may switch: "
-                        "where(condition, a, b), min, max, clip (repeatable); inputs not given keep the model "
-                        "file's [simulation] inputs (0 where it gives none)")
+                        "where(condition, a, b), min, max, clip (repeatable), or a measured signal, a column of "
+                        "a CSV file: \"F=@data.csv:acc\" (linear between rows; add :cubic for the not-a-knot "
+                        "spline, :hold to hold the end values outside the table's times); inputs not given keep "
+                        "the model file's [simulation] inputs (0 where it gives none)")
     s.add_argument("--sample-time", metavar="TS or NAME=TS",
                    help="sample the inputs every TS seconds and hold them in between (a digital controller); "
                         "NAME=TS,... samples only the named inputs")
@@ -150,7 +152,7 @@ def run_simulation(args, *, equations_to=None):
     params = {k: number(v, f"--param {k}") for k, v in assignments(args.param, "param").items()}
     names = parameter_values(model, params)
     initial = {k: number(v, f"--initial {k}", names) for k, v in assignments(args.initial, "initial").items()}
-    inputs = assignments(args.input, "input", split_commas=False)
+    inputs = signal_inputs(assignments(args.input, "input", split_commas=False))
     events = assignments(getattr(args, "event", []), "event", split_commas=False)
     stop_on = [name.strip() for item in getattr(args, "stop_on", []) for name in item.split(",") if name.strip()]
     eqs = derive(model)
@@ -163,6 +165,36 @@ def run_simulation(args, *, equations_to=None):
                     sample_time=sample_time_option(getattr(args, "sample_time", None)),
                     constraints=getattr(args, "constraints", "project"))
     return model, eqs, traj
+
+
+_QUALIFIERS = {"linear": "interpolation", "cubic": "interpolation", "hold": "extrapolation"}
+
+
+def signal_inputs(inputs: Mapping[str, str]) -> dict:
+    """--input NAME=@FILE.csv[:COLUMN][:cubic][:hold]: the column (default: the column named NAME) of a
+    CSV file as a measured signal (lagrangian.Signal), linear (or cubic) between its rows; the others
+    as they are."""
+    from ..numeric import Signal
+
+    out: dict = {}
+    for name, text in inputs.items():
+        if not text.startswith("@"):
+            out[name] = text
+            continue
+        parts = text[1:].split(":")
+        options = {}
+        while len(parts) > 1 and parts[-1].strip().lower() in _QUALIFIERS:
+            word = parts.pop().strip().lower()
+            options[_QUALIFIERS[word]] = word
+        column = name
+        if len(parts) > 1 and not (len(parts) == 2 and len(parts[0]) == 1):  # C:\data.csv is a path
+            column = parts.pop().strip()
+        path = ":".join(parts).strip()
+        if not path:
+            raise ModelError(f"--input {name}={text}: expected a CSV file after '@', for example "
+                             f"--input {name}=@data.csv:{name} (or @data.csv:{name}:cubic, @data.csv:{name}:hold)")
+        out[name] = Signal.from_csv(path, column, **options)
+    return out
 
 
 def sample_time_option(text: str | None):

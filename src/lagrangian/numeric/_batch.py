@@ -183,6 +183,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     from ._simulate import (_Names, _as_numeric, _input_function, _input_programs, _parameters,
                             _work_problems, requested_times)
     from ._fast import BACKENDS, CompiledModel
+    from ._inputs import signal_problems
     from ._options import SimulationOptions
 
     nm = _as_numeric(system)
@@ -238,6 +239,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         _named_values({k: first(v) for k, v in initial.items()}, names.state_names, "a coordinate or velocity",
                       "initial", problems)
     _, u_exprs = _input_function(names, options.inputs, p0, problems)
+    problems += signal_problems(options.inputs, names.equations.t, 0.0, options.t_end)
     if u_exprs is None:
         problems.append(Problem("simulate_batch runs in compiled code, which cannot call a Python function: give "
                                 "each input as an expression string such as '1.5*sin(3*t)'", key="inputs"))

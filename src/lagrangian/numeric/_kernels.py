@@ -53,6 +53,8 @@ OPCODES = {
     # switches (argument: the switch's index) and logic: see _inputs.py
     "gt": 29, "ge": 30, "and": 31, "or": 32, "where": 33, "not": 34, "sign_switch": 35,
     "heaviside_switch": 36,
+    # a measured signal (argument: the offset of its table in args; see _inputs.Signal)
+    "table": 37,
 }
 #: Opcodes whose argument is the index of a switch.
 SWITCH_OPCODES = (29, 30, 35, 36)

@@ -180,6 +180,29 @@ def _heaviside(a):
 
 
 @njit(cache=True)
+def _table(args, o, s):
+    """A measured signal at s: its table is args[o:] = [n, times (n), 4 coefficients per interval,
+    highest power first]; binary search for the interval, the end values held outside."""
+    n = int(args[o])
+    lo = 0
+    hi = n - 1
+    if s <= args[o + 1]:
+        s = args[o + 1]
+    elif s >= args[o + n]:
+        s = args[o + n]
+        lo = n - 2
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if args[o + 1 + mid] <= s:
+            lo = mid
+        else:
+            hi = mid
+    d = s - args[o + 1 + lo]
+    c = o + 1 + n + 4 * lo
+    return ((args[c] * d + args[c + 1]) * d + args[c + 2]) * d + args[c + 3]
+
+
+@njit(cache=True)
 def _run(ops, args, lo, hi, t, x, u, p, stack, modes, live):
     """The value of the postfix program ops[lo:hi] (see lagrangian.numeric._inputs).
 
@@ -280,6 +303,8 @@ def _run(ops, args, lo, hi, t, x, u, p, stack, modes, live):
             stack[top - 1] = a if stack[top - 1] != 0.0 else b
         elif op == 34:
             stack[top - 1] = 1.0 if stack[top - 1] == 0.0 else 0.0
+        elif op == 37:
+            stack[top - 1] = _table(args, int(args[c]), stack[top - 1])
         else:  # sign and heaviside as switches
             k = int(args[c])
             if live:

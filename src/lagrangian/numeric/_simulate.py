@@ -19,6 +19,7 @@ from ..model import Model
 from ._cache import cached, per_equations
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations, raise_on_failure
 from ._fast import BACKENDS, CompiledModel
+from ._inputs import Signal, signal_problems
 from ._options import SimulationOptions
 from ._solvers import METHODS, Solver, Variational, solver_of
 from ._trajectory import Trajectory, run_trajectory
@@ -170,6 +171,8 @@ def _input_function(nm, inputs, pvalues, problems: list[Problem]):
                                     f"its inputs are {', '.join(nm.input_names) or 'none'}", key=f"inputs.{name}"))
             continue
         i = nm.input_names.index(name)
+        if isinstance(spec, Signal):  # a measured signal: a sympy function of t, interpolated in compiled code
+            spec = spec(nm.equations.t)
         if isinstance(spec, numbers.Real) and not isinstance(spec, bool):
             constant[i] = float(spec)
             if exprs is not None:
@@ -456,6 +459,7 @@ def _prepare(nm, opts: SimulationOptions) -> _Run:
     p = _parameters(nm, opts.params, problems)
     x0 = _initial_state(nm, opts.initial, problems)
     u_of, u_exprs = _input_function(nm, opts.inputs, p, problems)
+    problems += signal_problems(opts.inputs, eq.t, 0.0, opts.t_end)
     t_end = opts.t_end if isinstance(opts.t_end, numbers.Real) else None
     sampling = sample_times(opts.sample_time, nm.input_names, t_end, problems)
     event_exprs = _event_expressions(nm, opts.events, opts.stop_on, problems)
