@@ -259,13 +259,27 @@ class NumericModel:
     def function(self, name: str, build) -> Callable[..., np.ndarray]:
         """``(t, x, u, p) -> array``: other expressions of the model's symbols evaluated in the same
         argument order, by the same evaluator, kept with the model under `name` (``build()`` gives
-        them, SymPy or SymEngine, on first use): positions, heights, outputs."""
+        them, SymPy or SymEngine, on first use): positions, heights, outputs. Vectorised over the
+        rows of a run: with `t` of shape (N,), `x` (N, 2n) and `u` (N, k), it returns shape (N, r)."""
         def make():
             exprs = [se.sympify(e) for e in build()]
             return exprs, [], [(len(exprs),)]
 
-        self._group(f"function {name}", make)
-        return lambda t, x, u, p: self._at(f"function {name}", t, x, u, p)[0]
+        ev = self._group(f"function {name}", make)
+
+        def evaluate(t, x, u, p):
+            if np.ndim(t) == 0:
+                return self._at(f"function {name}", t, x, u, p)[0]
+            t = np.asarray(t, float)
+            rows = len(t)
+            if ev.fun is None or rows == 0:
+                return np.zeros((rows, *ev.shapes[0]))
+            args = np.column_stack((t, np.reshape(np.asarray(x, float), (rows, -1)),
+                                    np.reshape(np.asarray(u, float), (rows, -1)),
+                                    np.broadcast_to(np.asarray(p, float).ravel(), (rows, np.size(p)))))
+            return np.asarray(ev.fun(args), dtype=float).reshape(rows, -1)
+
+        return evaluate
 
     def _evaluate(self, t, x, u, p):
         return self._at("dynamics", t, x, u, p)

@@ -59,6 +59,9 @@ class Trajectory:
         None for a complete run. For the rows a failed simulation computed before it stopped
         (``SimulationError.partial``, ``SingularMassMatrixError.partial``): the error's message;
         the CSV then starts with a comment line ``# partial: ...``.
+    outputs : dict of str to ndarray
+        The model's named outputs (``Model.add_output``, ``[outputs]``) along the run, each shape
+        (N,), in the order they were declared: the last columns of the CSV; {} without outputs.
     """
 
     t: np.ndarray
@@ -78,6 +81,7 @@ class Trajectory:
     multipliers: np.ndarray | None = None
     multiplier_names: tuple[str, ...] = ()
     failure: str | None = None
+    outputs: dict = field(default_factory=dict)
 
     def __post_init__(self):
         object.__setattr__(self, "t", read_only(self.t, float))
@@ -88,6 +92,8 @@ class Trajectory:
         if self.multipliers is not None:
             shape = (len(self.t), len(self.multiplier_names))
             object.__setattr__(self, "multipliers", read_only(np.reshape(self.multipliers, shape), float))
+        object.__setattr__(self, "outputs", {k: read_only(np.reshape(v, len(self.t)), float)
+                                             for k, v in self.outputs.items()})
 
     @property
     def n(self) -> int:
@@ -107,9 +113,9 @@ class Trajectory:
     @property
     def columns(self) -> tuple[str, ...]:
         """Column names of the CSV: t, coordinates, velocities, inputs, the energy, then the
-        multipliers ``lambda_<name>`` of a constrained model."""
+        multipliers ``lambda_<name>`` of a constrained model, then the model's named outputs."""
         extra = (self.energy_name,) if self.energy is not None else ()
-        return ("t", *self.state_names, *self.input_names, *extra, *self.multiplier_names)
+        return ("t", *self.state_names, *self.input_names, *extra, *self.multiplier_names, *self.outputs)
 
     def __getitem__(self, name: str) -> np.ndarray:
         """A column by name: ``traj["q2"]``, ``traj["q2_dot"]``, ``traj["t"]``, ``traj["energy"]``."""
@@ -123,6 +129,8 @@ class Trajectory:
             return self.energy
         if name in self.multiplier_names:
             return self.multipliers[:, self.multiplier_names.index(name)]
+        if name in self.outputs:
+            return self.outputs[name]
         raise KeyError(f"the trajectory has no column '{name}'; its columns are {', '.join(self.columns)}")
 
     def conserved(self) -> dict[str, np.ndarray]:
@@ -164,6 +172,7 @@ class Trajectory:
             parts.append(self.energy[:, None])
         if self.multipliers is not None:
             parts.append(self.multipliers)
+        parts += [v[:, None] for v in self.outputs.values()]
         return np.hstack(parts)
 
     @property
@@ -263,7 +272,22 @@ def run_trajectory(equations, t, x, u, p, *, energy=None, stats: dict, status, m
         nfev=int(stats.get("nfev", 0)),
         message=message if message is not None else getattr(status, "message", f"status {status}"),
         stats=stats, events=events or {}, model=equations.model, multipliers=multipliers,
-        multiplier_names=names.multiplier_names if multipliers is not None else (), failure=failure)
+        multiplier_names=names.multiplier_names if multipliers is not None else (), failure=failure,
+        outputs=evaluate_outputs(equations, t, x, u, p))
+
+
+def evaluate_outputs(equations, t, x, u, p) -> dict[str, np.ndarray]:
+    """The model's named outputs along a run, evaluated vectorised (SymEngine over all rows) by the
+    one numeric model (``NumericModel.function``): name -> shape (N,); {} without outputs."""
+    outputs = equations.model.outputs if equations.model is not None else {}
+    if not outputs:
+        return {}
+    from ._compiled import compile_equations
+
+    t = np.asarray(t, float)
+    values = compile_equations(equations, "scipy").function("outputs", lambda: list(outputs.values()))(
+        t, np.reshape(x, (len(t), -1)), np.reshape(u, (len(t), -1)), p)
+    return {name: values[:, k] for k, name in enumerate(outputs)}
 
 
 class _Names:
