@@ -223,3 +223,21 @@ def test_a_changed_model_of_the_same_name_is_refused_by_the_fingerprint(capsys, 
     changed.write_text(text.replace('force = ["F", "0"]', 'force = ["2*F", "0"]'))
     rc, _, err = run_cli(capsys, "simulate", changed, "--controller", design[1])
     assert rc == 2 and "its fingerprint differs from the equations of 'cart-pendulum'" in err, err
+
+
+def test_save_to_a_folder_that_does_not_exist_is_refused_before_the_design(capsys, tmp_path):
+    path = tmp_path / "none" / "d.json"
+    rc, out, err = run_cli(capsys, "lqr", "cart-pendulum", "--at", "q2=pi/2", "--save", path)
+    assert rc == 2 and f"--save {path}: the folder {path.parent} does not exist" in err and out == ""
+
+
+def test_place_save_and_simulate_controller(capsys, tmp_path):
+    path = tmp_path / "p.json"
+    rc, _, err = run_cli(capsys, "place", "cart-pendulum", "--at", "q2=pi/2", "--poles=-1,-2,-3,-4", "--save", path)
+    assert rc == 0, err
+    fb = lg.linearize(lg.derive(lg.load("cart-pendulum")), at={"q2": sympy.pi / 2}).place([-1, -2, -3, -4])
+    ref = lg.simulate(lg.derive(lg.load("cart-pendulum")), 2.0, {"q2": math.pi / 2 + 0.2}, inputs=fb.inputs, dt=0.1)
+    rc, out, err = run_cli(capsys, "simulate", "cart-pendulum", "--t-end", 2, "--dt", 0.1, "--initial", START,
+                           "--controller", path)
+    assert rc == 0, err
+    np.testing.assert_allclose(rows(out)[1][:, 1:5], ref.x, rtol=0, atol=1e-10)
