@@ -167,14 +167,27 @@ class LinearModel:
         return len(self.coordinate_names)
 
     @property
+    def output_names(self) -> tuple[str, ...]:
+        """The outputs y of the state-space form: the states, then the model's named outputs
+        (``Model.add_output``, ``[outputs]``)."""
+        return (*self.state_names, *self.equations.model.outputs)
+
+    @property
     def output_matrix(self) -> np.ndarray:
-        """C of the state-space form (outputs y = x): the identity, shape (2n, 2n)."""
-        return np.eye(2 * self.n)
+        """C of the state-space form y = C x + D u: the identity (y = x), shape (2n, 2n), followed by
+        one row d(output)/dx at the point for each named output, shape (2n + r, 2n)."""
+        return np.vstack((np.eye(2 * self.n), self._outputs[0]))
 
     @property
     def feedthrough(self) -> np.ndarray:
-        """D of the state-space form: zeros, shape (2n, m)."""
-        return np.zeros((2 * self.n, len(self.input_names)))
+        """D of the state-space form: zeros for the states, then d(output)/du at the point for each
+        named output, shape (2n + r, m)."""
+        return np.vstack((np.zeros((2 * self.n, len(self.input_names))), self._outputs[1]))
+
+    @cached_property
+    def _outputs(self) -> tuple[np.ndarray, np.ndarray]:
+        """(C, D) of the named outputs alone: shapes (r, 2n), (r, m)."""
+        return _output_rows(self)
 
     @property
     def is_equilibrium(self) -> bool:
@@ -229,15 +242,17 @@ class LinearModel:
         return _symbolic(self)
 
     def to_control(self):
-        """A python-control StateSpace (A, B, I, 0) with the state and input names (needs the
-        optional extra: pip install "lagrangian[control]")."""
+        """A python-control StateSpace (A, B, C, D) with the state, input and output names: the
+        outputs are the states (C = I, D = 0) followed by the model's named outputs (their rows of
+        :attr:`output_matrix` and :attr:`feedthrough`), so that ``control.bode(sys[tip_x, F])``
+        works (needs the optional extra: pip install "lagrangian[control]")."""
         try:
             import control
         except ImportError:
             raise ImportError("to_control() needs python-control: pip install \"lagrangian[control]\"") from None
         return control.ss(self.A, self.B, self.output_matrix, self.feedthrough,
                           states=list(self.state_names), inputs=list(self.input_names),
-                          outputs=list(self.state_names))
+                          outputs=list(self.output_names))
 
     def lqr(self, Q=None, R=None, *, sample_time: float | None = None):
         """The linear-quadratic regulator u = u0 - K (x - x0) of this linearization (see
@@ -259,7 +274,10 @@ class LinearModel:
 
     def to_dict(self) -> dict:
         """The JSON contract: state_names, input_names, A, B, M, C, K (numeric lists), and G,
-        input_matrix, operating_point, inputs, parameters, eigenvalues ([re, im]), stability."""
+        input_matrix, operating_point, inputs, parameters, eigenvalues ([re, im]), stability; and
+        "outputs" ({"names", "C", "D"}: the named outputs' rows of y = C x + D u) when the model
+        has named outputs."""
+        outputs = self.equations.model.outputs
         return {
             "state_names": list(self.state_names),
             "input_names": list(self.input_names),
@@ -279,6 +297,8 @@ class LinearModel:
                                 **{k: (list(v) if k == "ignorable" else dict(v))
                                    for k, v in self.constrained.items() if k in ("ignorable", "rates")}}}
                if self.constrained else {}),
+            **({"outputs": {"names": list(outputs), "C": self._outputs[0].tolist(), "D": self._outputs[1].tolist()}}
+               if outputs else {}),
         }
 
     def text(self) -> str:
@@ -598,3 +618,44 @@ def _symbolic(lin: LinearModel) -> SymbolicLinearization:
     I = sympy.ImmutableMatrix
     return SymbolicLinearization(I(M), I(C), I(G), I(K), I(B0), I(A), I(B))
 
+
+
+def _output_rows(lin: LinearModel) -> tuple[np.ndarray, np.ndarray]:
+    """The rows C (r, 2n) and D (r, m) of the model's named outputs h(t, x, u, p) about the point of
+    `lin`: dh/dx and dh/du, from their symbolic derivatives evaluated by the one numeric model. For
+    a constrained model (linearized in its independent coordinates, dq = T dq_i), at rest with
+    holonomic constraints only: (dh/dq T, dh/dq_dot T)."""
+    eq = lin.equations
+    outputs = eq.model.outputs
+    k = len(eq.inputs)
+    if not outputs:
+        return np.zeros((0, 2 * lin.n)), np.zeros((0, k))
+    from ..model._constraints import VELOCITY
+    from ..numeric._compiled import compile_equations
+
+    names = [*(s.name for s in eq.coordinates), *(s.name for s in eq.velocities)]
+    point = dict(lin.operating_point)
+    if lin.constrained:
+        rates = dict(lin.constrained.get("rates", {}))
+        if any(c.kind == VELOCITY for c in eq.model.constraints) or any(v != 0 for v in rates.values()):
+            raise ModelError("the named outputs of a constrained model are linearized only at rest with holonomic "
+                             "constraints (dq = T dq_i); this linearization has velocity constraints or a steady "
+                             "motion: read the outputs' derivatives from a simulation, or linearize at rest")
+        point.update(lin.constrained["dependent"])
+        point.update(rates)
+    x = np.array([point.get(s, 0.0) for s in names], dtype=float)
+    u = np.array([lin.input_values.get(s.name, 0.0) for s in eq.inputs], dtype=float)
+    p = np.array([lin.parameter_values.get(s.name, np.nan) for s in eq.parameters], dtype=float)
+    variables = [*eq.coordinates, *eq.velocities, *eq.inputs]
+
+    def build():
+        return [sympy.diff(e, v) for e in outputs.values() for v in variables]
+
+    n_full = len(eq.coordinates)
+    rows = compile_equations(eq, "scipy").function("outputs.jacobian", build)(lin.t, x, u, p)
+    rows = np.asarray(rows, float).reshape(len(outputs), 2 * n_full + k)
+    C, D = rows[:, :2 * n_full], rows[:, 2 * n_full:]
+    if lin.constrained:
+        T = np.asarray(lin.constrained["basis"], float)
+        C = np.hstack((C[:, :n_full] @ T, C[:, n_full:] @ T))
+    return read_only(C + 0.0), read_only(D + 0.0)
