@@ -93,6 +93,10 @@ in the axes of ``frame`` (default: the body's own frame).
     torque = "tau"                       # a torque ...
     angle = "theta"                      # ... on an angle expression, or: body = "rod"
 
+    [outputs]                            # optional: named outputs (trajectory columns, rows of C, D)
+    tip_x = "l*sin(theta)"               # an expression of the state, t, inputs and parameters ...
+    tip_y = "bob.y"                      # ... or "<point>.x" (.y, .z): a component of a position
+
     [simulation]                         # optional defaults for simulate
     t_end = 10.0                         # > 0
     dt = 0.01                            # > 0: output step
