@@ -80,6 +80,11 @@ def test_python_api_add_output_and_constructor_agree_with_the_file():
     assert lg.derive(c).model.outputs == c.outputs
 
 
+def test_the_notebook_table_lists_the_outputs():
+    html = double()._repr_html_()
+    assert "output tip_x" in html and "output push" in html and "2 F + th_{1}" in html
+
+
 def test_an_element_position_component_in_python():
     m = lg.load("double-pendulum").copy()
     e = m.add_output("bx", "bob2.x")

@@ -913,6 +913,8 @@ class Model:
                 rows.append((label, tex(value)))
         for c, value in self._Q.items():
             rows.append((f"Q[{c.name}]", tex(value)))
+        for name, value in self.outputs.items():
+            rows.append((f"output {html.escape(name)}", tex(value)))
         body = "".join(f"<tr><th style='text-align:left'>{k}</th><td style='text-align:left'>{v}</td></tr>"
                        for k, v in rows)
         desc = f"<br><i>{html.escape(self.description)}</i>" if self.description else ""
