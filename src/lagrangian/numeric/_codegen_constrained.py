@@ -21,7 +21,9 @@ with M symmetric positive definite on a mechanism (the kinetic energy):
    another's does not. S's own Cholesky pivots are its square (their cosine is lost to round-off
    at rho_G ~ 1e-8), rho_G is resolved down to round-off (1e-16): the thresholds below sit four
    orders of magnitude above it, so that every backend decides the same way.
-3. a = M^-1 f (L, D), w = R^-T (c - G a), lambda = R^-1 w, q_ddot = a + L^-T D^-1 Q w.
+3. y = L^-1 f, w = R^-T (c - G M^-1 f) = R^-T c - Q^T D^-1 y (G M^-1 f = R^T Q^T D^-1 y), lambda =
+   R^-1 w, q_ddot = M^-1 (f + G^T lambda) = L^-T D^-1 (y + Q w): two triangular solves with L, as the
+   unconstrained solve.
 
 The *measure* is min(r_M, rho_G) (r_M alone at m = 0: then steps 2 and 3 vanish and this is the
 unconstrained solve). The compiled DOP853 stops at once where it is at most SINGULAR_RATIO and
@@ -108,14 +110,22 @@ def _c_arg(name: str, ctype: str) -> str:
 class _Emit:
     """Statements of the algorithm in numba's Python or in C99, from one description: expressions
     are written in the C subset both read (+ - * /, comparisons, && || !(...), fmin fmax fabs sqrt
-    isfinite, INFINITY, a[i]) and translated word by word for Python."""
+    isfinite, INFINITY, a[i]) and translated word by word for Python.
 
-    def __init__(self, lang: str, consts: dict[str, int | float]):
-        self.lang, self.consts, self.lines, self.depth = lang, consts, [], 0
+    With `unroll` (n and m at most UNROLL_MAX) the loops whose bounds are constants are written out
+    statement by statement with constant indices (the same operations in the same order: the same
+    numbers bit for bit), and a helper with a size argument m is written once per size it is called
+    with (lg_qr for m = M, lg_qr_<m> for the holonomic MH < M); an offset b stays an argument."""
+
+    def __init__(self, lang: str, consts: dict[str, int | float], unroll: bool = False):
+        self.lang, self.consts, self.unroll, self.lines, self.depth = lang, consts, unroll, [], 0
+        self.defined: set[str] = set()
+        self.defs: list[str] = []
 
     def x(self, expr: str) -> str:
         for name, value in self.consts.items():
             expr = re.sub(rf"\b{name}\b", repr(value), expr)
+        expr = re.sub(r"\[([\d\s+*()-]+)\]", lambda k: f"[{_int(k.group(1))}]", expr)  # constant indices
         if self.lang == "py":
             for pattern, repl in _TO_PY:
                 expr = re.sub(pattern, repl, expr)
@@ -143,233 +153,312 @@ class _Emit:
         if self.lang == "c":
             self.line("}")
 
-    def loop(self, var: str, lo: str, hi: str):
-        lo, hi = self.x(lo), self.x(hi)
-        return self.block(f"for {var} in range({lo}, {hi}):", f"for ({var} = {lo}; {var} < {hi}; {var}++)")
+    def loop(self, var: str, lo, hi, unroll: bool = True):
+        """Iterate the body once with `var` (a loop) or, unrolled, once per value (an int)."""
+        lo, hi = self.x(str(lo)), self.x(str(hi))
+        if self.unroll and unroll:
+            yield from range(_int(lo), _int(hi))
+            return
+        with self.block(f"for {var} in range({lo}, {hi}):", f"for ({var} = {lo}; {var} < {hi}; {var}++)"):
+            yield var
 
-    def down(self, var: str, hi: str, lo: str = "0"):
+    def down(self, var: str, hi, lo=0):
         """var from hi - 1 down to lo."""
-        hi, lo = self.x(hi), self.x(lo)
-        return self.block(f"for {var} in range({hi} - 1, {lo} - 1, -1):",
-                          f"for ({var} = {hi} - 1; {var} >= {lo}; {var}--)")
+        hi, lo = self.x(str(hi)), self.x(str(lo))
+        if self.unroll:
+            yield from range(_int(hi) - 1, _int(lo) - 1, -1)
+            return
+        with self.block(f"for {var} in range({hi} - 1, {lo} - 1, -1):",
+                        f"for ({var} = {hi} - 1; {var} >= {lo}; {var}--)"):
+            yield var
+
+    def total(self, var: str, init: str, op: str, k: str, lo, hi, term) -> None:
+        """var = init op (the sum of term(k) over k from lo to hi - 1), op "+" or "-": a loop; unrolled,
+        one expression with the sum taken pairwise (a tree of additions of depth log2 of the count,
+        not a chain: the dot products of the factorizations are the critical path)."""
+        if not self.unroll:
+            self.do(f"{var} = {init}")
+            for v in self.loop(k, lo, hi):
+                self.do(f"{var} {op}= {term(v)}")
+            return
+        terms = [term(v) for v in range(_int(self.x(str(lo))), _int(self.x(str(hi))))]
+        while len(terms) > 1:
+            terms = [f"({a} + {b})" for a, b in zip(terms[::2], terms[1::2])] + terms[len(terms) - len(terms) % 2:]
+        if not terms:
+            self.do(f"{var} = {init}")
+        elif init == "0.0" and op == "+":
+            self.do(f"{var} = {terms[0]}")
+        else:
+            self.do(f"{var} = {init} {op} {terms[0]}")
 
     def when(self, cond: str):
         c = self.x(cond)
         return self.block(f"if {c}:", f"if ({c})")
 
-    @contextmanager
-    def func(self, name: str, ret: str, args: list[tuple[str, str]], doubles: str = "", ints: str = "",
-             doc: str = ""):
-        """A helper function; `args`: (name, C type); `doubles`, `ints`: the C locals."""
+    def call(self, name: str, *args: str, m: int | None = None) -> str:
+        """The text of a call of helper `name` (written on first use) with `args` after work, and
+        its size m where it takes one (a constant when unrolled: then one helper per size)."""
+        ret, params, doubles, ints, doc, body = _HELPERS[name]
+        sized = any(a == "m" for a, _ in params)
+        fname = f"{name}_{m}" if self.unroll and sized and m != self.consts["M"] else name
+        if sized and not self.unroll:
+            args = (str(m), *args)
+        if fname not in self.defined:
+            self.defined.add(fname)
+            saved = self.lines, self.depth
+            self.lines, self.depth = [], 1
+            body(self, m if self.unroll else "m") if sized else body(self)
+            self._define(fname, ret, [a for a in params if not (self.unroll and a[0] == "m")], doubles, ints, doc)
+            self.lines, self.depth = saved
+        return f"{fname}({', '.join(args if params[0][0] != 'work' else ('work', *args))})"
+
+    def _define(self, name, ret, params, doubles, ints, doc):
+        body = self.lines
+        text = "\n".join(body)
         if self.lang == "py":
             # error_model="numpy": no ZeroDivisionError test at each division (each divisor is tested
-            # positive first, as in C); inline="always": the sizes become constants in rhs and project,
-            # whose loops LLVM can then unroll
-            self.lines += ["", "", '@njit(cache=True, error_model="numpy", inline="always")',
-                           f"def {name}({', '.join(a for a, _ in args)}):"]
-            self.depth = 1
-            if doc:
-                self.line(f'"""{doc}"""')
+            # positive first, as in C); inline="always": the sizes become constants in rhs and project
+            head = ["", "", '@njit(cache=True, error_model="numpy", inline="always")',
+                    f"def {name}({', '.join(a for a, _ in params)}):"] + ([f'    """{doc}"""'] if doc else [])
+            self.defs += head + body
         else:
-            self.lines += ["", f"/* {doc} */" if doc else "",
-                           f"static {ret} {name}({', '.join(_c_arg(a, t) for a, t in args)}) {{"]
-            self.depth = 1
-            if doubles:
-                self.line(f"double {doubles};")
-            if ints:
-                self.line(f"int {ints};")
-        yield
-        if self.lang == "c":
-            self.lines.append("}")
-        self.depth = 0
+            local = [", ".join(v for v in names.split(", ") if re.search(rf"\b{v}\b", text))
+                     for names in (doubles, ints)]
+            args = ", ".join(_c_arg(a, t) for a, t in params)
+            head = ["", f"/* {doc} */" if doc else "", f"static {ret} {name}({args}) {{"]
+            head += [f"    {kind} {names};" for kind, names in zip(("double", "int"), local) if names]
+            self.defs += head + body + ["}"]
+
+
+def _int(expr: str) -> int:
+    """The value of an integer expression of constants (+ - * and parentheses)."""
+    if not re.fullmatch(r"[\d\s+*()-]+", expr):
+        raise ValueError(f"not a constant: {expr}")
+    return int(eval(expr, {"__builtins__": {}}))  # noqa: S307 (digits and + - * only, checked above)
+
+
+# ------------------------------------------------------------------------------- the algorithm's steps
+def _ldl(e: _Emit) -> None:
+    e.do("r = 1.0")
+    for j in e.loop("j", 0, "N"):
+        e.total("d", f"work[{j} * N + {j}]", "-", "k", 0, j,
+                lambda k: f"work[{j} * N + {k}] * work[{j} * N + {k}] * work[D0 + {k}]")
+        with e.when("!(d > 0.0 && d < INFINITY)"):
+            e.ret("0.0")
+        e.do(f"r = fmin(r, d / work[{j} * N + {j}])")
+        e.do(f"work[D0 + {j}] = d")
+        e.do("inv = 1.0 / d")
+        e.do(f"work[E0 + {j}] = inv")
+        for i in e.loop("i", f"{j} + 1", "N"):
+            e.total("s", f"work[{i} * N + {j}]", "-", "k", 0, j,
+                    lambda k: f"work[{i} * N + {k}] * work[{j} * N + {k}] * work[D0 + {k}]")
+            e.do(f"work[{i} * N + {j}] = s * inv")
+    e.ret("r")
+
+
+def _lower(e: _Emit) -> None:
+    for i in e.loop("i", 0, "N"):
+        e.total("s", f"work[b + {i}]", "-", "k", 0, i, lambda k: f"work[{i} * N + {k}] * work[b + {k}]")
+        e.do(f"work[b + {i}] = s")
+
+
+def _upper(e: _Emit) -> None:
+    for i in e.down("i", "N"):
+        e.total("s", f"work[b + {i}] * work[E0 + {i}]", "-", "k", f"{i} + 1", "N",
+                lambda k: f"work[{k} * N + {i}] * work[b + {k}]")
+        e.do(f"work[b + {i}] = s")
+
+
+def _qr(e: _Emit, m) -> None:
+    e.do("big = 0.0")
+    for k in e.loop("k", 0, m):
+        e.total("s", "0.0", "+", "i", 0, "N",
+                lambda i: f"work[Q0 + {k} * N + {i}] * work[Q0 + {k} * N + {i}] * work[E0 + {i}]")
+        e.do("big = fmax(big, s)")
+    with e.when("!(big > 0.0 && big < INFINITY)"):
+        e.ret("0.0")
+    e.do("rho = 1.0")
+    for k in e.loop("k", 0, m):  # column k is orthogonal to q_0 .. q_k-1: q_k, then the later columns made
+        # orthogonal to it (right-looking: the same operations on each column in the same order as
+        # column by column, but the later columns' updates are independent of each other)
+        e.total("s", "0.0", "+", "i", 0, "N",
+                lambda i: f"work[Q0 + {k} * N + {i}] * work[Q0 + {k} * N + {i}] * work[E0 + {i}]")
+        with e.when("!(s > 0.0 && s < INFINITY)"):
+            e.ret("0.0")
+        e.do("rho = fmin(rho, s / big)")
+        e.do("s = sqrt(s)")
+        e.do(f"work[R0 + {k} * M + {k}] = s")
+        e.do("s = 1.0 / s")
+        for i in e.loop("i", 0, "N"):
+            e.do(f"work[Q0 + {k} * N + {i}] *= s")
+        for j in e.loop("j", f"{k} + 1", m):
+            e.total("s", "0.0", "+", "i", 0, "N",
+                    lambda i: f"work[Q0 + {k} * N + {i}] * work[Q0 + {j} * N + {i}] * work[E0 + {i}]")
+            e.do(f"work[R0 + {k} * M + {j}] = s")
+            for i in e.loop("i", 0, "N"):
+                e.do(f"work[Q0 + {j} * N + {i}] -= s * work[Q0 + {k} * N + {i}]")
+    e.ret("sqrt(rho)")
+
+
+def _rt(e: _Emit, m) -> None:
+    for k in e.loop("k", 0, m):
+        e.total("s", f"work[b + {k}]", "-", "j", 0, k, lambda j: f"work[R0 + {j} * M + {k}] * work[b + {j}]")
+        e.do(f"work[b + {k}] = s / work[R0 + {k} * M + {k}]")
+
+
+def _qv(e: _Emit, m) -> None:
+    for i in e.loop("i", 0, "N"):
+        e.total("s", "0.0", "+", "k", 0, m, lambda k: f"work[Q0 + {k} * N + {i}] * work[b + {k}]")
+        e.do(f"work[V0 + {i}] = s")
+
+
+def _to_q(e: _Emit) -> None:
+    """Z = L^-1 G^T into Q0 (step 2's start)."""
+    for k in e.loop("k", 0, "M"):
+        for i in e.loop("i", 0, "N"):
+            e.do(f"work[Q0 + {k} * N + {i}] = work[G0 + {k} * N + {i}]")
+        e.do(e.call("lg_lower", f"Q0 + {k} * N"))
+
+
+def _factor(e: _Emit) -> None:
+    e.do(f"r = {e.call('lg_ldl')}")
+    with e.when("r <= SINGULAR_RATIO"):
+        e.ret("r")
+    _to_q(e)
+    e.do(f"rho = {e.call('lg_qr', m=e.consts['M'])}")
+    e.ret("fmin(r, rho)")
+
+
+def _saddle(e: _Emit) -> None:
+    M = e.consts["M"]
+    e.do(f"r = {e.call('lg_ldl')}")
+    with e.when("r <= SINGULAR_RATIO"):
+        e.ret("r")
+    # f, G and c finite: x * 0.0 is 0 for a finite x and NaN otherwise, their sum NaN where one is not
+    e.total("s", "0.0", "+", "i", 0, "N + M * N + M", lambda i: f"work[F0 + {i}] * 0.0")
+    with e.when("!isfinite(s)"):
+        e.ret("-1.0")
+    _to_q(e)
+    e.do(f"r = fmin(r, {e.call('lg_qr', m=M)})")
+    with e.when("r <= SINGULAR_RATIO"):
+        e.ret("r")
+    for i in e.loop("i", 0, "N"):  # y = L^-1 f
+        e.do(f"work[A0 + {i}] = work[F0 + {i}]")
+    e.do(e.call("lg_lower", "A0"))
+    for k in e.loop("k", 0, "M"):  # w = R^-T (c - G M^-1 f) = R^-T c - Q^T D^-1 y
+        e.do(f"work[W0 + {k}] = work[C0 + {k}]")
+    e.do(e.call("lg_rt", "W0", m=M))
+    for k in e.loop("k", 0, "M"):
+        e.total("s", f"work[W0 + {k}]", "-", "i", 0, "N",
+                lambda i: f"work[Q0 + {k} * N + {i}] * work[E0 + {i}] * work[A0 + {i}]")
+        e.do(f"work[W0 + {k}] = s")
+    for k in e.down("k", "M"):
+        e.total("s", f"work[W0 + {k}]", "-", "i", f"{k} + 1", "M",
+                lambda i: f"work[R0 + {k} * M + {i}] * work[L0 + {i}]")
+        e.do(f"work[L0 + {k}] = s / work[R0 + {k} * M + {k}]")
+    e.do(e.call("lg_qv", "W0", m=M))
+    for i in e.loop("i", 0, "N"):  # q_ddot = L^-T D^-1 (y + Q w)
+        e.do(f"work[A0 + {i}] += work[V0 + {i}]")
+    e.do(e.call("lg_upper", "A0"))
+    e.ret("r")
+
+
+def _projection(e: _Emit) -> None:
+    M, MH = e.consts["M"], e.consts["MH"]
+    e.do("nq = 0.0")
+    for i in e.loop("i", 0, "N"):
+        e.do(f"nq = fmax(nq, fabs(x[{i}]))")
+    e.do("nq += 1.0")
+    if MH:
+        for _ in e.loop("it", 0, "PROJECTION_STEPS", unroll=False):
+            e.do("lg_position(t, x, u, p, work)")
+            e.do("gmax = 0.0")
+            for k in e.loop("k", 0, "MH + MH * N", unroll=False):
+                with e.when(f"!isfinite(work[P0 + {k}])"):
+                    e.ret("NOT_FINITE")
+            for k in e.loop("k", 0, "MH"):
+                e.do(f"gmax = fmax(gmax, fabs(work[P0 + {k}]))")
+            with e.when("it == 0"):
+                e.do("drift[0] = fmax(drift[0], gmax)")
+            with e.when("gmax <= PROJECTION_TOL * nq"):
+                e.stop()
+            for k in e.loop("k", 0, "MH"):  # G_h^T = Q R in the identity metric
+                e.do(f"work[W0 + {k}] = work[P0 + {k}]")
+                for i in e.loop("i", 0, "N"):
+                    e.do(f"work[Q0 + {k} * N + {i}] = work[H0 + {k} * N + {i}]")
+            for i in e.loop("i", 0, "N"):
+                e.do(f"work[E0 + {i}] = 1.0")
+            with e.when(f"{e.call('lg_qr', m=MH)} <= SINGULAR_RATIO"):
+                e.ret("SINGULAR")
+            e.do(e.call("lg_rt", "W0", m=MH))
+            e.do(e.call("lg_qv", "W0", m=MH))
+            for i in e.loop("i", 0, "N"):
+                e.do(f"x[{i}] -= work[V0 + {i}]")
+            with e.when("gmax <= NEWTON_EXIT * nq"):
+                e.stop()
+    e.do("lg_velocity(t, x, u, p, work)")
+    e.do("wmax = 0.0")
+    for k in e.loop("k", 0, "M"):
+        with e.when(f"!isfinite(work[W0 + {k}])"):
+            e.ret("NOT_FINITE")
+        e.do(f"wmax = fmax(wmax, fabs(work[W0 + {k}]))")
+    for i in e.loop("i", 0, "N", unroll=False):  # M's lower triangle and G
+        for k in e.loop("k", 0, f"{i} + 1", unroll=False):
+            with e.when(f"!isfinite(work[{i} * N + {k}])"):
+                e.ret("NOT_FINITE")
+    for k in e.loop("k", 0, "M * N", unroll=False):
+        with e.when(f"!isfinite(work[G0 + {k}])"):
+            e.ret("NOT_FINITE")
+    e.do("drift[1] = fmax(drift[1], wmax)")
+    with e.when("wmax > 0.0"):
+        with e.when(f"{e.call('lg_factor')} <= SINGULAR_RATIO"):
+            e.ret("SINGULAR")
+        e.do(e.call("lg_rt", "W0", m=M))
+        e.do(e.call("lg_qv", "W0", m=M))
+        e.do(e.call("lg_upper", "V0"))
+        for i in e.loop("i", 0, "N"):
+            e.do(f"x[N + {i}] -= work[V0 + {i}]")
+    for i in e.loop("i", 0, "2 * N", unroll=False):
+        with e.when(f"!isfinite(x[{i}])"):
+            e.ret("NOT_FINITE")
+    e.ret("MET")
+
+
+_W = "double *"
+#: name: (C return type, arguments (name, C type), the C locals double and int, doc, the steps)
+_HELPERS = {
+    "lg_ldl": ("double", [("work", _W)], "r, d, s, inv", "i, j, k",
+               "M = L D L^T in place (M's lower triangle in work[0:N*N], D at D0, 1/D at E0); the inertia measure "
+               "min_j D_j / M_jj (0 where M is not positive definite)", _ldl),
+    "lg_lower": ("void", [("work", _W), ("b", "int")], "s", "i, k", "work[b:b+N] <- L^-1 work[b:b+N] (L unit lower)",
+                 _lower),
+    "lg_upper": ("void", [("work", _W), ("b", "int")], "s", "i, k", "work[b:b+N] <- L^-T D^-1 work[b:b+N]", _upper),
+    "lg_qr": ("double", [("work", _W), ("m", "int")], "big, s, rho", "i, j, k",
+              "Z = Q R (the m columns of Z at Q0, column k at Q0 + k N) by modified Gram-Schmidt in the "
+              "metric D^-1; R at R0 (R_jk at R0 + j M + k). The rank measure min_k R_kk / max_k |z_k| "
+              "(0 where a column is 0 or not finite)", _qr),
+    "lg_rt": ("void", [("work", _W), ("m", "int"), ("b", "int")], "s", "j, k", "work[b:b+m] <- R^-T work[b:b+m]",
+              _rt),
+    "lg_qv": ("void", [("work", _W), ("m", "int"), ("b", "int")], "s", "i, k", "work[V0:V0+N] <- Q work[b:b+m]",
+              _qv),
+    "lg_factor": ("double", [("work", _W)], "r, rho", "i, k",
+                  "Steps 1 and 2 (M, G in work): the measure min(r_M, rho_G)", _factor),
+    "lg_saddle": ("double", [("work", _W)], "r, s", "i, k",
+                  "q_ddot into work[A0:A0+N] and lambda into work[L0:L0+M] from M, f, G, c in work; the "
+                  "measure (-1.0 where f, G or c is not finite)", _saddle),
+    "lg_projection": ("int", [("t", "double"), ("x", _W), ("u", _W), ("p", _W), ("work", _W), ("drift", _W)],
+                      "nq, wmax, gmax", "i, k, it",
+                      "x onto the constraints (see the module); drift[0], drift[1]: the largest |g|, |w| met "
+                      "before projecting. Returns MET, SINGULAR or NOT_FINITE", _projection),
+}
 
 
 def _algorithm(e: _Emit, mh: int) -> None:
-    """The helpers of the saddle-point solve and of the projection (see the module), into `e`;
+    """The helpers of the saddle-point solve and of the projection (see the module), into e.defs;
     N, M, MH and the offsets are e's constants."""
-    w = "double *"
-    with e.func("lg_ldl", "double", [("work", w)], "r, d, s, inv", "i, j, k",
-                "M = L D L^T in place (M's lower triangle in work[0:N*N], D at D0, 1/D at E0); the inertia measure "
-                "min_j D_j / M_jj (0 where M is not positive definite)"):
-        e.do("r = 1.0")
-        with e.loop("j", "0", "N"):
-            e.do("d = work[j * N + j]")
-            with e.loop("k", "0", "j"):
-                e.do("d -= work[j * N + k] * work[j * N + k] * work[D0 + k]")
-            with e.when("!(d > 0.0 && d < INFINITY)"):
-                e.ret("0.0")
-            e.do("r = fmin(r, d / work[j * N + j])")
-            e.do("work[D0 + j] = d")
-            e.do("inv = 1.0 / d")
-            e.do("work[E0 + j] = inv")
-            with e.loop("i", "j + 1", "N"):
-                e.do("s = work[i * N + j]")
-                with e.loop("k", "0", "j"):
-                    e.do("s -= work[i * N + k] * work[j * N + k] * work[D0 + k]")
-                e.do("work[i * N + j] = s * inv")
-        e.ret("r")
-    with e.func("lg_lower", "void", [("work", w), ("b", "int")], "s", "i, k",
-                "work[b:b+N] <- L^-1 work[b:b+N] (L unit lower)"), e.loop("i", "0", "N"):
-        e.do("s = work[b + i]")
-        with e.loop("k", "0", "i"):
-            e.do("s -= work[i * N + k] * work[b + k]")
-        e.do("work[b + i] = s")
-    with e.func("lg_upper", "void", [("work", w), ("b", "int")], "s", "i, k",
-                "work[b:b+N] <- L^-T D^-1 work[b:b+N]"), e.down("i", "N"):
-        e.do("s = work[b + i] * work[E0 + i]")
-        with e.loop("k", "i + 1", "N"):
-            e.do("s -= work[k * N + i] * work[b + k]")
-        e.do("work[b + i] = s")
-    with e.func("lg_qr", "double", [("work", w), ("m", "int")], "big, s, rho", "i, j, k",
-                "Z = Q R (the m columns of Z at Q0, column k at Q0 + k N) by modified Gram-Schmidt in the "
-                "metric D^-1; R at R0 (R_jk at R0 + j M + k). The rank measure min_k R_kk / max_k |z_k| "
-                "(0 where a column is 0 or not finite)"):
-        e.do("big = 0.0")
-        with e.loop("k", "0", "m"):
-            e.do("s = 0.0")
-            with e.loop("i", "0", "N"):
-                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] * work[E0 + i]")
-            e.do("big = fmax(big, s)")
-        with e.when("!(big > 0.0 && big < INFINITY)"):
-            e.ret("0.0")
-        e.do("rho = 1.0")
-        with e.loop("k", "0", "m"):
-            with e.loop("j", "0", "k"):
-                e.do("s = 0.0")
-                with e.loop("i", "0", "N"):
-                    e.do("s += work[Q0 + j * N + i] * work[Q0 + k * N + i] * work[E0 + i]")
-                e.do("work[R0 + j * M + k] = s")
-                with e.loop("i", "0", "N"):
-                    e.do("work[Q0 + k * N + i] -= s * work[Q0 + j * N + i]")
-            e.do("s = 0.0")
-            with e.loop("i", "0", "N"):
-                e.do("s += work[Q0 + k * N + i] * work[Q0 + k * N + i] * work[E0 + i]")
-            with e.when("!(s > 0.0 && s < INFINITY)"):
-                e.ret("0.0")
-            e.do("rho = fmin(rho, s / big)")
-            e.do("s = sqrt(s)")
-            e.do("work[R0 + k * M + k] = s")
-            e.do("s = 1.0 / s")
-            with e.loop("i", "0", "N"):
-                e.do("work[Q0 + k * N + i] *= s")
-        e.ret("sqrt(rho)")
-    with e.func("lg_rt", "void", [("work", w), ("m", "int"), ("b", "int")], "s", "j, k",
-                "work[b:b+m] <- R^-T work[b:b+m]"), e.loop("k", "0", "m"):
-        e.do("s = work[b + k]")
-        with e.loop("j", "0", "k"):
-            e.do("s -= work[R0 + j * M + k] * work[b + j]")
-        e.do("work[b + k] = s / work[R0 + k * M + k]")
-    with e.func("lg_qv", "void", [("work", w), ("m", "int"), ("b", "int")], "s", "i, k",
-                "work[V0:V0+N] <- Q work[b:b+m]"), e.loop("i", "0", "N"):
-        e.do("s = 0.0")
-        with e.loop("k", "0", "m"):
-            e.do("s += work[Q0 + k * N + i] * work[b + k]")
-        e.do("work[V0 + i] = s")
-    with e.func("lg_factor", "double", [("work", w)], "r, rho", "i, k",
-                "Steps 1 and 2 (M, G in work): the measure min(r_M, rho_G)"):
-        e.do("r = lg_ldl(work)")
-        with e.when("r <= SINGULAR_RATIO"):
-            e.ret("r")
-        with e.loop("k", "0", "M"):
-            with e.loop("i", "0", "N"):
-                e.do("work[Q0 + k * N + i] = work[G0 + k * N + i]")
-            e.do("lg_lower(work, Q0 + k * N)")
-        e.do("rho = lg_qr(work, M)")
-        e.ret("fmin(r, rho)")
-    with e.func("lg_saddle", "double", [("work", w)], "r, s", "i, k",
-                "q_ddot into work[A0:A0+N] and lambda into work[L0:L0+M] from M, f, G, c in work; the "
-                "measure (-1.0 where f, G or c is not finite)"):
-        e.do("r = lg_ldl(work)")
-        with e.when("r <= SINGULAR_RATIO"):
-            e.ret("r")
-        with e.loop("i", "0", "N + M * N + M"), e.when("!isfinite(work[F0 + i])"):
-            e.ret("-1.0")
-        with e.loop("k", "0", "M"):
-            with e.loop("i", "0", "N"):
-                e.do("work[Q0 + k * N + i] = work[G0 + k * N + i]")
-            e.do("lg_lower(work, Q0 + k * N)")
-        e.do("r = fmin(r, lg_qr(work, M))")
-        with e.when("r <= SINGULAR_RATIO"):
-            e.ret("r")
-        with e.loop("i", "0", "N"):
-            e.do("work[A0 + i] = work[F0 + i]")
-        e.do("lg_lower(work, A0)")
-        e.do("lg_upper(work, A0)")
-        with e.loop("k", "0", "M"):
-            e.do("s = work[C0 + k]")
-            with e.loop("i", "0", "N"):
-                e.do("s -= work[G0 + k * N + i] * work[A0 + i]")
-            e.do("work[W0 + k] = s")
-        e.do("lg_rt(work, M, W0)")
-        with e.down("k", "M"):
-            e.do("s = work[W0 + k]")
-            with e.loop("i", "k + 1", "M"):
-                e.do("s -= work[R0 + k * M + i] * work[L0 + i]")
-            e.do("work[L0 + k] = s / work[R0 + k * M + k]")
-        e.do("lg_qv(work, M, W0)")
-        e.do("lg_upper(work, V0)")
-        with e.loop("i", "0", "N"):
-            e.do("work[A0 + i] += work[V0 + i]")
-        e.ret("r")
-    args = [("t", "double"), ("x", "double *"), ("u", "double *"), ("p", "double *"), ("work", w),
-            ("drift", "double *")]
-    with e.func("lg_projection", "int", args, "nq, wmax" + (", gmax" if mh else ""), "i, k" + (", it" if mh else ""),
-                "x onto the constraints (see the module); drift[0], drift[1]: the largest |g|, |w| met "
-                "before projecting. Returns MET, SINGULAR or NOT_FINITE"):
-        e.do("nq = 0.0")
-        with e.loop("i", "0", "N"):
-            e.do("nq = fmax(nq, fabs(x[i]))")
-        e.do("nq += 1.0")
-        if mh:
-            with e.loop("it", "0", "PROJECTION_STEPS"):
-                e.do("lg_position(t, x, u, p, work)")
-                e.do("gmax = 0.0")
-                with e.loop("k", "0", "MH + MH * N"), e.when("!isfinite(work[P0 + k])"):
-                    e.ret("NOT_FINITE")
-                with e.loop("k", "0", "MH"):
-                    e.do("gmax = fmax(gmax, fabs(work[P0 + k]))")
-                with e.when("it == 0"):
-                    e.do("drift[0] = fmax(drift[0], gmax)")
-                with e.when("gmax <= PROJECTION_TOL * nq"):
-                    e.stop()
-                with e.loop("k", "0", "MH"):  # G_h^T = Q R in the identity metric
-                    e.do("work[W0 + k] = work[P0 + k]")
-                    with e.loop("i", "0", "N"):
-                        e.do("work[Q0 + k * N + i] = work[H0 + k * N + i]")
-                with e.loop("i", "0", "N"):
-                    e.do("work[E0 + i] = 1.0")
-                with e.when("lg_qr(work, MH) <= SINGULAR_RATIO"):
-                    e.ret("SINGULAR")
-                e.do("lg_rt(work, MH, W0)")
-                e.do("lg_qv(work, MH, W0)")
-                with e.loop("i", "0", "N"):
-                    e.do("x[i] -= work[V0 + i]")
-                with e.when("gmax <= NEWTON_EXIT * nq"):
-                    e.stop()
-        e.do("lg_velocity(t, x, u, p, work)")
-        e.do("wmax = 0.0")
-        with e.loop("k", "0", "M"):
-            with e.when("!isfinite(work[W0 + k])"):
-                e.ret("NOT_FINITE")
-            e.do("wmax = fmax(wmax, fabs(work[W0 + k]))")
-        with e.loop("i", "0", "N"):  # M's lower triangle and G
-            with e.loop("k", "0", "i + 1"):
-                with e.when("!isfinite(work[i * N + k])"):
-                    e.ret("NOT_FINITE")
-        with e.loop("k", "0", "M * N"), e.when("!isfinite(work[G0 + k])"):
-            e.ret("NOT_FINITE")
-        e.do("drift[1] = fmax(drift[1], wmax)")
-        with e.when("wmax > 0.0"):
-            with e.when("lg_factor(work) <= SINGULAR_RATIO"):
-                e.ret("SINGULAR")
-            e.do("lg_rt(work, M, W0)")
-            e.do("lg_qv(work, M, W0)")
-            e.do("lg_upper(work, V0)")
-            with e.loop("i", "0", "N"):
-                e.do("x[N + i] -= work[V0 + i]")
-        with e.loop("i", "0", "2 * N"), e.when("!isfinite(x[i])"):
-            e.ret("NOT_FINITE")
-        e.ret("MET")
+    e.call("lg_saddle")
+    e.call("lg_projection", "t", "x", "u", "p", "work", "drift")
+    e.lines = e.defs
 
 
 def _constants(eq: Equations) -> tuple[dict, int]:
@@ -380,6 +469,14 @@ def _constants(eq: Equations) -> tuple[dict, int]:
               "PROJECTION_TOL": PROJECTION_TOL, "NEWTON_EXIT": NEWTON_EXIT, "MET": MET, "SINGULAR": SINGULAR,
               "NOT_FINITE": NOT_FINITE}
     return consts, mh
+
+
+def _unrolled(eq: Equations) -> bool:
+    """Whether the template's loops are written out (n and m at most UNROLL_MAX, as the
+    unconstrained solve's)."""
+    from ._codegen import UNROLL_MAX
+
+    return eq.n <= UNROLL_MAX and len(eq.model.constraints) <= UNROLL_MAX
 
 
 def holonomic_rows(eq: Equations) -> list[int]:
@@ -430,7 +527,7 @@ def constrained_main(equations: Equations) -> list[str]:
     if mh:
         out += parts("lg_position", *position, "g of the holonomic constraints, then their rows of G.")
     out += parts("lg_velocity", *velocity, "w = G q_dot + b, G and M's lower triangle.")
-    e = _Emit("py", consts)
+    e = _Emit("py", consts, unroll=_unrolled(eq))
     _algorithm(e, mh)
     out += e.lines
     out += ["", "", "@njit(cache=True)", "def _u(u_):", f"    return carray(u_, ({max(nu, 1)},))",
@@ -486,7 +583,7 @@ def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "", 
     if mh:
         out += parts("lg_position", *position)
     out += parts("lg_velocity", *velocity)
-    e = _Emit("c", consts)
+    e = _Emit("c", consts, unroll=_unrolled(eq))
     _algorithm(e, mh)
     out += e.lines
     out += ["", (f"{storage}double {prefix}constrained_rhs(double t, double *x, double *u, double *p, double *dx, "
