@@ -161,6 +161,15 @@ def test_hostile_csv(tmp_path, text, column, message):
         lg.Signal.from_csv(path, column)
 
 
+def test_binary_file_and_non_numbers(tmp_path):
+    path = tmp_path / "data.csv"
+    path.write_bytes(b"t,acc\n\xff\xfe\x00\x81\n")
+    with pytest.raises(ModelError, match=r"data\.csv: not a text CSV file \(not UTF-8\); save it as CSV text"):
+        lg.Signal.from_csv(path, "acc")
+    with pytest.raises(ModelError, match="signal 'signal': times and values must be arrays of numbers"):
+        lg.Signal(["a", "b"], [1, 2])
+
+
 def test_missing_csv(tmp_path):
     with pytest.raises(ModelError, match="cannot read the signal file .*nope.csv: .*; check the path"):
         lg.Signal.from_csv(tmp_path / "nope.csv", "acc")
