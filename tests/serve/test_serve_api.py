@@ -289,6 +289,20 @@ def test_simulate_takes_a_feedback_law_as_simulate_does(server):
                                                    "the condition of where(q1 > 0, a, b)")
 
 
+@pytest.mark.subprocess
+def test_simulate_refuses_a_model_that_names_a_file_on_the_server(server, tmp_path):
+    (tmp_path / "data.csv").write_text("t,F\n0,1\n10,1\n")
+    text = (OSCILLATOR.replace('coordinates = ["x"]', 'coordinates = ["x"]\ninputs = ["F"]')
+            + '\n[simulation]\ninputs = { F = "@data.csv:F" }\n')
+    for endpoint, body in (("/api/simulate", {"model": text, "t_end": 1}), ("/api/derive", text)):
+        status, data = server.post_json(endpoint, body)
+        assert status == 400, (endpoint, data)
+        [e] = data["errors"]
+        assert e["key"] == "simulation.inputs.F"
+        assert e["message"].startswith("a model sent to the playground cannot read files on the server; "
+                                       "'@data.csv:F' names a CSV file: give F as an expression of t")
+
+
 @pytest.mark.slow
 @pytest.mark.subprocess
 def test_simulate_csv_is_the_csv_of_lagrangian_simulate(server, tmp_path):

@@ -167,13 +167,11 @@ def run_simulation(args, *, equations_to=None):
     return model, eqs, traj
 
 
-_QUALIFIERS = {"linear": "interpolation", "cubic": "interpolation", "hold": "extrapolation"}
-
-
 def signal_inputs(inputs: Mapping[str, str]) -> dict:
     """--input NAME=@FILE.csv[:COLUMN][:cubic][:hold]: the column (default: the column named NAME) of a
     CSV file as a measured signal (lagrangian.Signal), linear (or cubic) between its rows; the others
     as they are."""
+    from ..io._signalspec import split_signal_spec
     from ..numeric import Signal
 
     out: dict = {}
@@ -181,15 +179,7 @@ def signal_inputs(inputs: Mapping[str, str]) -> dict:
         if not text.startswith("@"):
             out[name] = text
             continue
-        parts = text[1:].split(":")
-        options = {}
-        while len(parts) > 1 and parts[-1].strip().lower() in _QUALIFIERS:
-            word = parts.pop().strip().lower()
-            options[_QUALIFIERS[word]] = word
-        column = name
-        if len(parts) > 1 and not (len(parts) == 2 and len(parts[0]) == 1):  # C:\data.csv is a path
-            column = parts.pop().strip()
-        path = ":".join(parts).strip()
+        path, column, options = split_signal_spec(name, text)
         if not path:
             raise ModelError(f"--input {name}={text}: expected a CSV file after '@', for example "
                              f"--input {name}=@data.csv:{name} (or @data.csv:{name}:cubic, @data.csv:{name}:hold)")

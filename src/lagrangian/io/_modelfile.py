@@ -114,7 +114,8 @@ a spring, a damper or a load may refer to any named point, particle or body. Ele
 be unique across all elements. The validated ``[simulation]`` table is stored in
 ``model.simulation`` as a plain dict ``{"t_end": float, "dt": float, "rtol": float,
 "atol": float, "initial": {name: float}, "inputs": {name: str or float}, "sample_time": float or
-{name: float}}`` (only the keys given).
+{name: float}}`` (only the keys given); an input "@data.csv:acc" (a CSV column, the CLI's --input syntax,
+relative to the model file's folder) is stored as an ``io._signalspec.SignalFile``, read when simulated.
 """
 
 from __future__ import annotations
@@ -1670,9 +1671,56 @@ class _Reader:
                 self.problem(key, f"'{name}' is not an input{did_you_mean(name, inputs, 0.5)}: {declared}; "
                                   f"declare it with inputs = [\"{name}\"] or fix the name")
                 continue
+            if isinstance(item, str) and item.startswith("@"):
+                signal = self.signal_file(name, item, key)
+                if signal is not None:
+                    out[name] = signal
+                continue
             if self.expr(item, key, names, context="signal") is not None:
                 out[name] = item if isinstance(item, str) else float(item)
         return out
+
+    def signal_file(self, name: str, text: str, key: str):
+        """inputs = { F = "@data.csv:acc" }: the CLI's --input syntax, the path relative to the model
+        file's folder and inside it; a SignalFile (the numeric layer reads the CSV when it simulates)."""
+        from ._signalspec import SignalFile, split_signal_spec
+
+        path, column, options = split_signal_spec(name, text)
+        fix = f"put the CSV file in the model file's folder (or below it) and write {name} = \"@data.csv:{name}\""
+        if self.source.startswith("<") and self.source.endswith(">"):
+            if self.source == "<playground>":
+                self.problem(key, f"a model sent to the playground cannot read files on the server; '{text}' names "
+                                  f"a CSV file: give {name} as an expression of t (for example \"0.5*sin(3*t)\"), or "
+                                  "simulate the model file with the CSV beside it from the command line "
+                                  "(lagrangian simulate model.toml)")
+            else:
+                self.problem(key, f"'{text}' names a CSV file, but this model was not read from a file, so there is "
+                                  "no folder to read it from; save the model as a .toml file beside the CSV and load "
+                                  "that file, or pass lagrangian.Signal.from_csv(...) as inputs= to simulate")
+            return None
+        if not path:
+            self.problem(key, f"expected a CSV file after '@', for example {name} = \"@data.csv:{name}\" "
+                              f"(or \"@data.csv:{name}:cubic\", \"@data.csv:{name}:hold\")")
+            return None
+        raw = path.replace("\\", "/")
+        if raw.startswith("/") or (len(raw) > 1 and raw[1] == ":") or os.path.isabs(path):
+            self.problem(key, f"'{path}' is an absolute path; expected a path relative to the model file's folder; "
+                              f"{fix}")
+            return None
+        if ".." in raw.split("/"):
+            self.problem(key, f"'{path}' contains '..'; expected a path inside the model file's folder; {fix}")
+            return None
+        folder = Path(self.source).resolve().parent
+        full = (folder / raw).resolve()
+        if not full.is_relative_to(folder):
+            self.problem(key, f"'{path}' resolves (following symbolic links) to {full}, outside the model file's "
+                              f"folder {folder}; expected a file inside it; {fix}")
+            return None
+        if not full.is_file():
+            self.problem(key, f"no such CSV file '{path}' in the model file's folder {folder}; expected a CSV file "
+                              "with a header row (t, then the columns); check the name, or put the file there")
+            return None
+        return SignalFile(str(full), column, where=f"{self.source}: {key}", text=text, **options)
 
     # -- Model.check ----------------------------------------------------------------------
     def translate(self, key: str) -> str:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, fields, replace
 from types import MappingProxyType
 
 from .._limits import number_problem
-from ..errors import Problem
+from ..errors import ModelError, Problem
 
 __all__ = ["BY_NAME", "SimulationOptions"]
 
@@ -39,6 +39,22 @@ MIN_RTOL = 100 * 2.220446049250313e-16
 
 def _name(key):
     return getattr(key, "name", key)
+
+
+def _signal_files(inputs: Mapping) -> dict:
+    """The model file's inputs with each CSV column it names (io's SignalFile) read as a Signal; an
+    error names the model file and its key before the CSV's own words."""
+    from ..io._signalspec import SignalFile
+    from ._inputs import Signal
+
+    out = dict(inputs)
+    for name, value in inputs.items():
+        if isinstance(value, SignalFile):
+            try:
+                out[name] = Signal.from_csv(value.path, value.column, value.interpolation, value.extrapolation)
+            except ModelError as exc:
+                raise ModelError(f"{value.where}: '{value.text}': {exc}") from None
+    return out
 
 
 def _frozen(mapping: Mapping) -> Mapping:
@@ -105,6 +121,8 @@ class SimulationOptions:
         for what it does not give."""
         sim = getattr(model, "simulation", None) or {}
         values = {k: v for k, v in sim.items() if k in _FIELDS and v is not None}
+        if values.get("inputs"):
+            values["inputs"] = _signal_files(values["inputs"])
         for key in ("initial", "inputs"):
             values[key] = _frozen(values.get(key) or {})
         for key in ("independent", "independent_speeds"):
