@@ -21,9 +21,7 @@ with M symmetric positive definite on a mechanism (the kinetic energy):
    another's does not. S's own Cholesky pivots are its square (their cosine is lost to round-off
    at rho_G ~ 1e-8), rho_G is resolved down to round-off (1e-16): the thresholds below sit four
    orders of magnitude above it, so that every backend decides the same way.
-3. y = L^-1 f, w = R^-T (c - G M^-1 f) = R^-T c - Q^T D^-1 y (G M^-1 f = R^T Q^T D^-1 y), lambda =
-   R^-1 w, q_ddot = M^-1 (f + G^T lambda) = L^-T D^-1 (y + Q w): two triangular solves with L, as the
-   unconstrained solve.
+3. a = M^-1 f (L, D), w = R^-T (c - G a), lambda = R^-1 w, q_ddot = a + L^-T D^-1 Q w.
 
 The *measure* is min(r_M, rho_G) (r_M alone at m = 0: then steps 2 and 3 vanish and this is the
 unconstrained solve). The compiled DOP853 stops at once where it is at most SINGULAR_RATIO and
@@ -334,32 +332,29 @@ def _saddle(e: _Emit) -> None:
     e.do(f"r = {e.call('lg_ldl')}")
     with e.when("r <= SINGULAR_RATIO"):
         e.ret("r")
-    # f, G and c finite: x * 0.0 is 0 for a finite x and NaN otherwise, their sum NaN where one is not
-    e.total("s", "0.0", "+", "i", 0, "N + M * N + M", lambda i: f"work[F0 + {i}] * 0.0")
-    with e.when("!isfinite(s)"):
-        e.ret("-1.0")
+    for i in e.loop("i", 0, "N + M * N + M", unroll=False):
+        with e.when(f"!isfinite(work[F0 + {i}])"):
+            e.ret("-1.0")
     _to_q(e)
     e.do(f"r = fmin(r, {e.call('lg_qr', m=M)})")
     with e.when("r <= SINGULAR_RATIO"):
         e.ret("r")
-    for i in e.loop("i", 0, "N"):  # y = L^-1 f
+    for i in e.loop("i", 0, "N"):
         e.do(f"work[A0 + {i}] = work[F0 + {i}]")
     e.do(e.call("lg_lower", "A0"))
-    for k in e.loop("k", 0, "M"):  # w = R^-T (c - G M^-1 f) = R^-T c - Q^T D^-1 y
-        e.do(f"work[W0 + {k}] = work[C0 + {k}]")
-    e.do(e.call("lg_rt", "W0", m=M))
+    e.do(e.call("lg_upper", "A0"))
     for k in e.loop("k", 0, "M"):
-        e.total("s", f"work[W0 + {k}]", "-", "i", 0, "N",
-                lambda i: f"work[Q0 + {k} * N + {i}] * work[E0 + {i}] * work[A0 + {i}]")
+        e.total("s", f"work[C0 + {k}]", "-", "i", 0, "N", lambda i: f"work[G0 + {k} * N + {i}] * work[A0 + {i}]")
         e.do(f"work[W0 + {k}] = s")
+    e.do(e.call("lg_rt", "W0", m=M))
     for k in e.down("k", "M"):
         e.total("s", f"work[W0 + {k}]", "-", "i", f"{k} + 1", "M",
                 lambda i: f"work[R0 + {k} * M + {i}] * work[L0 + {i}]")
         e.do(f"work[L0 + {k}] = s / work[R0 + {k} * M + {k}]")
     e.do(e.call("lg_qv", "W0", m=M))
-    for i in e.loop("i", 0, "N"):  # q_ddot = L^-T D^-1 (y + Q w)
+    e.do(e.call("lg_upper", "V0"))
+    for i in e.loop("i", 0, "N"):
         e.do(f"work[A0 + {i}] += work[V0 + {i}]")
-    e.do(e.call("lg_upper", "A0"))
     e.ret("r")
 
 

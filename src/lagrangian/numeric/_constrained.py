@@ -117,9 +117,9 @@ class ConstrainedModel:
             raise ConstraintSingular(t, x, -1.0)
         if rho <= SINGULAR_RATIO:
             raise ConstraintSingular(t, x, rho)
-        y = _triangular(Lc, f, lower=True)  # step 3 (Lc = L D^1/2: this Q is D^-1/2 the template's)
-        w = _triangular(R, c, transpose=True) - Q.T @ y
-        qdd = _triangular(Lc, y + Q @ w, transpose=True, lower=True)
+        a = _triangular(Lc, _triangular(Lc, f, lower=True), transpose=True, lower=True)
+        w = _triangular(R, c - G @ a, transpose=True)
+        qdd = a + _triangular(Lc, Q @ w, transpose=True, lower=True)
         return qdd, _triangular(R, w)
 
     def measures(self, t, x, u, p) -> tuple[float, float]:
