@@ -18,7 +18,9 @@ command line (``lagrangian simulate``, ``animate``, ``export``...), the exports 
 
 from __future__ import annotations
 
+import functools
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from types import MappingProxyType
@@ -45,16 +47,36 @@ def _signal_files(inputs: Mapping) -> dict:
     """The model file's inputs with each CSV column it names (io's SignalFile) read as a Signal; an
     error names the model file and its key before the CSV's own words."""
     from ..io._signalspec import SignalFile
-    from ._inputs import Signal
 
     out = dict(inputs)
     for name, value in inputs.items():
         if isinstance(value, SignalFile):
             try:
-                out[name] = Signal.from_csv(value.path, value.column, value.interpolation, value.extrapolation)
+                out[name] = _read_signal(value.path, value.column, value.interpolation, value.extrapolation,
+                                         _stamp(value.path))
             except ModelError as exc:
                 raise ModelError(f"{value.where}: '{value.text}': {exc}") from None
     return out
+
+
+def _stamp(path: str) -> tuple[int, int] | None:
+    """(modification time in ns, size) of the file at `path`, None where it cannot be read (the
+    reading then says why): a changed file is read again."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_mtime_ns, st.st_size
+
+
+@functools.lru_cache(maxsize=32)
+def _read_signal(path: str, column: str, interpolation: str, extrapolation: str, stamp):
+    """The Signal of a CSV column, read once per version of the file (`stamp`): every simulate()
+    of a model file that names a CSV builds its options from the file again. A Signal is immutable,
+    and a failed reading raises (nothing is kept)."""
+    from ._inputs import Signal
+
+    return Signal.from_csv(path, column, interpolation, extrapolation)
 
 
 def _frozen(mapping: Mapping) -> Mapping:
