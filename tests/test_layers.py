@@ -19,6 +19,9 @@ dependency too) and placed in this order, bottom to top:
 6. ``numeric`` (compiled models, simulation, trajectories) and ``control`` (lqr, place: matrices in,
    a feedback law out; ``LinearModel.lqr`` calls down into it).
 7. ``analysis``: equilibria, linearization, modes, steady motions, continuation.
+7b. ``identification`` (fit: parameter identification and identifiability) and ``optimal_control``
+   (optimal motions by direct collocation): optimization problems over the equations, the simulation
+   (to replay an answer) and the analysis (the linearization along a motion); peers.
 8. ``reporting`` and ``export``: documents and generated code from the layers below.
 9. ``lagrangian`` itself: the public names, re-exported from the layers below.
 10. ``serve``: the playground (it calls the library as the CLI does, never the CLI).
@@ -49,6 +52,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("lagrangian.equations",),
     ("lagrangian.numeric", "lagrangian.control"),
     ("lagrangian.analysis",),
+    ("lagrangian.identification", "lagrangian.optimal_control"),
     ("lagrangian.reporting", "lagrangian.export"),
     ("lagrangian",),
     ("lagrangian.serve",),
