@@ -241,3 +241,30 @@ def test_place_save_and_simulate_controller(capsys, tmp_path):
                            "--controller", path)
     assert rc == 0, err
     np.testing.assert_allclose(rows(out)[1][:, 1:5], ref.x, rtol=0, atol=1e-10)
+
+
+def test_animate_lqr_draws_the_closed_loop_motion(capsys, tmp_path, monkeypatch, api_run):
+    """`animate --lqr` closes the loop as `simulate --lqr` does: the animated trajectory is the API's."""
+    from lagrangian.plot import _animation
+
+    drawn = []
+    real = _animation.animate
+
+    def spy(traj, **kw):
+        drawn.append(traj)
+        return real(traj, **kw)
+
+    monkeypatch.setattr(_animation, "animate", spy)
+    out = tmp_path / "held.html"
+    rc, _, err = run_cli(capsys, "animate", "cart-pendulum", "--t-end", 10, "--dt", 0.05, "--initial", START,
+                         "--lqr", QR, "--at", "q2=pi/2", "--fps", 0.5, "-o", out)
+    assert rc == 0, err
+    _, traj, _ = api_run
+    np.testing.assert_allclose(drawn[0].x, traj.x, rtol=0, atol=1e-10)
+    assert out.read_text().count("data:image/png;base64,") >= 5
+
+
+def test_animate_at_without_a_loop_is_refused(capsys, tmp_path):
+    rc, _, err = run_cli(capsys, "animate", "cart-pendulum", "--at", "q2=pi/2", "-o", tmp_path / "c.gif")
+    assert rc != 0
+    assert "--at is for a closed loop: give --lqr" in err

@@ -6,6 +6,7 @@ import argparse
 
 from ..errors import ModelError
 from ._common import MODEL_HELP, add_simulation_options, check_writable, option_number, run_simulation
+from ._control import add_feedback_options, feedback_inputs
 
 
 def register(sub, fmt) -> None:
@@ -18,9 +19,12 @@ def register(sub, fmt) -> None:
                        epilog="Examples:\n  lagrangian animate cart-pendulum -o cart.gif\n"
                               "  lagrangian animate double-pendulum --t-end 10 --trace bob2 --fps 20 -o double.html\n"
                               "  lagrangian animate cart-pendulum --input \"F=1.5*sin(3*t)\" --speed 0.5 -o cart.mp4\n"
-                              "  lagrangian animate whipple-bicycle -o bicycle.gif   (the view follows it)")
+                              "  lagrangian animate whipple-bicycle -o bicycle.gif   (the view follows it)\n"
+                              "  lagrangian animate cart-pendulum --lqr \"Q=q1=1,q2=10;R=F=1\" --at q2=pi/2 "
+                              "--initial q2=1.4 -o held.gif")
     a.add_argument("model", help=MODEL_HELP)
     add_simulation_options(a)
+    add_feedback_options(a)
     a.add_argument("--output", "-o", required=True, metavar="FILE",
                    help="the animation to write: FILE.gif, FILE.mp4 or FILE.html")
     a.add_argument("--fps", type=option_number("--fps", positive=True, maximum=1000, example="--fps 25"), default=25.0,
@@ -51,6 +55,7 @@ def _cmd_animate(args: argparse.Namespace) -> int:
         raise ModelError(str(exc)) from None
     check_writable(args.output, "out.gif")
     check_drawable(load(args.model), args.trace)  # before the simulation, not after it
+    feedback_inputs(args)  # --lqr, --controller: the law as --input, as simulate does
     _, _, traj = run_simulation(args)
     anim = animate(traj, fps=args.fps, speed=args.speed, trace=args.trace, dpi=args.dpi, view=args.view)
     anim.save(args.output)  # atomically, with the user's umask
