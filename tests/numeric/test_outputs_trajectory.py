@@ -90,3 +90,21 @@ def test_a_constrained_model_outputs_follow_its_coordinates():
     np.testing.assert_allclose(tr["Bx"], d + c * np.cos(tr["th3"]), rtol=0, atol=1e-12)
     assert np.max(np.abs(tr["gap"])) < 1e-8
     assert tr.columns[-2:] == ("Bx", "gap") and tr.columns.index("Bx") > tr.columns.index("lambda_loop_x")
+
+
+def test_a_batch_has_the_outputs_of_each_run_as_simulate_gives_them(equations):
+    """simulate_batch's outputs (issue 21, Part 0): batch["tip_x"] is (B, N), each row the output of
+    that run alone (its own parameters and input), and trajectory(i) carries them."""
+    starts = np.array([0.3, 1.0, 2.0])
+    batch = lg.simulate_batch(equations, 2.0, initial={"th1": starts}, inputs={"F": "0.3*sin(t)"}, dt=0.05)
+    assert batch.output_names == ("tip_x", "tip_y", "push")
+    tip = batch["tip_x"]
+    assert tip.shape == (3, len(batch.t)) and not tip.flags.writeable
+    for i, th1 in enumerate(starts):
+        alone = lg.simulate(equations, 2.0, {"th1": th1}, inputs={"F": "0.3*sin(t)"}, dt=0.05)
+        for name in batch.output_names:
+            np.testing.assert_allclose(batch[name][i], alone[name], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(batch.trajectory(i)["push"], 2 * 0.3 * np.sin(batch.t) + batch["th1"][i],
+                                   rtol=0, atol=1e-12)
+    with pytest.raises(KeyError, match="its columns are t, th1, th2, th1_dot, th2_dot, tip_x, tip_y, push"):
+        batch["tip_z"]

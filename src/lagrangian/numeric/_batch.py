@@ -44,6 +44,9 @@ class BatchResult:
         Where each run stopped (t_end when it did not).
     nfev : ndarray of int, shape (B,)
         Right-hand-side evaluations per run.
+    output_names : tuple of str
+        The model's named outputs (``[outputs]``, ``Model.add_output``); ``batch[name]`` gives each
+        as an array (B, N), NaN after a run stopped, evaluated on first use.
     """
 
     t: np.ndarray
@@ -57,6 +60,9 @@ class BatchResult:
     nfev: np.ndarray
     backend: str = "numba"
     _model: object = field(default=None, repr=False)
+    output_names: tuple[str, ...] = ()
+    _outputs_of: object = field(default=None, repr=False, compare=False)  # run i -> {name: (N,)}, None without
+    _outputs: dict = field(default_factory=dict, repr=False, compare=False)  # run i -> its outputs, filled on use
 
     def __len__(self) -> int:
         return self.x.shape[0]
@@ -83,21 +89,30 @@ class BatchResult:
         return [STATUS.get(int(s), f"status {int(s)}") for s in self.status]
 
     def __getitem__(self, name: str) -> np.ndarray:
-        """A state column of every run by name, shape (B, N); "t" gives the times."""
+        """A state or output column of every run by name, shape (B, N); "t" gives the times."""
         if name == "t":
             return self.t
         if name in self.state_names:
             return self.x[:, :, self.state_names.index(name)]
-        raise KeyError(f"the batch has no column '{name}'; its columns are t, {', '.join(self.state_names)}")
+        if name in self.output_names:
+            return read_only(np.stack([self._run_outputs(i)[name] for i in range(len(self))]), float)
+        raise KeyError(f"the batch has no column '{name}'; its columns are t, "
+                       f"{', '.join((*self.state_names, *self.output_names))}")
+
+    def _run_outputs(self, i: int) -> dict[str, np.ndarray]:
+        """The named outputs of run `i` at the output times, NaN after it stopped."""
+        if i not in self._outputs:
+            self._outputs[i] = self._outputs_of(i) if self._outputs_of is not None else {}
+        return self._outputs[i]
 
     def trajectory(self, i: int) -> Trajectory:
-        """Run `i` as a :class:`Trajectory` (states only: no inputs or energy column)."""
+        """Run `i` as a :class:`Trajectory`: its states and named outputs (no inputs or energy column)."""
         return Trajectory(self.t, self.x[i], self.state_names,
                           parameters=dict(zip(self.parameter_names, map(float, self.parameters[i]))),
                           nfev=int(self.nfev[i]), message=self.messages[i],
                           stats={"backend": self.backend, "method": "DOP853", "nfev": int(self.nfev[i]),
                                  "status": self.statuses[i]},
-                          model=self._model)
+                          model=self._model, outputs=self._run_outputs(i))
 
     def __repr__(self) -> str:
         return (f"<BatchResult: {len(self)} runs ({int(np.sum(self.ok))} reached the end), {len(self.t)} "
@@ -303,9 +318,32 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     for i in np.nonzero(STATUS_ != 0)[0]:
         X[i, STATS[i, 3]:] = np.nan
     stop = np.where(STATUS_ == 0, times[-1], INFO[:, 0])
+    output_names = tuple(eq.model.outputs) if eq.model is not None else ()
     return BatchResult(read_only(times, float), read_only(X, float), names.state_names, read_only(P[:, :k], float),
                        names.parameter_names, read_only(X0, float), read_only(STATUS_, np.int64),
-                       read_only(stop, float), read_only(STATS[:, 0], np.int64), cm.backend, eq.model)
+                       read_only(stop, float), read_only(STATS[:, 0], np.int64), cm.backend, eq.model,
+                       output_names, _outputs_at(cm, eq, prog, times, X, P, k) if output_names else None)
+
+
+def _outputs_at(cm, eq, prog, times, X, P, k):
+    """Run i -> its named outputs: the inputs at its rows computed in compiled code (as simulate
+    computes its input columns), then the outputs vectorised by the one numeric model; NaN after
+    the run stopped."""
+    from ._fast import inputs_and_energy
+    from ._trajectory import evaluate_outputs
+
+    def outputs_of(i: int) -> dict[str, np.ndarray]:
+        rows = int(np.argmax(~np.all(np.isfinite(X[i]), axis=1))) if not np.all(np.isfinite(X[i])) else len(times)
+        U, _ = inputs_and_energy(cm, times[:rows], X[i, :rows], P[i], prog)
+        values = evaluate_outputs(eq, times[:rows], X[i, :rows], U, P[i, :k])
+        full = {}
+        for name, v in values.items():
+            column = np.full(len(times), np.nan)
+            column[:rows] = v
+            full[name] = read_only(column, float)
+        return full
+
+    return outputs_of
 
 
 def default_lanes(n: int, runs: int) -> int:
