@@ -116,8 +116,9 @@ def _values(p: argparse.ArgumentParser) -> None:
 def _at(p: argparse.ArgumentParser) -> None:
     p.add_argument("--at", action="append", default=[], metavar="NAME=VALUE,...",
                    help="the operating point: coordinates and velocities, e.g. q1=0,q2=pi/2 (values may use the "
-                        "model's parameters; others are 0); "
-                        "default: the stable equilibrium nearest q = 0")
+                        "model's parameters); merged by name with the model's [operating_point]: names not given "
+                        "keep its values, the others are 0; "
+                        "default: the model's [operating_point], else the stable equilibrium nearest q = 0")
     p.add_argument("--t", type=option_number("--t", example="--t 0"), default=0.0,
                    help="the time, for models that contain t (default 0)")
 
@@ -172,6 +173,10 @@ def _operating_point(args, eqs):
     inputs = _numbers(args.input, "input", names)
     if args.at or eqs.model.operating_point:
         at = _numbers(args.at, "at", names) if args.at else None  # None: the model's [operating_point]
+        if at is not None and eqs.model.operating_point:
+            # --at merges with [operating_point] by name, as --initial does with [simulation] initial:
+            # the names --at does not give keep the model file's values (the others are 0)
+            at = {**_model_operating_point(eqs, names), **at}
         return linearize(eqs, at, params=params, inputs=inputs, t=args.t), None
     found = [e for e in equilibria(eqs, params=params, inputs=inputs, t=args.t) if e.linear_model is not None]
     stable = [e for e in found if e.stable]
@@ -183,6 +188,14 @@ def _operating_point(args, eqs):
     e = min(stable, key=lambda e: sum(abs(v) for v in e.coordinates.values()))  # the one nearest q = 0
     return e.linear_model, "about the stable equilibrium " + ", ".join(f"{k} = {v:.6g}"
                                                                        for k, v in e.coordinates.items())
+
+
+def _model_operating_point(eqs, names: Mapping[str, float]) -> dict[str, float]:
+    """The model's [operating_point] at the parameter values `names` (the model's, --param's in their place)."""
+    import sympy
+
+    values = {sympy.Symbol(k): v for k, v in names.items()}
+    return {k: float(sympy.sympify(e).xreplace(values)) for k, e in eqs.model.operating_point.items()}
 
 
 def _cmd_linearize(args: argparse.Namespace) -> int:
