@@ -207,7 +207,8 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     defaults = eq.model.simulation
     problems: list[Problem] = []
     options = SimulationOptions.from_model(eq.model).merged(t_end=t_end, dt=dt, rtol=rtol, atol=atol,
-                                                            initial=initial, inputs=inputs)  # simulate's rule
+                                                            initial=initial, inputs=inputs
+                                                            ).read_signals()  # simulate's rule
     t_end, dt, rtol, atol = options.t_end, options.dt, options.rtol, options.atol
     problems += options.problems()  # simulate's checks of t_end, dt, rtol and atol, and their messages
     problems += _work_problems(t_end, dt, t_eval, None, "DOP853")  # the output rows of each run (LAGRANGIAN_MAX_ROWS)

@@ -143,8 +143,6 @@ class SimulationOptions:
         for what it does not give."""
         sim = getattr(model, "simulation", None) or {}
         values = {k: v for k, v in sim.items() if k in _FIELDS and v is not None}
-        if values.get("inputs"):
-            values["inputs"] = _signal_files(values["inputs"])
         for key in ("initial", "inputs"):
             values[key] = _frozen(values.get(key) or {})
         for key in ("independent", "independent_speeds"):
@@ -179,6 +177,17 @@ class SimulationOptions:
                 if key == "initial":
                     changes["given"] = value
         return replace(self, **changes) if changes else self
+
+    def read_signals(self) -> SimulationOptions:
+        """These options with every CSV column the model file names as an input (``[simulation]
+        inputs = { F = "@data.csv:acc" }``) read as a Signal. Called after the caller's overrides are
+        merged, so an input the caller replaces is never read (a missing or bad CSV then does not
+        matter), and options built only for their initial values read no file."""
+        from ..io._signalspec import SignalFile
+
+        if not any(isinstance(v, SignalFile) for v in self.inputs.values()):
+            return self
+        return replace(self, inputs=_frozen(_signal_files(self.inputs)))
 
     @property
     def held(self) -> frozenset[str]:

@@ -418,7 +418,7 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     opts = base.merged(
         t_end=t_end, initial=initial, inputs=inputs, params=params, dt=dt, t_eval=t_eval, rtol=rtol, atol=atol,
         method=method, max_step=max_step, backend=backend, step=step, events=events, stop_on=stop_on,
-        progress=progress, sample_time=sample_time, constraints=constraints)
+        progress=progress, sample_time=sample_time, constraints=constraints).read_signals()
     run = _prepare(nm, opts)
     if eq.is_constrained:
         return _simulate_constrained(nm, run, opts, base.initial)
