@@ -172,7 +172,7 @@ _ELEMENT_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "particles": (("mass", "position"), ("name", "frame")),
     "bodies": (("mass", "inertia", "position", "angle"), ("name",)),
     "springs": (("stiffness",), ("name", "between", "length", "rest_length")),
-    "dampers": (("coefficient",), ("name", "between", "length")),
+    "dampers": (("coefficient",), ("name", "between", "length", "body")),
     "loads": ((), ("name", "force", "at", "torque", "angle", "body", "frame")),
 }
 #: Keys of a body in space (a [[bodies]] table with a frame).
@@ -1256,12 +1256,40 @@ class _Reader:
             self.record(entry, spring, {"length": "between" if "between" in span else "length"})
 
     def build_dampers(self, entry: _Entry) -> None:
+        if "body" in entry.table:
+            self.build_rotational_damper(entry)
+            return
         complete = self.check_keys(entry)
         coefficient = self.field(entry, "coefficient", "coefficient")
         span = self.span(entry)
         if complete and entry.ok and None not in (coefficient, span):
             damper = self.model.add_damper(coefficient, name=entry.name, **span)  # type: ignore[arg-type]
             self.record(entry, damper, {"length": "between" if "between" in span else "length"})
+
+    def build_rotational_damper(self, entry: _Entry) -> None:
+        """A [[dampers]] table with body = "<rigid body>": the torque -c omega on that body."""
+        complete = self.check_keys(entry)
+        coefficient = self.field(entry, "coefficient", "coefficient")
+        key, body = f"{entry.key}.body", entry.table["body"]
+        for other in ("between", "length"):
+            if other in entry.table:
+                self.problem(f"{entry.key}.{other}", f"the damper '{entry.name}' has a body (a rotational damper, "
+                                                     f"the torque -c omega on it): remove '{other}', or remove body "
+                                                     "for a damper along a length")
+                entry.ok = False
+        bodies = [e.name for e in self.entries.values() if e.kind == "bodies"]
+        if not isinstance(body, str):
+            self.problem(key, f"expected the name of a [[bodies]] element in quotes, got {_describe(body)}")
+            return
+        target = self.entries.get(body)
+        if target is None or target.kind != "bodies":
+            what = f"'{body}' is a {_SINGULAR[target.kind]} ({target.key}), not a rigid body" if target else (
+                f"no rigid body is named '{body}'{did_you_mean(body, bodies)}")
+            self.problem(key, f"{what}: a rotational damper acts on a rigid body; use the name of a [[bodies]] "
+                              "element")
+            return
+        if complete and entry.ok and coefficient is not None and target.element is not None:
+            self.record(entry, self.model.add_damper(coefficient, body=body, name=entry.name))
 
     def span(self, entry: _Entry) -> dict[str, Any] | None:
         """``{"between": [...]}`` or ``{"length": expr}`` of a spring or damper, or None."""

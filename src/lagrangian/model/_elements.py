@@ -20,7 +20,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "Element", "Particle", "RigidBody", "RigidBody3D", "Shape", "SHAPES", "shape_problems", "Point", "Spring",
-    "Damper", "Gravity", "Force", "Torque", "Torque3D", "Contribution",
+    "Damper", "Gravity", "Force", "Torque", "Torque3D", "Contribution", "RotationalDamper",
 ]
 
 Vector = tuple[sympy.Expr, ...]
@@ -253,6 +253,26 @@ class Damper(Element):
             return Contribution(D=c * rate_times_length * rate_times_length / dist2 / 2)
         r = kin.rate(self.length)
         return Contribution(D=c * r * r / 2)
+
+
+@dataclass(frozen=True)
+class RotationalDamper(Element):
+    """A rotational damper on a rigid body in space: the torque -s omega (omega its angular velocity),
+    from the Rayleigh function D = s |omega|^2 / 2 (|omega| is the same in every axes; omega in body
+    axes is derived from the body's rotations, as for its kinetic co-energy). `factors`: the world-to-
+    body chain of the body's frame."""
+
+    name: str
+    coefficient: sympy.Expr
+    body: str
+    factors: tuple = ()
+    kind = "rotational damper"
+
+    def contribute(self, kin):
+        from ._frames import angular_velocity
+
+        w = angular_velocity(self.factors, kin)
+        return Contribution(D=kin.se(self.coefficient) * sum(wi * wi for wi in w) / 2)
 
 
 @dataclass(frozen=True)

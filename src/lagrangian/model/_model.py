@@ -17,8 +17,8 @@ import sympy
 from .._util import did_you_mean
 from ..errors import ExpressionError, ModelError, Problem
 from ._constraints import HOLONOMIC, VELOCITY, Constraint
-from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, Shape, Spring,
-                        Torque, Torque3D, shape_problems)
+from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, RotationalDamper,
+                        Shape, Spring, Torque, Torque3D, shape_problems)
 from ._frames import AXES, WORLD, Factor, Frame, frame_pose, world_factors
 from ._symbols import check_name, ddot, dot, t
 from ._wheels import Wheel, rolling_conditions
@@ -78,6 +78,7 @@ class Model:
         self._frames: dict[str, Frame] = {}
         self._constraints: list[Constraint] = []
         self._wheels: list[Wheel] = []
+        self._joints: dict = {}
         self._T = sympy.Integer(0)
         self._V = sympy.Integer(0)
         self._D = sympy.Integer(0)
@@ -187,6 +188,11 @@ class Model:
     def frames(self) -> dict[str, Frame]:
         """The reference frames by name (the inertial frame ``world`` is implicit)."""
         return dict(self._frames)
+
+    @property
+    def joints(self) -> dict:
+        """The joints by name (:class:`~lagrangian.model._joints.Joint`), in the order they were added."""
+        return dict(getattr(self, "_joints", {}))
 
     def symbol(self, name: str) -> sympy.Symbol:
         """The symbol of a declared name (coordinate, velocity, parameter, input or t)."""
@@ -396,6 +402,48 @@ class Model:
             raise ModelError(f"{where}: the zero vector is not an axis; give its direction, e.g. [0, 0, 1]")
         return tuple(sympy.nsimplify(c / norm) for c in v)
 
+    def add_joint(self, name: str, type: str, *, parent: str = WORLD, child: str | None = None, origin=(0, 0, 0),
+                  rotation=None, axis=None, coordinates=None, limits=None, damping=None, friction=None,
+                  sequence: str | None = None):
+        """A joint from the frame `parent` to a new frame `child` (default: the joint's name), with its
+        coordinates (declared here unless declared before) and its dampers and friction.
+
+        Parameters
+        ----------
+        name : str
+        type : str
+            ``"revolute"``, ``"prismatic"``, ``"cylindrical"``, ``"universal"``, ``"spherical"``,
+            ``"planar"``, ``"fixed"`` or ``"floating"``.
+        parent : str
+            ``"world"`` or a frame added before (another joint's child).
+        child : str, optional
+            The name of the frame the joint creates; bodies are placed in it.
+        origin, rotation :
+            The joint frame's origin in the parent's axes and its constant rotation (as for
+            :meth:`add_frame`); the motion is given in the joint frame's axes.
+        axis : "x", "y", "z" or a 3-vector; two of them for a universal joint
+            Default ``"z"`` (universal: ``("x", "y")``; a planar joint's axis is its plane's normal).
+        coordinates : str or list of str, optional
+            The joint's coordinate names (defaults: see :mod:`lagrangian.model._joints`).
+        limits : (lower, upper), or one pair (or None) per coordinate
+            Recorded on the joint (not enforced: no forces).
+        damping, friction : expression, or one per coordinate
+            Viscous damping (D = c q_dot^2 / 2; a spherical joint: D = c |omega|^2 / 2) and Coulomb
+            friction (Q = -F sign(q_dot)), constants.
+        sequence : str, optional
+            The angle sequence of a spherical or floating joint (default ``"xyz"``, singular where the
+            middle angle is +-pi/2).
+
+        Returns
+        -------
+        Joint
+        """
+        from ._joints import add_joint
+
+        return add_joint(self, name, type, parent=parent, child=child, origin=origin, rotation=rotation, axis=axis,
+                         coordinates=coordinates, limits=limits, damping=damping, friction=friction,
+                         sequence=sequence)
+
     # ------------------------------------------------------------------- bodies
     def add_rigid_body(self, mass, inertia, position=None, angle=None, *, frame: str | None = None,
                        center=(0, 0, 0), center_frame: str | None = None, shape: str | None = None,
@@ -504,10 +552,29 @@ class Model:
         self._elements.append(e)
         return e
 
-    def add_damper(self, coefficient, *, between=None, length=None, name: str | None = None) -> Damper:
-        """A linear viscous damper, D = c (d length/dt)^2 / 2 (`between` or `length` as for springs)."""
+    def add_damper(self, coefficient, *, between=None, length=None, body: str | None = None,
+                   name: str | None = None) -> Damper | RotationalDamper:
+        """A linear viscous damper, D = c (d length/dt)^2 / 2 (`between` or `length` as for springs).
+
+        With `body` (a rigid body's name) instead, a rotational damper on that body: the torque
+        -c omega, D = c |omega|^2 / 2 with omega the body's angular velocity (in space: derived from
+        its frame's rotations; planar: the rate of its angle)."""
         name = self._unique_element_name(name, "damper")
         where = f"damper '{name}'"
+        if body is not None:
+            if between is not None or length is not None:
+                raise ModelError(f"{where}: give `body` (a rotational damper on a rigid body) or `between`/`length` "
+                                 "(a damper along a length), not both")
+            bodies = {e.name: e for e in self._elements if isinstance(e, (RigidBody, RigidBody3D))}
+            if body not in bodies:
+                raise ModelError(f"{where}.body: no rigid body is named '{body}'{did_you_mean(body, bodies)}; a "
+                                 "rotational damper acts on a rigid body (add it first)")
+            b = bodies[body]
+            c = self.expr(coefficient, f"{where}.coefficient")
+            e = (RotationalDamper(name, c, body, b.factors) if isinstance(b, RigidBody3D)
+                 else Damper(name, c, b.angle))
+            self._elements.append(e)
+            return e
         L, ends, names = self._length(between, length, where)
         if ends is not None and all(sympy.simplify(a - b) == 0 for a, b in zip(*ends)):
             raise ModelError(f"{where}.between: both ends are the same point, so the damper has no length "
@@ -879,6 +946,7 @@ class Model:
         self._frames = dict(self._frames)
         self._constraints = list(self._constraints)
         self._wheels = list(self._wheels)
+        self._joints = dict(getattr(self, "_joints", {}))
         self._Q = dict(self._Q)
         self._outputs = dict(getattr(self, "_outputs", {}))
         self.simulation = copy.deepcopy(self.simulation)
