@@ -16,6 +16,7 @@ from .numeric import BatchResult, CompiledModel, NumericModel, Signal, Trajector
 from .numeric import compile
 from .analysis import (Continuation, Equilibria, Equilibrium, LinearModel, Modes, SteadyMotion, SteadyMotions,
                        continuation, equilibria, linearize, modes, steady_motions)
+from .analysis import InverseDynamics, Kinematics, inverse_dynamics, kinematics
 from .reporting import Report, report
 
 from ._version import __version__ as __version__
@@ -35,7 +36,8 @@ __all__ = [
     "SingularConfiguration", "constraint_singularities", "ConstraintSingularityReport", "ConstraintConfiguration",
     "DeadPoints", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
-    "continuation", "Continuation", "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate",
+    "continuation", "Continuation", "kinematics", "Kinematics", "inverse_dynamics", "InverseDynamics",
+    "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate",
     "simulate_batch", "BatchResult", "grid", "Trajectory", "Signal", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
     "SingularMassMatrixError", "SimulationError", "Status", "OutputFileError",

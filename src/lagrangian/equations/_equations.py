@@ -196,6 +196,16 @@ class Equations:
         on = list(self.accelerations) + list(self.velocities) + list(self.multipliers)
         return tuple(self.readable(e, on) for e in self._residuals_se)
 
+    @cached_property
+    def inverse_dynamics(self) -> sympy.ImmutableMatrix:
+        """tau = M q_ddot - f (n x 1), in readable form: the generalized forces that, added to the model's,
+        drive the motion q(t) (tau = M q_ddot + C q_dot + G - Q - damping forces ...); at rest, those that
+        hold the pose. With constraints, the actuators and the constraint forces share it:
+        tau_a + G^T lambda = M q_ddot - f (see :func:`lagrangian.inverse_dynamics` for the numbers)."""
+        M, f, qdd = self.mass_matrix, self.forcing, self.accelerations
+        return sympy.ImmutableMatrix([sympy.Add(*(M[i, j] * qdd[j] for j in range(self.n)), -f[i])
+                                      for i in range(self.n)])
+
     # ------------------------------------------------------------ constraints
     @property
     def is_constrained(self) -> bool:
