@@ -146,6 +146,26 @@ def test_co_simulation_matches_lagrangian_with_held_inputs(fmu, cart):
     assert 1e-12 < np.max(np.abs(_states(loose) - ours.x)) < 1e-6
 
 
+def test_co_simulation_with_a_measured_signal_matches_lagrangian(fmu, cart):
+    """The FMU comparison of a measured signal (issue 21, Part 0): a recorded table (201 samples,
+    kinks at every one) given to lagrangian as lg.Signal, held at its samples (sample_time = the
+    spacing), and to the FMU's Co-Simulation through fmpy's input with the communication step = the
+    spacing (each input held over a step): the same motion to 1e-10."""
+    fmpy = _fmpy()
+    t = np.linspace(0.0, 2.0, 201)
+    force = 0.6 * np.sin(7.0 * t) + 0.2 * np.cos(31.0 * t + 0.4)
+    ours = lg.simulate(cart, 2.0, {"q2": 1.4}, inputs={"F": lg.Signal(t, force)}, sample_time=0.01, dt=0.01,
+                       rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(ours["F"], force, rtol=0, atol=1e-12)  # held at the samples: the samples
+    table = np.array(list(zip(t, force)), dtype=[("time", float), ("F", float)])
+    res = fmpy.simulate_fmu(fmu, fmi_type="CoSimulation", stop_time=2.0, output_interval=0.01, input=table,
+                            start_values={"solver.rtol": 1e-12, "solver.atol": 1e-12}, output=list(STATES))
+    np.testing.assert_allclose(res["time"], ours.t, atol=1e-12)
+    assert np.max(np.abs(_states(res) - ours.x)) < 1e-10
+    smooth = lg.simulate(cart, 2.0, {"q2": 1.4}, inputs={"F": lg.Signal(t, force)}, dt=0.01)
+    assert np.max(np.abs(smooth.x - ours.x)) > 1e-4  # interpolated, not held: a different motion
+
+
 def test_co_simulation_step_and_tolerance_are_settable(fmu, cart):
     """solver.max_step bounds the embedded DOP853's step: at a loose tolerance (1e-3) the steps
     it would choose miss lagrangian's trajectory by about 1e-3, a largest step of 0.01 s brings
