@@ -562,7 +562,7 @@ def constraint_singularities(equations: Equations, drivers=None) -> ConstraintSi
             located, more = search.locate(list(range(m)), list(range(n)), gram_values, m)
             configurations = [_singular_configuration(eqs, num, *item) for item in located]
     dead = [_dead_points(eqs, num, search, s, why, det) for (s, why), det in zip(driver_sets, dets)]
-    cause, fix = _cause_and_fix(configurations, everywhere, dead)
+    cause, fix = _cause_and_fix(configurations, everywhere, dead, eqs.model.wheels)
     return ConstraintSingularityReport(con_names, hol_names, n, n - m, gram,
                                        {k: float(v) for k, v in zip(names, initial)}, initial_rank,
                                        bool(configurations), everywhere, tuple(configurations), more, tuple(dead),
@@ -863,7 +863,7 @@ def _dead_points(eqs, num, search: _Search, s, why, det) -> DeadPoints:
                       more, never)
 
 
-def _cause_and_fix(configurations, everywhere, dead) -> tuple[str, str]:
+def _cause_and_fix(configurations, everywhere, dead, wheels=()) -> tuple[str, str]:
     if everywhere:
         c = configurations[0]
         cause = (f"{_combination(c.dependent)} has no gradient at any configuration: one of these constraints "
@@ -871,6 +871,12 @@ def _cause_and_fix(configurations, everywhere, dead) -> tuple[str, str]:
                  "multipliers are never determined and a simulation cannot start.")
         fix = (f"remove one of {', '.join(c.dependent)} from the model (keep the constraints independent: one "
                "for each coordinate they fix).")
+        sliding = [w.name for w in wheels if w.lateral and {f"{w.name}_x", f"{w.name}_y"} & set(c.dependent)]
+        if len(sliding) > 1:  # wheels on one rigid axle: their lateral conditions are one condition twice
+            fix = (f"leave out the lateral no-slip condition of one of the wheels {', '.join(sliding)} (wheels on "
+                   f"one rigid axle cannot slide along it independently): lateral = false in the [[wheels]] table "
+                   f"of '{sliding[-1]}' (Model.add_wheel(..., lateral=False)); it then keeps only its longitudinal "
+                   f"condition {sliding[-1]}_longitudinal. Otherwise " + fix)
         return cause, fix
     if configurations:
         cause = ("at these configurations the constraints' gradients are dependent: the mechanism's links line "

@@ -183,7 +183,7 @@ _GRAVITY_KEYS = ("g", "direction")
 _SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs", "sample_time", "independent",
                     "independent_speeds")
 _CONSTRAINT_KEYS = ("name", "holonomic", "velocity")
-_WHEEL_KEYS = (("frame", "radius"), ("name", "axis", "center"))
+_WHEEL_KEYS = (("frame", "radius"), ("name", "axis", "center", "lateral"))
 #: Default element names: particle1, body2, ...
 _DEFAULT_PREFIX = {"points": "point", "particles": "particle", "bodies": "body",
                    "springs": "spring", "dampers": "damper"}
@@ -1560,10 +1560,17 @@ class _Reader:
                                               f"got {_describe(center)}")
                 continue
             center = [self.expr(c, f"{key}.center[{i}]") for i, c in enumerate(center)]
+            lateral = entry.table.get("lateral", True)
+            if not isinstance(lateral, bool):
+                self.problem(f"{key}.lateral", f"expected true or false, got {_describe(lateral)}; write lateral = "
+                                               "false to leave out the wheel's lateral no-slip condition (one of "
+                                               "two wheels on a rigid axle), or leave the key out")
+                continue
             if missing or radius is None or any(c is None for c in center):
                 continue
             try:
-                wheel = self.model.add_wheel(frame, radius, axis=axis or "y", center=center, name=name)
+                wheel = self.model.add_wheel(frame, radius, axis=axis or "y", center=center, lateral=lateral,
+                                             name=name)
                 for cname in wheel.constraint_names:
                     self.key_map[f"constraint '{cname}'"] = (key, {})
             except ModelError as exc:

@@ -664,15 +664,24 @@ class Model:
         a(q, t) . q_dot + b(q, t) (a knife edge: ``x_dot*sin(phi) - y_dot*cos(phi)``)."""
         return self._add_constraint(expression, name, VELOCITY)
 
-    def add_wheel(self, frame: str, radius, *, axis: str = "y", center=(0, 0, 0), name: str | None = None) -> Wheel:
+    def add_wheel(self, frame: str, radius, *, axis: str = "y", center=(0, 0, 0), lateral: bool = True,
+                  name: str | None = None) -> Wheel:
         """A wheel rolling without slipping on the ground plane z = 0 (z up): a disk of `radius`
         carried by `frame`, its axle the frame's `axis` (``"x"``, ``"y"`` or ``"z"``) through `center`
         (in the frame's axes). Adds the contact condition (holonomic, ``<name>_contact``; left out when
         the coordinates keep the wheel on the ground) and the two no-slip conditions (velocity
         constraints ``<name>_x``, ``<name>_y``: the rim's point at the contact has no horizontal
         velocity), with the contact point computed from the frame's orientation. The multipliers
-        are the contact forces on the wheel: normal (+z) and friction (x, y)."""
+        are the contact forces on the wheel: normal (+z) and friction (x, y).
+
+        ``lateral=False`` leaves out the lateral no-slip condition: the wheel keeps only the
+        longitudinal one (``<name>_longitudinal``: no velocity of the contact point along the rolling
+        direction a x n), so two wheels on one rigid axle (whose lateral conditions are one condition
+        written twice) give independent constraints: give one of them ``lateral=False``."""
         self._check_mutable()
+        if not isinstance(lateral, bool):
+            raise ModelError(f"wheel '{name}'.lateral: expected true or false (whether the wheel cannot slide along "
+                             f"its axle), got {lateral!r}")
         if name is None:
             k = len(self._wheels) + 1
             while f"wheel{k}" in {w.name for w in self._wheels}:
@@ -704,15 +713,18 @@ class Model:
                        if k in {q.name for q in self._coordinates}})
         cond = rolling_conditions(self._frames, frame, r, axis, c, self._coordinates, t, values)
         contact = cond.contact is not None
-        wheel = Wheel(name, frame, r, axis, c, contact)
+        wheel = Wheel(name, frame, r, axis, c, contact, lateral)
         for cname in wheel.constraint_names:
             if cname in {k.name for k in self._constraints}:
                 raise ModelError([Problem(f"{where}: its constraint '{cname}' is already the name of a constraint; "
                                           "rename the wheel or the constraint", key=where)])
         if contact:
             self._add_constraint(cond.contact, f"{name}_contact", HOLONOMIC)
-        self._add_constraint(cond.no_slip_x, f"{name}_x", VELOCITY)
-        self._add_constraint(cond.no_slip_y, f"{name}_y", VELOCITY)
+        if lateral:
+            self._add_constraint(cond.no_slip_x, f"{name}_x", VELOCITY)
+            self._add_constraint(cond.no_slip_y, f"{name}_y", VELOCITY)
+        else:
+            self._add_constraint(cond.longitudinal, f"{name}_longitudinal", VELOCITY)
         self._wheels.append(wheel)
         return wheel
 

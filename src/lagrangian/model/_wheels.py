@@ -12,6 +12,10 @@ Two conditions follow (the user writes neither):
 - no slip (two velocity constraints): the material point of the wheel at P has no horizontal
   velocity, ``(v_C + omega x (P - C))_x = 0`` and ``_y = 0``; its vertical velocity is the time
   derivative of the contact condition (the contact point slides along the rim), so it adds nothing.
+  A wheel without its lateral condition (``lateral = false``: two wheels on one rigid axle, whose
+  lateral conditions are the same condition twice) keeps only the longitudinal one, the velocity of
+  P along the rolling direction a x n = (a_y, -a_x, 0): ``v_P,x a_y - v_P,y a_x = 0``
+  (``<name>_longitudinal``; its multiplier times (a_y, -a_x, 0) is the friction force on the wheel).
 
 With the wheel's rotation about its own axle written as the last rotations of its frame (a spin
 angle), the geometry does not depend on that angle: the spin is taken out of R before P is formed
@@ -47,10 +51,12 @@ class Wheel:
     axis: str = "y"
     center: tuple = (0, 0, 0)
     contact: bool = True  # False: the coordinates keep the wheel on the ground
+    lateral: bool = True  # False: only the longitudinal no-slip condition (the wheel may slide along its axle)
 
     @property
     def constraint_names(self) -> tuple[str, ...]:
-        return ((f"{self.name}_contact",) if self.contact else ()) + (f"{self.name}_x", f"{self.name}_y")
+        slip = (f"{self.name}_x", f"{self.name}_y") if self.lateral else (f"{self.name}_longitudinal",)
+        return ((f"{self.name}_contact",) if self.contact else ()) + slip
 
 
 def _spinless(frames, frame: str, axis: tuple) -> tuple[list[Factor], list[sympy.Expr]]:
@@ -66,11 +72,14 @@ def _spinless(frames, frame: str, axis: tuple) -> tuple[list[Factor], list[sympy
 @dataclass(frozen=True)
 class RollingConditions:
     """The conditions of a wheel (SymPy): `contact` (of q and t; None when the coordinates keep the
-    wheel on the ground), `no_slip_x` and `no_slip_y` (linear in q_dot)."""
+    wheel on the ground), `no_slip_x` and `no_slip_y` (linear in q_dot), and `longitudinal`, the
+    contact point's velocity along the rolling direction a x n = (a_y, -a_x, 0) (a wheel without its
+    lateral condition keeps only this one)."""
 
     contact: sympy.Expr | None
     no_slip_x: sympy.Expr
     no_slip_y: sympy.Expr
+    longitudinal: sympy.Expr | None = None
 
 
 def rolling_conditions(frames, frame: str, radius, axis: str, center, coordinates, time,
@@ -99,7 +108,7 @@ def rolling_conditions(frames, frame: str, radius, axis: str, center, coordinate
     for angle in spins:
         omega = omega + rate(angle) * a
     vP = sympy.Matrix([rate(c) for c in C]) + omega.cross(-radius * d)
-    return RollingConditions(None if on_ground else C[2] - radius * s, vP[0], vP[1])
+    return RollingConditions(None if on_ground else C[2] - radius * s, vP[0], vP[1], vP[0] * a[1] - vP[1] * a[0])
 
 
 def contact_is_identity(height, az, radius, values) -> bool:
