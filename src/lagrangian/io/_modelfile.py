@@ -170,13 +170,14 @@ _TOP_LEVEL: dict[str, str] = {
 _ELEMENT_KEYS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "points": (("position",), ("name", "frame")),
     "particles": (("mass", "position"), ("name", "frame")),
-    "bodies": (("mass", "inertia", "position", "angle"), ("name",)),
+    "bodies": (("mass", "inertia", "position", "angle"), ("name", "inertia_about")),
     "springs": (("stiffness",), ("name", "between", "length", "rest_length")),
     "dampers": (("coefficient",), ("name", "between", "length", "body")),
     "loads": ((), ("name", "force", "at", "torque", "angle", "body", "frame")),
 }
 #: Keys of a body in space (a [[bodies]] table with a frame).
-_BODY3D_KEYS = (("mass", "inertia", "frame"), ("name", "center", "center_frame", "shape", "radius", "axis"))
+_BODY3D_KEYS = (("mass", "inertia", "frame"), ("name", "center", "center_frame", "shape", "radius", "axis",
+                                               "inertia_about"))
 _FRAME_KEYS = ("name", "parent", "origin", "rotation", "matrix")
 _ENERGY_KEYS = ("T", "V", "D")
 _GRAVITY_KEYS = ("g", "direction")
@@ -1191,10 +1192,11 @@ class _Reader:
         center_frame = self.frame_of(entry, "center_frame") if "center_frame" in entry.table else None
         shape = self.body_shape(entry)
         entry.dimension = 3
+        about = self.inertia_about(entry, 3)
         if complete and entry.ok and None not in (mass, inertia, frame, center) and (
                 "center_frame" not in entry.table or center_frame is not None):
             body = self.model.add_rigid_body(mass, inertia, frame=frame, center=center, center_frame=center_frame,
-                                             **shape, name=entry.name)
+                                             **shape, inertia_about=about, name=entry.name)
             self.record(entry, body, {"position": "center"})
 
     def body_shape(self, entry: _Entry) -> dict[str, Any]:
@@ -1241,9 +1243,39 @@ class _Reader:
         inertia = self.field(entry, "inertia", "inertia")
         position = self.position(entry)
         angle = self.field(entry, "angle")
+        about = self.inertia_about(entry, 2)
         if complete and entry.ok and None not in (mass, inertia, position, angle):
-            self.record(entry, self.model.add_rigid_body(mass, inertia, position, angle,
+            self.record(entry, self.model.add_rigid_body(mass, inertia, position, angle, inertia_about=about,
                                                          name=entry.name))
+
+    def inertia_about(self, entry: _Entry, dimension: int) -> Any:
+        """A body's inertia_about: a point's name or a position list (None when absent; a problem when bad)."""
+        if "inertia_about" not in entry.table:
+            return None
+        key, value = f"{entry.key}.inertia_about", entry.table["inertia_about"]
+        where = "in world coordinates [\"x\", \"y\"]" if dimension == 2 else "in the body frame's axes [x, y, z]"
+        if isinstance(value, str):
+            target = self.entries.get(value)
+            if target is None or target.kind not in ("points", "particles"):
+                located = [e.name for e in self.entries.values() if e.kind in ("points", "particles")]
+                self.problem(key, f"no point is named '{value}'{did_you_mean(value, located)}: the inertia is about "
+                                  f"a [[points]] (or [[particles]]) element's position, or a position {where}")
+                entry.ok = False
+                return None
+            if target.element is None:
+                entry.ok = False
+                return None
+            return value
+        if not isinstance(value, list) or len(value) != dimension:
+            self.problem(key, f"expected a point's name or a position {where} ({dimension} expressions), got "
+                              f"{_describe(value)}")
+            entry.ok = False
+            return None
+        out = [self.expr(v, f"{key}[{i}]") for i, v in enumerate(value)]
+        if any(v is None for v in out):
+            entry.ok = False
+            return None
+        return out
 
     def build_springs(self, entry: _Entry) -> None:
         complete = self.check_keys(entry)

@@ -447,7 +447,8 @@ class Model:
     # ------------------------------------------------------------------- bodies
     def add_rigid_body(self, mass, inertia, position=None, angle=None, *, frame: str | None = None,
                        center=(0, 0, 0), center_frame: str | None = None, shape: str | None = None,
-                       radius=None, axis: str | None = None, name: str | None = None) -> RigidBody | RigidBody3D:
+                       radius=None, axis: str | None = None, inertia_about=None,
+                       name: str | None = None) -> RigidBody | RigidBody3D:
         """A rigid body: planar, or in space when a `frame` gives its orientation.
 
         Planar: `mass`, centroidal `inertia` (a number), centre `position` and rotation `angle`.
@@ -460,6 +461,13 @@ class Model:
         frame's axes; ``shape="disk"`` with a `radius` (parameters and numbers) adds the circle
         across its body `axis` (``"x"``, ``"y"`` or ``"z"``, default ``"z"``), centred on its centre
         of mass. The shape is drawn only: the equations ignore it.
+
+        `inertia_about`: the point the given inertia is about, when it is not the centre of mass (a
+        vehicle's inertia about its axle, a link's about its joint): a point's name, or a position
+        (planar: world coordinates (x, y); in space: (x, y, z) in the body frame's axes, from its
+        origin). The point must be fixed on the body. The library applies the parallel-axis theorem,
+        I_G = I_P - m (|r|^2 E - r r^T) with r = G - P in body axes (planar: I_G = I_P - m |r|^2), and
+        the body holds its central inertia.
         """
         name = self._unique_element_name(name, "body")
         where = f"body '{name}'"
@@ -472,6 +480,8 @@ class Model:
                                  "frame=... (the frame that carries it), with its center and its 3D inertia")
             e = RigidBody(name, self.expr(mass, f"{where}.mass"), self.expr(inertia, f"{where}.inertia"),
                           self._vector(position, f"{where}.position"), self.expr(angle, f"{where}.angle"))
+            if inertia_about is not None:
+                e = RigidBody(name, e.mass, self._central_inertia(e, inertia_about, where), e.position, e.angle)
         else:
             if position is not None or angle is not None:
                 raise ModelError(f"{where}: a body in space takes its orientation from its frame and its centre "
@@ -481,8 +491,67 @@ class Model:
             e = RigidBody3D(name, self.expr(mass, f"{where}.mass"), self._inertia(inertia, f"{where}.inertia"),
                             at, frame, world_factors(self._frames, frame),
                             self._shape(shape, radius, axis, where))
+            if inertia_about is not None:
+                local = (tuple(self.expr(c, f"{where}.center[{i}]") for i, c in enumerate(center))
+                         if center_frame in (None, frame) and not isinstance(center, str) else None)
+                e = RigidBody3D(name, e.mass, self._central_inertia(e, inertia_about, where, local), e.position,
+                                e.frame, e.factors, e.shape)
         self._elements.append(e)
         return e
+
+    def _central_inertia(self, body, about, where: str, center_local=None):
+        """The central inertia of `body` whose given inertia is about the point `about` (parallel axes)."""
+        where = f"{where}.inertia_about"
+        m = body.mass
+        if isinstance(body, RigidBody):
+            P = self._vector(about, where)
+            if len(P) != len(body.position):
+                raise ModelError(f"{where}: the point has {len(P)} components but the body's position has "
+                                 f"{len(body.position)}; a planar body's inertia is about a point (x, y) of the plane")
+            r2 = self._fixed_on_body([sum(((g - p) ** 2 for g, p in zip(body.position, P)), sympy.Integer(0))],
+                                     where, "its distance from the centre of mass")[0]
+            return body.inertia - m * r2
+        if isinstance(about, str) and about in self._points():
+            if center_local is not None:
+                center_local = None  # the point is in world coordinates: r from both positions
+        else:
+            about = self._vector(about, where)
+            if len(about) != 3:
+                raise ModelError(f"{where}: expected a point's name or 3 components (x, y, z) in the body frame's "
+                                 f"axes, got {len(about)}")
+        if center_local is not None:  # both in the body's axes: r = c - p
+            r = [c - p for c, p in zip(center_local, about)]
+        else:
+            P = self._points()[about] if isinstance(about, str) else self._vector(about, where, body.frame)
+            if len(P) != 3:
+                raise ModelError(f"{where}: '{about}' has a planar position; a body in space needs a point in space")
+            _, R = frame_pose(self._frames, body.frame)
+            r = self._fixed_on_body(list(R.T * (sympy.Matrix(body.position) - sympy.Matrix(P))), where,
+                                    "its position relative to the centre of mass, in body axes")
+        r2 = sum((x * x for x in r), sympy.Integer(0))
+        return tuple(tuple(body.inertia[i][j] - m * ((r2 if i == j else 0) - r[i] * r[j]) for j in range(3))
+                     for i in range(3))
+
+    def _fixed_on_body(self, exprs, where: str, what: str) -> list:
+        """`exprs` (of q, t and parameters) at q = 0, t = 0, after checking at random points that they do not
+        depend on q and t (the point is fixed on the body); else a ModelError."""
+        import numpy as np
+
+        moving = set(self._coordinates) | {t}
+        base = [sympy.sympify(e).subs({s: 0 for s in moving}) for e in exprs]
+        free = sorted(set().union(*(sympy.sympify(e).free_symbols for e in exprs)), key=str)
+        if free and moving & set(free):
+            f = sympy.lambdify(free, [e - b for e, b in zip(exprs, base)], modules="numpy")
+            g = sympy.lambdify(free, list(exprs), modules="numpy")
+            rng = np.random.default_rng(22)
+            for _ in range(4):
+                point = rng.uniform(-2, 2, len(free))
+                scale = 1 + float(np.max(np.abs(np.asarray(g(*point), dtype=float))))
+                if float(np.max(np.abs(np.asarray(f(*point), dtype=float)))) > 1e-9 * scale:
+                    raise ModelError(f"{where}: the point is not fixed on the body ({what} changes with the "
+                                     "coordinates): give the inertia about a point that moves with the body, such as "
+                                     "its frame's origin [0, 0, 0] or a point placed in its frame")
+        return base
 
     def _shape(self, shape, radius, axis, where: str) -> Shape | None:
         r = None if radius is None else self.expr(radius, f"{where}.radius")
