@@ -108,10 +108,12 @@ class InverseDynamics:
         return out
 
     def to_dict(self) -> dict:
-        """{model, coordinates, actuated, t, tau, multiplier_names, multipliers, total}: lists of
-        numbers (one row per state)."""
+        """{model, coordinates, actuated, t, q, q_dot, q_ddot, tau, multiplier_names, multipliers, total}:
+        lists of numbers (one row per state)."""
         return {"model": self.model_name, "coordinates": list(self.coordinates), "actuated": list(self.actuated),
-                "t": self.t.tolist(), "tau": self.tau.tolist(), "multiplier_names": list(self.multiplier_names),
+                "t": self.t.tolist(), "q": self.q.tolist(), "q_dot": self.q_dot.tolist(),
+                "q_ddot": self.q_ddot.tolist(), "tau": self.tau.tolist(),
+                "multiplier_names": list(self.multiplier_names),
                 "multipliers": self.multipliers.tolist(), "total": self.total.tolist()}
 
     def text(self) -> str:
