@@ -17,6 +17,7 @@ from .numeric import compile
 from .analysis import (Continuation, Equilibria, Equilibrium, LinearModel, Modes, SteadyMotion, SteadyMotions,
                        continuation, equilibria, linearize, modes, steady_motions)
 from .analysis import InverseDynamics, Kinematics, inverse_dynamics, kinematics
+from .identification import Identifiability, identifiability
 from .reporting import Report, report
 
 from ._version import __version__ as __version__
@@ -37,6 +38,7 @@ __all__ = [
     "DeadPoints", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "kinematics", "Kinematics", "inverse_dynamics", "InverseDynamics",
+    "identifiability", "Identifiability",
     "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate",
     "simulate_batch", "BatchResult", "grid", "Trajectory", "Signal", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
