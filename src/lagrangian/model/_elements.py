@@ -20,7 +20,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "Element", "Particle", "RigidBody", "RigidBody3D", "Shape", "SHAPES", "shape_problems", "Point", "Spring",
-    "Damper", "Gravity", "Force", "Torque", "Torque3D", "Contribution", "RotationalDamper",
+    "Damper", "Gravity", "Force", "Torque", "Torque3D", "Contribution", "RotationalDamper", "SPRING_ACTS",
 ]
 
 Vector = tuple[sympy.Expr, ...]
@@ -207,12 +207,22 @@ class RigidBody3D(Element):
         return Contribution(T=kin.se(self.mass) * sum(vi * vi for vi in v) / 2 + rotational / 2)
 
 
+#: How a spring acts: both ways, or one-sided (a contact, a cable).
+SPRING_ACTS = ("both", "compression", "tension")
+
+
 @dataclass(frozen=True)
 class Spring(Element):
     """A linear spring: V = k (length - rest_length)^2 / 2.
 
     `length` is the distance between the two points of `between` (when given), or any scalar
     expression (a coordinate, or an angle for a torsional spring).
+
+    `acts` = "compression": one-sided, it only pushes, when shorter than its rest length (a contact
+    between two balls: rest length the sum of their radii): V = k max(0, rest_length - length)^2 / 2;
+    "tension": it only pulls, when longer (a cable, a joint's limit): V = k max(0, length - rest_length)^2
+    / 2. V is written as a Piecewise, so that its derivatives are exact on each side: the force is
+    continuous (zero at the touch) and only the stiffness jumps there.
     """
 
     name: str
@@ -221,10 +231,18 @@ class Spring(Element):
     rest_length: sympy.Expr = sympy.Integer(0)
     between: tuple[str, str] | None = None
     ends: tuple[Vector, Vector] | None = field(default=None, repr=False)
+    acts: str = "both"
     kind = "spring"
 
     def contribute(self, kin):
+        import symengine as se
+
         k = kin.se(self.stiffness)
+        if self.acts != "both":
+            x = kin.se(self.length) - kin.se(self.rest_length)
+            if self.acts == "compression":
+                x = -x
+            return Contribution(V=se.Piecewise((k * x * x / 2, se.Gt(x, 0)), (se.Integer(0), True)))
         if self.ends is not None and self.rest_length == 0:
             d = [kin.se(b) - kin.se(a) for a, b in zip(*self.ends)]
             return Contribution(V=k * sum(di * di for di in d) / 2)

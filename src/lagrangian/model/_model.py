@@ -17,8 +17,8 @@ import sympy
 from .._util import did_you_mean
 from ..errors import ExpressionError, ModelError, Problem
 from ._constraints import HOLONOMIC, VELOCITY, Constraint
-from ._elements import (Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, RotationalDamper,
-                        Shape, Spring, Torque, Torque3D, shape_problems)
+from ._elements import (SPRING_ACTS, Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D,
+                        RotationalDamper, Shape, Spring, Torque, Torque3D, shape_problems)
 from ._frames import AXES, WORLD, Factor, Frame, frame_pose, world_factors
 from ._symbols import check_name, ddot, dot, t
 from ._wheels import Wheel, rolling_conditions
@@ -606,18 +606,28 @@ class Model:
             return dist, ends, names
         return self.expr(length, f"{where}.length"), None, None
 
-    def add_spring(self, stiffness, *, between=None, length=None, rest_length=0,
+    def add_spring(self, stiffness, *, between=None, length=None, rest_length=0, acts: str = "both",
                    name: str | None = None) -> Spring:
         """A linear spring, V = k (length - rest_length)^2 / 2.
 
         Give `between` (two point names or positions) or `length` (any expression, e.g. a
         coordinate, or an angle for a torsional spring).
+
+        `acts`: ``"both"`` (default); ``"compression"``, a one-sided spring that only pushes, when shorter
+        than `rest_length` (a contact: two balls of radii r1, r2 with rest_length r1 + r2),
+        V = k max(0, rest_length - length)^2 / 2; ``"tension"``, one that only pulls, when longer (a cable,
+        a travel limit), V = k max(0, length - rest_length)^2 / 2.
         """
         name = self._unique_element_name(name, "spring")
         where = f"spring '{name}'"
+        if acts not in SPRING_ACTS:
+            raise ModelError([Problem(f"unknown value {acts!r}{did_you_mean(str(acts), SPRING_ACTS)}: a spring acts "
+                                      "\"both\" ways (default), in \"compression\" only (it pushes when shorter than "
+                                      "its rest length: a contact) or in \"tension\" only (it pulls when longer: a "
+                                      "cable)", key=f"{where}.acts")])
         L, ends, names = self._length(between, length, where)
         e = Spring(name, self.expr(stiffness, f"{where}.stiffness"), L,
-                   self.expr(rest_length, f"{where}.rest_length"), names, ends)
+                   self.expr(rest_length, f"{where}.rest_length"), names, ends, acts)
         self._elements.append(e)
         return e
 

@@ -38,8 +38,11 @@ _PY_FUNCS = {
     "tanh": "math.tanh", "asinh": "math.asinh", "acosh": "math.acosh", "atanh": "math.atanh",
     "exp": "math.exp", "log": "math.log", "sqrt": "math.sqrt", "abs": "abs", "sign": "_sign",
     "Heaviside": "_heaviside", "floor": "math.floor", "ceiling": "math.ceil", "max": "max",
-    "min": "min", "pi": "math.pi", "E": "math.e",
+    "min": "min", "pi": "math.pi", "E": "math.e", "lg_step": "_step",
 }
+#: Functions that C writes otherwise: lg_step(a) (1 for a > 0, else 0: see _steps) as (double)!signbit(a)
+#: (1 at +0 too, where the pieces it joins agree: the one-sided springs' forces are continuous).
+_C_SPECIAL = {"lg_step": "(double)!signbit"}
 _C_FUNCS = {
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh", "acosh",
     "atanh", "exp", "log", "sqrt", "fabs", "pow", "floor", "ceil", "fmax", "fmin",
@@ -122,8 +125,9 @@ class _Printer:
             self.rename[placeholder.name] = local
 
     def _hide(self, exprs: list) -> list:
-        """`exprs` with the model's symbols replaced by their placeholders."""
-        return [se.sympify(e).xreplace(self.placeholders) for e in exprs]
+        """`exprs` with the model's symbols replaced by their placeholders (and Piecewise of one
+        threshold as steps, see :func:`_steps`)."""
+        return [_steps(se.sympify(e).xreplace(self.placeholders)) for e in exprs]
 
     def _translate(self, text: str, temps: dict[str, str]) -> str:
         def sub(m):
@@ -142,6 +146,8 @@ class _Printer:
                     return _PY_FUNCS[name]
             elif name in _C_FUNCS:
                 return name
+            elif name in _C_SPECIAL:
+                return _C_SPECIAL[name]
             raise Unsupported(f"'{name}' in a generated expression")
         return _TOKEN.sub(sub, text)
 
@@ -206,6 +212,26 @@ class _Printer:
             lane = lambda acc: "t[k]" if acc == "t" else re.sub(r"\[(\d+)\]", r"[\1 * L + k]", acc)  # noqa: E731
             return [f"{indent}{local} = {lane(acc)}" for local, acc, _ in self.locals]
         return [f"{indent}{decl}{local} = {acc}{end}" for local, acc, _ in self.locals]
+
+
+_STEP = se.Function("lg_step")
+
+
+def _steps(e):
+    """`e` with each Piecewise((a, lhs < rhs), (b, True)) written b + (a - b) lg_step(rhs - lhs)
+    (lg_step(x) = 1 for x > 0, else 0), which every target language computes: the one-sided
+    springs' potentials and forces (model/_elements.Spring) are such Piecewise. Other Piecewise are
+    left as they are (the code generator then refuses them: the SciPy path evaluates them)."""
+    if not e.args or not e.atoms(se.Piecewise):
+        return e
+    if isinstance(e, se.Piecewise):
+        args = e.args
+        if len(args) == 4 and args[3] == se.true and isinstance(args[1], se.StrictLessThan):
+            lhs, rhs = args[1].args
+            a, b = _steps(args[0]), _steps(args[2])
+            return b + (a - b) * _STEP(_steps(rhs) - _steps(lhs))
+        return e
+    return e.func(*[_steps(a) for a in e.args])
 
 
 def _header(equations: Equations) -> str:
@@ -333,6 +359,11 @@ def _sign(a):
 @njit(cache=True)
 def _heaviside(a):
     return 1.0 if a > 0.0 else (0.5 if a == 0.0 else 0.0)
+
+
+@njit(cache=True)
+def _step(a):
+    return 1.0 if a > 0.0 else 0.0
 
 
 @njit(cache=True, inline="always", error_model="numpy")
