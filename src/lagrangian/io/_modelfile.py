@@ -137,6 +137,7 @@ from ..errors import ExpressionError, ModelError, ModelFileError, Problem, Unkno
 from ..model._elements import Element, shape_problems
 from ..model._model import Model
 from ._expr import parse_expression
+from ._jointtable import declare_joint_coordinates, read_joints
 
 __all__ = ["load_model_file", "loads_model"]
 
@@ -155,6 +156,7 @@ _TOP_LEVEL: dict[str, str] = {
     "particles": "[[particles]] tables",
     "bodies": "[[bodies]] tables",
     "frames": "[[frames]] tables",
+    "joints": "[[joints]] tables (name, type, parent, child, origin, rotation, axis, ...): joints that create frames",
     "springs": "[[springs]] tables",
     "dampers": "[[dampers]] tables",
     "gravity": "a table [gravity] with g and direction",
@@ -190,7 +192,7 @@ _DEFAULT_PREFIX = {"points": "point", "particles": "particle", "bodies": "body",
                    "springs": "spring", "dampers": "damper"}
 _SINGULAR = {"points": "point", "particles": "particle", "bodies": "rigid body",
              "springs": "spring", "dampers": "damper", "loads": "load", "constraints": "constraint",
-             "wheels": "wheel"}
+             "wheels": "wheel", "joints": "joint"}
 #: What to add for each required key of an element (for "missing key" messages).
 _EXAMPLES = {
     "mass": 'mass = "m" (and m = 1.0 under [parameters])',
@@ -566,11 +568,13 @@ class _Reader:
                 self.unknown_top_level(key, data[key])
         self.read_header(data)
         self.read_symbols(data)
+        declare_joint_coordinates(self, data.get("joints"))
         self.names = self.model.names(accelerations=True)
         self.read_energy(data.get("energy"))
         self.read_forces(data.get("forces"))
         self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
         self.read_frames(data.get("frames"))
+        read_joints(self, data.get("joints"))
         self.read_elements(data)
         self.read_constraints(data.get("constraints"))
         self.read_wheels(data.get("wheels"))
@@ -643,10 +647,10 @@ class _Reader:
 
     # -- coordinates, inputs, parameters ----------------------------------------------------
     def read_symbols(self, data: Mapping[str, Any]) -> None:
-        if "coordinates" not in data:
+        if "coordinates" not in data and "joints" not in data:
             self.problem("coordinates", "missing required key 'coordinates': list the generalized "
                                         'coordinates at the top of the file, e.g. coordinates = ["q1", "q2"]')
-        else:
+        elif "coordinates" in data:
             names = self.name_list(data["coordinates"], "coordinates", "q1")
             if names is not None and not names:
                 self.problem("coordinates", "the list of coordinates is empty: a model needs at "

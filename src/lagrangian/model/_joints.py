@@ -1,0 +1,456 @@
+"""Joints: the robotics vocabulary over frames.
+
+A joint connects a `parent` frame (``"world"`` or any frame) to a new `child` frame. It is placed by
+a constant *joint frame* J: its origin in the parent's axes and its constant rotation R0 (a list of
+elementary rotations or a matrix, as for :meth:`Model.add_frame`). The joint's motion is then given
+in J's axes, and the child frame is the single :class:`~lagrangian.model._frames.Frame`
+
+    origin = o + R0 s(q),    rotation = R0 F1(q) F2(q) ...
+
+with s the joint's translation and F_i its rotations (elementary rotations by coordinates). A joint
+adds no mass: bodies are placed in the child frame (``add_rigid_body(..., frame=child)``).
+
+=============  ===========  ============================================================================
+type           coordinates  motion of the child frame in the joint frame's axes
+=============  ===========  ============================================================================
+revolute       1            rotation by q about `axis` (default ``"z"``)
+prismatic      1            translation by q along `axis` (default ``"z"``)
+cylindrical    2            rotation by q1 about `axis` and translation by q2 along it
+universal      2            rotation by q1 about `axes[0]`, then by q2 about `axes[1]` of the rotated
+                            frame (default ``("x", "y")``); the axes must not be parallel
+spherical      3            three elementary rotations about the child's own current axes in the
+                            `sequence` (default ``"xyz"``)
+planar         3            translations q1, q2 in the plane normal to `axis` (default ``"z"``: x then
+                            y; ``"x"``: y, z; ``"y"``: z, x) and rotation q3 about `axis`
+fixed          0            none (a constant frame)
+floating       6            translations along the joint frame's x, y, z, then three rotations in the
+                            `sequence` (default ``"xyz"``): a free body
+=============  ===========  ============================================================================
+
+Spherical and floating joints use three angles, not a quaternion, so that the coordinates stay
+independent and the equations stay in the form M q'' = f without a norm constraint. Every choice
+of three angles is singular somewhere; where is documented and chosen here: a Tait-Bryan sequence
+(three different axes, the default ``"xyz"``) is singular where the middle angle is +-pi/2 (the first
+and last axes align), a proper Euler sequence (``"zxz"``, ...) where the middle angle is 0 or pi.
+The default ``"xyz"`` is regular at the joint's reference posture (all angles 0) and within +-pi/2 of
+it in the middle angle; choose the joint frame's rotation so that the motion stays away from the
+singular posture (Model.check and ``lagrangian check`` report a singular mass matrix there).
+
+Default coordinate names: revolute and prismatic ``<name>``; cylindrical ``<name>_angle``,
+``<name>_slide``; universal ``<name>_1``, ``<name>_2``; spherical ``<name>_1`` .. ``<name>_3``; planar
+``<name>_x``, ``<name>_y``, ``<name>_angle`` (the in-plane axes' letters); floating ``<name>_x``,
+``<name>_y``, ``<name>_z``, ``<name>_1`` .. ``<name>_3``. A name already declared as a coordinate
+is used as it is (so a model file may list them in ``coordinates``).
+
+Dissipation: `damping` c adds a viscous damper on each coordinate, D = c q'^2 / 2 (a number or
+expression for all, or one per coordinate); on a spherical joint it is the rotational damper
+D = c |omega_rel|^2 / 2 (the torque -c omega_rel), omega_rel the child's angular velocity relative
+to the joint frame. `friction` F adds Coulomb friction, the generalized force -F sign(q') on each
+coordinate (discontinuous at q' = 0: an adaptive integrator takes small steps there).
+
+Limits: ``limits = (lower, upper)`` per coordinate are recorded on the joint
+(:attr:`Joint.limits`) and checked for lower < upper; they do not yet add forces (no one-sided
+element exists in this version).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import sympy
+
+from ..errors import ModelError, Problem
+from ._elements import Contribution, Element
+from ._frames import AXES, WORLD, Factor, Frame, rotation_product
+from ._symbols import check_name, dot
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ._model import Model
+
+__all__ = ["Joint", "JOINT_TYPES", "RotationalDamper", "add_joint", "default_coordinates", "singular_angle"]
+
+#: The joint types and their numbers of coordinates.
+JOINT_TYPES = {"revolute": 1, "prismatic": 1, "cylindrical": 2, "universal": 2, "spherical": 3, "planar": 3,
+               "fixed": 0, "floating": 6}
+
+#: For a planar joint with the normal `axis`, its two in-plane axes (right-handed with the normal).
+_PLANE = {"z": ("x", "y"), "x": ("y", "z"), "y": ("z", "x")}
+
+Vector3 = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint (see the module docstring).
+
+    Attributes
+    ----------
+    name, type : str
+    parent, child : str
+        Frame names; the child frame is created by the joint.
+    coordinates : tuple of sympy.Symbol
+        The joint's coordinates, in the order of the table above.
+    origin : tuple of 3 sympy.Expr
+        The joint frame's origin in the parent's axes.
+    factors : tuple of Factor
+        The joint frame's constant rotation R0 relative to the parent.
+    axes : tuple of 3-tuples
+        The joint's axes in the joint frame's axes (revolute, prismatic, cylindrical: one; universal:
+        two; planar: the normal; spherical, floating: the three rotation axes of the sequence).
+    limits : tuple of (lower, upper) or None
+        One per coordinate (recorded, not enforced).
+    damping, friction : tuple of sympy.Expr or None
+        One per coordinate (a spherical joint's damping: one rotational coefficient).
+    sequence : str or None
+        The angle sequence of a spherical or floating joint.
+    """
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    coordinates: tuple
+    origin: Vector3
+    factors: tuple = ()
+    axes: tuple = ()
+    limits: tuple = ()
+    damping: tuple | None = None
+    friction: tuple | None = None
+    sequence: str | None = None
+
+    @property
+    def motion(self) -> tuple[Factor, ...]:
+        """The joint's rotations by its coordinates (after the joint frame's R0)."""
+        q = self.coordinates
+        if self.type in ("revolute", "cylindrical"):
+            return (Factor(axis=self.axes[0], angle=q[0]),)
+        if self.type == "universal":
+            return (Factor(axis=self.axes[0], angle=q[0]), Factor(axis=self.axes[1], angle=q[1]))
+        if self.type == "planar":
+            return (Factor(axis=self.axes[0], angle=q[2]),)
+        if self.type == "spherical":
+            return tuple(Factor(axis=a, angle=c) for a, c in zip(self.axes, q))
+        if self.type == "floating":
+            return tuple(Factor(axis=a, angle=c) for a, c in zip(self.axes, q[3:]))
+        return ()
+
+    @property
+    def translation(self) -> Vector3:
+        """s(q): the child's origin in the joint frame's axes."""
+        q = self.coordinates
+        zero = sympy.Integer(0)
+        if self.type == "prismatic":
+            return tuple(a * q[0] for a in self.axes[0])
+        if self.type == "cylindrical":
+            return tuple(a * q[1] for a in self.axes[0])
+        if self.type == "planar":
+            name = next(k for k, v in AXES.items() if tuple(sympy.Integer(c) for c in v) == self.axes[0])
+            e1, e2 = (AXES[a] for a in _PLANE[name])
+            return tuple(q[0] * a + q[1] * b for a, b in zip(e1, e2))
+        if self.type == "floating":
+            return (q[0], q[1], q[2])
+        return (zero, zero, zero)
+
+    def frame(self) -> Frame:
+        """The child frame."""
+        R0 = rotation_product(self.factors)
+        s = R0 * sympy.Matrix(self.translation)
+        origin = tuple(o + d for o, d in zip(self.origin, s))
+        return Frame(self.child, self.parent, origin, tuple(self.factors) + self.motion)
+
+
+@dataclass(frozen=True)
+class RotationalDamper(Element):
+    """A rotational damper on the rotations `factors` (a spherical joint's): D = c |omega|^2 / 2, omega
+    their angular velocity in the last one's axes (the torque -c omega)."""
+
+    name: str
+    coefficient: sympy.Expr
+    factors: tuple = ()
+    kind = "damper"
+
+    def expressions(self) -> dict[str, sympy.Expr]:
+        return {"coefficient": self.coefficient}
+
+    def contribute(self, kin):
+        from ._frames import angular_velocity
+
+        w = angular_velocity(self.factors, kin)
+        return Contribution(D=kin.se(self.coefficient) * sum(wi * wi for wi in w) / 2)
+
+
+def singular_angle(sequence: str) -> str:
+    """Where a sequence of three angles is singular, in words."""
+    if sequence[0] == sequence[2]:
+        return "the middle angle is 0 or pi (proper Euler angles: the first and last axes align)"
+    return "the middle angle is +-pi/2 (Tait-Bryan angles: the first and last axes align)"
+
+
+def default_coordinates(name: str, type: str, axis=None, sequence=None) -> tuple[str, ...]:
+    """The default coordinate names of a joint (see the module docstring)."""
+    if type in ("revolute", "prismatic"):
+        return (name,)
+    if type == "cylindrical":
+        return (f"{name}_angle", f"{name}_slide")
+    if type == "universal":
+        return (f"{name}_1", f"{name}_2")
+    if type == "spherical":
+        return (f"{name}_1", f"{name}_2", f"{name}_3")
+    if type == "planar":
+        a, b = _PLANE.get(axis if isinstance(axis, str) else "z", ("x", "y"))
+        return (f"{name}_{a}", f"{name}_{b}", f"{name}_angle")
+    if type == "floating":
+        return (f"{name}_x", f"{name}_y", f"{name}_z", f"{name}_1", f"{name}_2", f"{name}_3")
+    return ()
+
+
+def _types_text() -> str:
+    return ", ".join(JOINT_TYPES)
+
+
+def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, child: str | None = None,
+              origin=(0, 0, 0), rotation=None, axis=None, coordinates=None, limits=None, damping=None,
+              friction=None, sequence: str | None = None) -> Joint:
+    """Add a joint to `model` (:meth:`Model.add_joint` documents the arguments). All or nothing: on a
+    problem, nothing is added and one ModelError lists every problem found."""
+    from .._util import did_you_mean
+
+    model._check_mutable()
+    where = f"joint '{name}'"
+    problems: list[Problem] = []
+
+    def problem(key: str, message: str) -> None:
+        problems.append(Problem(message, key=f"{where}.{key}" if key else where))
+
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ModelError([Problem(f"a joint's name must be an identifier (letters, digits, _), e.g. 'shoulder', "
+                                  f"got {name!r}", key="joint")])
+    joints = getattr(model, "_joints", {})
+    if name in joints:
+        raise ModelError([Problem("two joints have this name: give each joint its own name", key=where)])
+    if type not in JOINT_TYPES:
+        extra = did_you_mean(str(type), JOINT_TYPES) if isinstance(type, str) else ""
+        raise ModelError([Problem(f"unknown joint type {type!r}{extra}; the types are {_types_text()}",
+                                  key=f"{where}.type")])
+    n = JOINT_TYPES[type]
+    child = name if child is None else child
+    if not isinstance(child, str) or not child.isidentifier():
+        problem("child", f"the child frame's name must be an identifier, e.g. 'upper_arm', got {child!r}")
+    elif child == WORLD or child in model._frames:
+        problem("child", f"the frame '{child}' exists already ({'the inertial frame' if child == WORLD else 'a frame'}"
+                         "): a joint creates its child frame, so give it a new name (child = \"...\")")
+    try:
+        parent = model._frame_name(parent, f"{where}.parent")
+    except ModelError as exc:
+        problems.extend(exc.problems)
+        parent = None
+    try:
+        o = model._vector(origin, f"{where}.origin")
+        if len(o) != 3:
+            problem("origin", f"a joint's origin has 3 components (x, y, z), got {len(o)}")
+    except ModelError as exc:
+        problems.extend(exc.problems)
+        o = None
+    try:
+        factors = model._factors(rotation, f"{where}.rotation")
+    except ModelError as exc:
+        problems.extend(exc.problems)
+        factors = ()
+
+    # axes
+    axes: tuple = ()
+    seq = None
+    if type in ("spherical", "floating"):
+        if axis is not None:
+            problem("axis", f"a {type} joint turns about three axes given by its sequence (default \"xyz\"), not "
+                            "one axis: remove axis, or give sequence = \"zyx\" (three of x, y, z)")
+        seq = "xyz" if sequence is None else sequence
+        if not (isinstance(seq, str) and len(seq) == 3 and set(seq) <= set("xyz")
+                and seq[0] != seq[1] and seq[1] != seq[2]):
+            problem("sequence", f"expected three axes among x, y, z, no two neighbours the same (\"xyz\", \"zyx\", "
+                                f"\"zxz\"), got {sequence!r}")
+            seq = "xyz"
+        axes = tuple(tuple(sympy.Integer(c) for c in AXES[a]) for a in seq)
+    else:
+        if sequence is not None:
+            problem("sequence", f"only spherical and floating joints have a sequence of angles; a {type} joint "
+                                "has none: remove it")
+        if type == "universal":
+            pair = ("x", "y") if axis is None else axis
+            if not isinstance(pair, (list, tuple)) or len(pair) != 2 or all(
+                    isinstance(c, numbers.Number) for c in pair):
+                problem("axis", f"a universal joint has two axes, e.g. [\"x\", \"y\"], got {axis!r}")
+            else:
+                try:
+                    axes = tuple(model._axis(a, f"{where}.axis[{i}]") for i, a in enumerate(pair))
+                    cross = sympy.Matrix(axes[0]).cross(sympy.Matrix(axes[1]))
+                    if all(sympy.simplify(c) == 0 for c in cross):
+                        problem("axis", "the two axes of a universal joint are parallel: give two different "
+                                        "directions, e.g. [\"x\", \"y\"]")
+                except ModelError as exc:
+                    problems.extend(exc.problems)
+        elif type == "planar":
+            normal = "z" if axis is None else axis
+            if not isinstance(normal, str) or normal not in _PLANE:
+                problem("axis", f"a planar joint's axis is its plane's normal, \"x\", \"y\" or \"z\" of the joint "
+                                f"frame (turn the joint frame with rotation = ... for another plane), got {axis!r}")
+                normal = "z"
+            axes = (tuple(sympy.Integer(c) for c in AXES[normal]),)
+        elif type == "fixed":
+            if axis is not None:
+                problem("axis", "a fixed joint has no axis: remove it")
+        else:
+            try:
+                axes = (model._axis("z" if axis is None else axis, f"{where}.axis"),)
+            except ModelError as exc:
+                problems.extend(exc.problems)
+
+    # coordinates
+    if coordinates is None:
+        names = default_coordinates(name, type, axis, seq)
+    elif isinstance(coordinates, str):
+        names = (coordinates,)
+    else:
+        names = tuple(coordinates) if isinstance(coordinates, (list, tuple)) else None
+    if names is None or len(names) != n:
+        example = list(default_coordinates(name, type, axis, seq))
+        problem("coordinates", f"a {type} joint has {n} coordinate{'s' if n != 1 else ''}, got {coordinates!r}"
+                               + (f"; give {n} names, e.g. {example}" if n else "; remove it"))
+        names = ()
+    existing = {c.name: c for c in model._coordinates}
+    used = {c.name: j.name for j in joints.values() for c in j.coordinates}
+    new_names: list[str] = []
+    for i, cname in enumerate(names):
+        key = "coordinates" if coordinates is None else f"coordinates[{i}]"
+        if isinstance(cname, sympy.Symbol):
+            cname = cname.name
+        if cname in used:
+            problem(key, f"the coordinate '{cname}' is the joint '{used[cname]}''s already: each joint needs "
+                         "coordinates of its own")
+            continue
+        if cname in existing:
+            continue
+        why = check_name(cname, "coordinate")
+        if why is None and cname in model._all_names():
+            why = f"'{cname}' is already a parameter, input or other name: a joint's coordinate needs a new name"
+        if why is None and cname in new_names:
+            why = f"'{cname}' is given twice"
+        if why is not None:
+            problem(key, why + (" (give the joint's coordinates with coordinates = [...])" if coordinates is None
+                                else ""))
+            continue
+        new_names.append(cname)
+
+    limits_t = _per_coordinate_pairs(model, limits, n, where, problem) if limits is not None else (None,) * n
+    damping_t = _per_coordinate(model, damping, n, where, "damping", problem, type)
+    friction_t = _per_coordinate(model, friction, n, where, "friction", problem, type)
+    if problems:
+        raise ModelError(problems)
+
+    for cname in new_names:
+        model.coordinate(cname)
+    symbols = {c.name: c for c in model._coordinates}
+    q = tuple(symbols[c.name if isinstance(c, sympy.Symbol) else c] for c in names)
+    joint = Joint(name, type, parent, child, q, tuple(o), factors, axes, limits_t, damping_t, friction_t, seq)
+    model._frames[child] = joint.frame()
+    if damping_t is not None:
+        if type in ("spherical",):
+            model._elements.append(RotationalDamper(model._unique_element_name(f"{name}_damping", "damper"),
+                                                    damping_t[0], joint.motion))
+        else:
+            for i, (qi, c) in enumerate(zip(q, damping_t)):
+                if c != 0:
+                    suffix = "" if n == 1 else f"_{i + 1}"
+                    model.add_damper(c, length=qi, name=f"{name}_damping{suffix}")
+    if friction_t is not None:
+        for i, (qi, F) in enumerate(zip(q, friction_t)):
+            if F != 0:
+                suffix = "" if n == 1 else f"_{i + 1}"
+                model.add_torque(-F * sympy.sign(dot(qi)), angle=qi, name=f"{name}_friction{suffix}")
+    if not hasattr(model, "_joints"):
+        model._joints = {}
+    model._joints[name] = joint
+    return joint
+
+
+def _constant(model, value, key, problem):
+    """A constant expression (parameters and numbers), or None after a problem."""
+    if isinstance(value, numbers.Real) and not isinstance(value, bool) and not math.isfinite(value):
+        problem(key, f"expected a finite number, got {value!r}")
+        return None
+    try:
+        e = model.expr(value, key)
+    except ModelError as exc:
+        for p in exc.problems:
+            problem(key, p.message)
+        return None
+    variables = {s for s in e.free_symbols if s not in model._parameters}
+    if variables:
+        names = ", ".join(sorted(s.name for s in variables))
+        problem(key, f"a joint's {key.split('[')[0]} is a constant: write it with parameters and numbers, not {names}")
+        return None
+    return e
+
+
+def _per_coordinate(model, value, n, where, what, problem, type):
+    """One constant per coordinate (a single value for all), or None."""
+    if value is None:
+        return None
+    if n == 0:
+        problem(what, f"a {type} joint has no coordinates and so no {what}: remove it")
+        return None
+    if type == "floating":
+        problem(what, f"a floating joint takes no {what}: add dampers or forces on its coordinates instead")
+        return None
+    if type == "spherical":
+        if what == "friction":
+            problem(what, "a spherical joint takes no Coulomb friction (its three angles have no common sign); "
+                          "give it a rotational damping = c instead")
+            return None
+        if isinstance(value, (list, tuple)):
+            problem(what, "a spherical joint's damping is one coefficient c, the torque -c omega (omega its relative "
+                          "angular velocity), not one per angle")
+            return None
+    values = list(value) if isinstance(value, (list, tuple)) else [value] * n
+    if len(values) != n:
+        problem(what, f"expected one {what} for the joint or one per coordinate ({n}), got {len(values)}")
+        return None
+    out = [_constant(model, v, f"{what}[{i}]" if isinstance(value, (list, tuple)) else what, problem)
+           for i, v in enumerate(values)]
+    for i, e in enumerate(out):
+        if e is not None and e.is_number and e.is_real and e < 0:
+            problem(what, f"a {what} coefficient is at least 0, got {e}: a negative one would feed energy in")
+            return None
+    if any(e is None for e in out):
+        return None
+    return tuple(out)
+
+
+def _per_coordinate_pairs(model, value, n, where, problem):
+    """(lower, upper) per coordinate: one pair for a one-coordinate joint, else a list of pairs (or None)."""
+    if n == 0:
+        problem("limits", "a fixed joint has no coordinates and so no limits: remove them")
+        return ()
+    pairs = [value] if n == 1 and isinstance(value, (list, tuple)) and len(value) == 2 and not any(
+        isinstance(v, (list, tuple)) or v is None for v in value) else value
+    if not isinstance(pairs, (list, tuple)) or len(pairs) != n:
+        problem("limits", f"expected [lower, upper]{'' if n == 1 else f' for each of the {n} coordinates'} "
+                          f"(None for a coordinate without limits), got {value!r}")
+        return (None,) * n
+    out = []
+    for i, pair in enumerate(pairs):
+        if pair is None:
+            out.append(None)
+            continue
+        if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+            problem("limits", f"expected [lower, upper], got {pair!r}")
+            out.append(None)
+            continue
+        lo, hi = (_constant(model, v, f"limits[{i}]", problem) for v in pair)
+        if lo is not None and hi is not None and (lo - hi).is_number and not (lo < hi):
+            problem("limits", f"the lower limit {lo} is not below the upper limit {hi}: give [lower, upper]")
+        out.append((lo, hi))
+    return tuple(out)
