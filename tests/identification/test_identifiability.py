@@ -78,6 +78,15 @@ def test_undamped_pendulum_mass_cancels():
     assert r.reasons["m"] == "m cancels from the accelerations M^-1 f (scaling m alone leaves the motion unchanged)"
 
 
+def test_constrained_models_without_motor_and_many_parameters_stay_bounded():
+    """The rolling disk: its mass cancels (every force is its weight or a constraint's), v (the speed
+    linearize is about) is not in the equations, r and g are determined."""
+    r = identifiability(lg.derive(lg.load("rolling-disk")), ["m", "r", "g", "v"])
+    assert r.identifiable == ("r", "g") and r.not_identifiable == ("m", "v") and r.rank == 2
+    assert "m cancels from the accelerations" in r.reasons["m"]
+    assert "v does not appear in the equations of motion" in r.reasons["v"]
+
+
 def test_damped_pendulum_known_damper_fixes_the_mass():
     """With c known, c/(m l^2) and g/l (g known) determine l, then m."""
     r = identifiability(pendulum(), ["m", "l"])
@@ -182,6 +191,46 @@ def test_four_bar_without_input_masses_in_ratios():
     assert all(sympy.simplify(combo.subs(scaled) - combo) == 0 for combo in r.combinations)
 
 
+def test_double_pendulum_written_with_cos_of_a_difference_stays_exact():
+    """The energies written with cos(th1 - th2): sin and cos of an integer combination of coordinates
+    are evaluated exactly from the coordinates' points on the unit circle (no relaxation)."""
+    e = lg.derive(lg.Model(coordinates=["th1", "th2"],
+                           T="(m1 + m2)*l1**2*th1_dot**2/2 + m2*l2**2*th2_dot**2/2 "
+                             "+ m2*l1*l2*cos(th1 - th2)*th1_dot*th2_dot",
+                           V="-(m1 + m2)*g*l1*cos(th1) - m2*g*l2*cos(th2)",
+                           parameters={"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 0.7, "g": 9.81}))
+    r = identifiability(e, ["m1", "m2", "l1", "l2"])
+    assert r.identifiable == ("l1", "l2") and r.combinations == (m2 / m1,)
+    assert r.method.startswith("exact") and "confirmed numerically" in r.method
+
+
+def test_parameter_inside_a_function_takes_the_numeric_path():
+    """m x'' + k x = F0 sin(w t): x'' = (F0/m) sin(w t) - (k/m) x; w is determined by the forcing's
+    frequency, m, k, F0 scale together. The numeric null direction is recognized as the scaling."""
+    e = lg.derive(lg.Model(coordinates=["x"], T="m*x_dot**2/2", V="k*x**2/2", Q={"x": "F0*sin(w*t)"},
+                           parameters={"m": 1.0, "k": 2.0, "F0": 0.5, "w": 3.0}))
+    r = identifiability(e, ["m", "k", "F0", "w"])
+    F0 = sympy.Symbol("F0")
+    assert r.identifiable == ("w",) and set(r.combinations) == {k / m, F0 / m} and r.symmetry == "scaling"
+    assert r.method.startswith("numeric") and "a parameter asked about is inside sin(t*w)" in r.method
+
+
+def test_irrational_constant_takes_the_numeric_path():
+    e = lg.derive(lg.Model(coordinates=["x"], T="m*x_dot**2/2", V="k*x**2/2 + sqrt(2)*x",
+                           parameters={"m": 1.0, "k": 2.0}))
+    r = identifiability(e, ["m", "k"])
+    assert r.all_identifiable and "an expression holds an irrational constant" in r.method
+
+
+def test_past_the_exact_bound_the_numeric_path_gives_the_same_answer(monkeypatch):
+    from lagrangian.identification import _identifiability
+
+    monkeypatch.setattr(_identifiability, "EXACT_MAX_N", 1)
+    r = identifiability(lg.derive(lg.load("double-pendulum")), ["m1", "m2", "l1", "l2"])
+    assert r.method.startswith("numeric") and "more than 1 coordinates" in r.method
+    assert r.identifiable == ("l1", "l2") and r.combinations == (m2 / m1,) and r.symmetry == "scaling"
+
+
 def _simulated_sensitivities(e, names, values, h=1e-5):
     """d th(t_k) / d log p by central differences of simulate (the independent path)."""
     nm = lg.compile(e)
@@ -258,11 +307,20 @@ def test_text_and_json():
     (["m\nl"], "is not a parameter of model 'model'"),
     (["x" * 500], "...' is not a parameter"),
     (None, "params must be a list of parameter names, got None"),
+    ({"m": 1}, "params must be a list of parameter names, got {'m': 1}"),
+    (["m"] * 201, "params names 201 parameters, more than 200"),
 ])
 def test_bad_params(params, message):
     with pytest.raises(ModelError) as info:
         identifiability(pendulum(), params)
     assert message in str(info.value)
+
+
+def test_known_parameter_without_value():
+    model = lg.Model(coordinates=["x"], T="m*x_dot**2/2", V="k*x**2/2", parameters={"m": 1.0, "k": None})
+    with pytest.raises(ModelError, match=r"parameter 'k' is known \(not in params\) but has no finite value \(None\): "
+                                         "give it a value in the model, or add it to params"):
+        identifiability(model, ["m"])
 
 
 def test_bad_measured_and_inputs():

@@ -81,6 +81,8 @@ SENSITIVITY_RTOL = 1e-5
 EXACT_MAX_CHARS = 200_000
 EXACT_MAX_N = 8
 EXACT_MAX_PARAMS = 24
+#: The most random states of the numeric path.
+MAX_FLOAT_STATES = 400
 #: The most parameters one call may ask about.
 MAX_PARAMS = 200
 #: Exponents and weights of a null direction are recognized as fractions of denominator at most this.
@@ -231,18 +233,24 @@ def _svd_rank(S: np.ndarray, rtol: float) -> tuple[int, np.ndarray, np.ndarray]:
     P = S.shape[1]
     if S.shape[0] == 0 or P == 0:
         return 0, np.eye(P), np.zeros(0)
-    norms = np.linalg.norm(S, axis=0)
-    # a column at round-off next to the largest is a zero column (normalizing it would make noise a direction)
-    S = np.where(norms > rtol * np.max(norms, initial=0.0), S, 0.0)
-    norms = np.linalg.norm(S, axis=0)
-    scale = np.where(norms > 0, norms, 1.0)
-    _, s, vt = np.linalg.svd(S / scale, full_matrices=True)
+    S, scale = _normalized(S, rtol)
+    _, s, vt = np.linalg.svd(S, full_matrices=True)
     sigma = np.zeros(P)
     sigma[:len(s)] = s[:P]
     top = sigma[0] if len(sigma) else 0.0
     rank = int(np.sum(sigma > rtol * top)) if top > 0 else 0
     null = vt[rank:] / scale  # back to the columns' own coordinates
     return rank, _rref_float(null), sigma
+
+
+def _normalized(S: np.ndarray, rtol: float) -> tuple[np.ndarray, np.ndarray]:
+    """(S with unit columns, the columns' norms): a column at round-off next to the largest (norm at
+    most rtol times it) is a zero column, since normalizing it would make noise a direction."""
+    norms = np.linalg.norm(S, axis=0)
+    S = np.where(norms > rtol * np.max(norms, initial=0.0), S, 0.0)
+    norms = np.linalg.norm(S, axis=0)
+    scale = np.where(norms > 0, norms, 1.0)
+    return S / scale, scale
 
 
 def _rref_float(A: np.ndarray) -> np.ndarray:
@@ -521,16 +529,21 @@ class _Problem:
         J1 = self._float_rows(p1)
         rank_f, null_f, sigma = _svd_rank(J1, ANALYTIC_RTOL)
         if exact_ok:
-            rows1, relaxed = self._exact_rows(p1)
+            try:
+                rows1, relaxed = self._exact_rows(p1)
+                rows2 = self._exact_rows(p2)[0]
+            except _NotRational as exc:
+                exact_ok, why = False, f"an expression holds an irrational constant ({exc})"
+        if exact_ok:
             null1 = _nullspace(rows1, self.P)
             rank_e = self.P - len(null1)
             if rank_e != rank_f and relaxed and rank_f < rank_e:
                 method = (f"the exact rank {rank_e} (functions {', '.join(relaxed)} taken as independent) is above "
                           f"the numeric rank {rank_f} at real states; the numeric rank is reported")
                 return self._finish_numeric(p1, p2, J1, null_f, sigma, ANALYTIC_RTOL, method)
-            null2 = _nullspace(self._exact_rows(p2)[0], self.P)
+            null2 = _nullspace(rows2, self.P)
             method = ("exact: the rank of the Jacobian of the accelerations with respect to log p, in rational "
-                      f"arithmetic at {self._samples} random states and two generic parameter vectors")
+                      f"arithmetic at {self._exact_samples} random states and two generic parameter vectors")
             method += (f"; confirmed numerically (singular values above {ANALYTIC_RTOL:g} * the largest: rank {rank_f})"
                        if rank_f == rank_e else
                        f"; the numeric rank at real states is {rank_f} (singular values above {ANALYTIC_RTOL:g} * "
@@ -538,15 +551,13 @@ class _Problem:
             return self._finish(p1, p2, null1, null2, sigma, ANALYTIC_RTOL, method)
         method = ("numeric: the rank of the Jacobian of the "
                   + ("saddle-point accelerations and the constraints" if self.m else "accelerations")
-                  + f" with respect to log p at {self._samples} random "
+                  + f" with respect to log p at {self._float_samples} random "
                   + ("consistent " if self.m else "") + f"states (singular values above {ANALYTIC_RTOL:g} * the "
                   f"largest; exact arithmetic not used: {why})")
         return self._finish_numeric(p1, p2, J1, null_f, sigma, ANALYTIC_RTOL, method)
 
     def _finish_numeric(self, p1, p2, J1, null_f, sigma, rtol, method):
-        samples = self._samples
         J2 = self._float_rows(p2)
-        self._samples = samples
         _, null_f2, _ = _svd_rank(J2, rtol)
         rec1 = self._recognize(null_f, J1, rtol)
         rec2 = self._recognize(null_f2, J2, rtol)
@@ -559,12 +570,11 @@ class _Problem:
             return []
         if J is None:
             return None
-        norms = np.linalg.norm(J, axis=0)
-        scale = np.where(norms > 0, norms, 1.0)
-        top = np.linalg.norm(J / scale, 2) if J.size else 1.0
+        Jn, scale = _normalized(J, rtol)
+        top = np.linalg.norm(Jn, 2) if J.size else 1.0
 
         def check(v):
-            return np.linalg.norm((J / scale) @ (v * scale)) <= 10 * rtol * top * np.linalg.norm(v * scale)
+            return np.linalg.norm(Jn @ (v * scale)) <= 10 * rtol * top * np.linalg.norm(v * scale)
 
         return _recognize(null, check)
 
@@ -617,18 +627,31 @@ class _Problem:
         atoms = set()
         for e in self._all_exprs:
             atoms |= _atoms(e)
-        circle_vars = set(self.q) | {self.t}
-        relaxed = sorted(str(a) for a in atoms if not (_is_trig(a) and a.args[0] in circle_vars))
+        circle_vars = [*self.q, self.t]
+        varying = set(self.q + self.qd + self.u + [self.t])
+        combos = {a: _integer_combination(a.args[0], circle_vars) for a in atoms if _is_trig(a)}
+        # functions of the known parameters alone: one generic value for the whole analysis
+        if not hasattr(self, "_fixed_atoms"):
+            self._fixed_atoms = {}
+        for a in atoms:
+            if combos.get(a) is None and not set(a.free_symbols) & varying and a not in self._fixed_atoms:
+                self._fixed_atoms[a] = _se(Fraction(self.rng.randint(1, 60), self.rng.randint(1, 13)))
+        relaxed = sorted(str(a) for a in atoms if combos.get(a) is None and a not in self._fixed_atoms)
         rows: list[list[Fraction]] = []
         rank, stale, samples = 0, 0, 0
         limit = 3 * self.P + 6
         while samples < limit and stale < 2 and rank < self.P:
             sub = dict(known)
             sub.update(pv)
-            for s in self.q + [self.t]:
+            sub.update(self._fixed_atoms)
+            circle = {}
+            for s in circle_vars:
                 tau = Fraction(self.rng.randint(-40, 40), self.rng.randint(1, 17))
-                sub[se.sin(s)] = _se(2 * tau / (1 + tau * tau))
-                sub[se.cos(s)] = _se((1 - tau * tau) / (1 + tau * tau))
+                circle[s] = ((1 - tau * tau) / (1 + tau * tau), 2 * tau / (1 + tau * tau))  # (cos, sin)
+            for a, combo in combos.items():
+                if combo is not None:  # sin or cos of an integer combination: exact, from the circle points
+                    cos_, sin_ = _circle_power(combo, circle)
+                    sub[a] = _se(sin_ if isinstance(a, se.sin) else cos_)
             for a in atoms:
                 if a not in sub:
                     sub[a] = _se(Fraction(self.rng.randint(1, 60), self.rng.randint(1, 13)))
@@ -650,7 +673,7 @@ class _Problem:
             new_rank = len(rows)
             stale = stale + 1 if new_rank == rank else 0
             rank = new_rank
-        self._samples = samples
+        self._exact_samples = samples
         return rows, relaxed
 
     # ------------------------------------------------------------------- float rows
@@ -678,11 +701,19 @@ class _Problem:
             pvals.append(float(pmap[s.name]) if s.name in pmap else float(self.known[s]))
         pvals = np.array(pvals)
         pvec = np.array([float(x) for x in p])
-        per = n - m + len(self.hol) + len(self.w) + m
-        count = max(4, math.ceil(2 * P / max(per, 1)) + 3)
-        rows, got, tries = [], 0, 0
+        # the dynamics give n - m rows per state: twice the parameters' count to start with, then more
+        # states while the rank still rises (at most MAX_FLOAT_STATES)
+        count = max(4, math.ceil(2 * P / max(n - m, 1)) + 3)
+        rows, got, tries, rank = [], 0, 0, -1
         initial = self.eq.model.simulation.get("initial") or {}
-        while got < count and tries < 10 * count:
+        while tries < 10 * MAX_FLOAT_STATES:
+            if got >= count:
+                new_rank = _svd_rank(np.vstack(rows), ANALYTIC_RTOL)[0]
+                if new_rank == rank or new_rank == P or got >= MAX_FLOAT_STATES:
+                    break
+                rank, count = new_rank, got + max(2, count // 2)
+            if tries >= 10 * count:
+                break
             tries += 1
             t = float(self.nrng.uniform(0, 1))
             q = np.array([float(initial.get(s.name, 0.0)) for s in self.q]) + self.nrng.uniform(-1.5, 1.5, n)
@@ -722,7 +753,7 @@ class _Problem:
             raise ModelError(f"identifiability: no state of model '{self.eq.model.name}' where the equations can be "
                              "solved (a singular mass matrix or constraints that cannot be met near the model's "
                              "initial state); check the model's [simulation] initial values")
-        self._samples = got
+        self._float_samples = self.__dict__.get("_float_samples", got)
         return np.vstack(rows)
 
     def _consistent(self, t, q, qd, pvals):
@@ -733,11 +764,14 @@ class _Problem:
             if not k:
                 break
             g, Gh = out[:k], out[k:].reshape(k, n)
-            if not np.all(np.isfinite(g)):
+            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(Gh))):
                 return None
             if np.max(np.abs(g)) < 1e-13 * (1 + np.max(np.abs(q))):
                 break
-            q = q - np.linalg.lstsq(Gh, g, rcond=None)[0]
+            try:
+                q = q - np.linalg.lstsq(Gh, g, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                return None
         else:
             return None
         if self.w:
@@ -749,7 +783,12 @@ class _Problem:
                 e[j] = 1.0
                 cols.append(np.asarray(self._w_f(np.concatenate(([t], q, e, pvals))), float).ravel() - b)
             G = np.array(cols).T
-            qd = qd - np.linalg.lstsq(G, G @ qd + b, rcond=None)[0]
+            if not (np.all(np.isfinite(G)) and np.all(np.isfinite(b))):
+                return None
+            try:
+                qd = qd - np.linalg.lstsq(G, G @ qd + b, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                return None
         return q, qd
 
     # ------------------------------------------------------------------ measured outputs
@@ -970,8 +1009,7 @@ class _Problem:
                 moves = "; ".join(_translation_text(v, self.names) for v in dirs)
                 why = f"the motion is unchanged under {moves}, for every s"
             else:
-                shown = "; ".join(", ".join(f"{self.names[k]}: {float(v[k]):.3g}" for k in range(self.P)
-                                            if abs(v[k]) > 1e-6) for v in dirs)
+                shown = "; ".join(_largest(v, self.names) for v in dirs[:3]) + ("; ..." if len(dirs) > 3 else "")
                 why = ("the motion is unchanged to first order along a direction of the parameters that is neither "
                        f"a scaling nor a translation (relative changes dp/p: {shown})")
             if mine:
@@ -993,6 +1031,13 @@ def _assumptions(eq: Equations, name: str) -> dict:
         if s.name == name:
             return dict(s.assumptions0)
     return {}
+
+
+def _largest(v, names, most: int = 6) -> str:
+    """The largest entries of a numeric direction, by name."""
+    order = sorted((k for k in range(len(v)) if abs(v[k]) > 1e-6), key=lambda k: -abs(v[k]))
+    text = ", ".join(f"{names[k]}: {float(v[k]):.3g}" for k in order[:most])
+    return text + (", ..." if len(order) > most else "")
 
 
 def _scaling_text(v, names) -> str:
@@ -1037,8 +1082,11 @@ def _frac(v) -> Fraction:
     if isinstance(v, se.Rational):
         num, den = v.get_num_den()
         return Fraction(int(num), int(den))
-    raise ModelError(f"identifiability: an expression did not evaluate to a rational number ({v}); "
-                     "report this with the model")
+    raise _NotRational(str(v))
+
+
+class _NotRational(Exception):
+    """An expression holds an irrational constant (sqrt(2), pi): the exact path cannot be taken."""
 
 
 def _solve_exact(M: list[list[Fraction]], f: list[Fraction]) -> list[Fraction] | None:
@@ -1048,6 +1096,38 @@ def _solve_exact(M: list[list[Fraction]], f: list[Fraction]) -> list[Fraction] |
     if piv != list(range(n)):
         return None
     return [R[i][n] for i in range(n)]
+
+
+def _integer_combination(arg, variables) -> dict | None:
+    """{variable: integer coefficient} when `arg` is an integer combination of `variables` (q1 - q2,
+    2*th), else None."""
+    arg = se.expand(arg)
+    terms = arg.args if isinstance(arg, se.Add) else (arg,)
+    out: dict = {}
+    for term in terms:
+        coeff, var = se.Integer(1), term
+        if isinstance(term, se.Mul):
+            nums = [f for f in term.args if f.is_Number]
+            rest = [f for f in term.args if not f.is_Number]
+            if len(nums) != 1 or len(rest) != 1:
+                return None
+            coeff, var = nums[0], rest[0]
+        if var not in variables or not coeff.is_Integer:
+            return None
+        out[var] = out.get(var, 0) + int(coeff)
+    return out
+
+
+def _circle_power(combo: dict, circle: dict) -> tuple[Fraction, Fraction]:
+    """(cos, sin) of sum k_i x_i from each x_i's (cos, sin): the product of (cos + i sin)**k_i."""
+    re_, im_ = Fraction(1), Fraction(0)
+    for var, k in combo.items():
+        c, s = circle[var]
+        if k < 0:
+            s, k = -s, -k  # on the unit circle, z**-1 is the conjugate
+        for _ in range(k):
+            re_, im_ = re_ * c - im_ * s, re_ * s + im_ * c
+    return re_, im_
 
 
 def _is_trig(a) -> bool:
