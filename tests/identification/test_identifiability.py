@@ -137,6 +137,17 @@ def test_masses_that_enter_only_as_a_sum_translation():
     assert "m1 -> m1 + s, m2 -> m2 - s" in r.reasons["m1"]
 
 
+def test_translation_found_on_the_numeric_path_too(monkeypatch):
+    from lagrangian.identification import _identifiability
+
+    monkeypatch.setattr(_identifiability, "EXACT_MAX_N", 0)
+    e = lg.derive(lg.Model(coordinates=["x"], T="(m1 + m2)*x_dot**2/2", V="k*x**2/2", Q={"x": "F"}, inputs=["F"],
+                           parameters={"m1": 1.0, "m2": 0.5, "k": 3.0}))
+    r = identifiability(e, ["m1", "m2", "k"])
+    assert r.method.startswith("numeric")
+    assert r.symmetry == "translation" and r.identifiable == ("k",) and r.combinations == (m1 + m2,)
+
+
 def test_neither_scaling_nor_translation():
     """(m1 + m2) x'' + k x = 0: only k/(m1 + m2) is determined (rank 1); the null directions change with
     the parameters' values, so the parameters are named without combinations."""

@@ -561,9 +561,16 @@ class _Problem:
         _, null_f2, _ = _svd_rank(J2, rtol)
         rec1 = self._recognize(null_f, J1, rtol)
         rec2 = self._recognize(null_f2, J2, rtol)
-        if rec1 is None or rec2 is None or len(rec1) != len(null_f) or len(rec2) != len(null_f2):
-            return self._build(OTHER, [list(r) for r in null_f], p1, sigma, rtol, method, exact=False)
-        return self._finish(p1, p2, rec1, rec2, sigma, rtol, method)
+        if rec1 is not None and rec2 is not None and len(rec1) == len(null_f) and len(rec2) == len(null_f2):
+            return self._finish(p1, p2, rec1, rec2, sigma, rtol, method)
+        # not rational in log coordinates: perhaps in the parameters themselves (a translation)
+        pv1, pv2 = (np.array([float(x) for x in p]) for p in (p1, p2))
+        lin1 = self._recognize(_rref_float(null_f * pv1) if len(null_f) else null_f, J1 / pv1, rtol)
+        lin2 = self._recognize(_rref_float(null_f2 * pv2) if len(null_f2) else null_f2, J2 / pv2, rtol)
+        if (lin1 and lin2 and len(lin1) == len(null_f) and len(lin2) == len(null_f2)
+                and _same_span(lin1, lin2, self.P)):
+            return self._build(TRANSLATION, lin1, p1, sigma, rtol, method)
+        return self._build(OTHER, [list(r) for r in null_f], p1, sigma, rtol, method, exact=False)
 
     def _recognize(self, null, J, rtol):
         if len(null) == 0:
