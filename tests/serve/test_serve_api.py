@@ -866,3 +866,56 @@ def test_another_host_needs_saying_so_and_prints_a_warning():
         assert s.lines[1].startswith("lagrangian serve: the playground is at http://0.0.0.0:")
     finally:
         s.stop()
+
+
+# ------------------------------------------------------------------ measured signals (issue 21, Part 0)
+DRIVEN = OSCILLATOR.replace('coordinates = ["x"]', 'coordinates = ["x"]\ninputs = ["F"]') + '\n[forces]\nx = "F"\n'
+
+
+@pytest.mark.subprocess
+def test_simulate_takes_a_measured_signal_as_data(server):
+    """The browser reads the user's CSV and sends the table: the playground simulates it as
+    lg.Signal does (never a file on the server), cubic as well as linear."""
+    import numpy as np
+
+    t = np.linspace(0.0, 2.0, 41)
+    force = np.sin(3 * t) + 0.1 * t**2
+    for interpolation in ("linear", "cubic"):
+        signal = {"t": t.tolist(), "values": force.tolist(), "interpolation": interpolation}
+        status, data = server.post_json("/api/simulate", {"model": DRIVEN, "t_end": 2.0, "dt": 0.1,
+                                                          "initial": {"x": 0.5}, "inputs": {"F": signal}})
+        assert status == 200, data
+        traj = lg.simulate(lg.derive(loads_model(DRIVEN)), 2.0, {"x": 0.5}, dt=0.1,
+                           inputs={"F": lg.Signal(t, force, interpolation)})
+        assert data["columns"]["x"] == traj["x"].tolist()
+        assert data["columns"]["F"] == pytest.approx(traj["F"].tolist(), abs=1e-12)
+        assert data["output_names"] == []
+
+
+@pytest.mark.parametrize("signal, message", [
+    ({"t": [0, 1], "value": [1, 2]}, "inputs.F: unknown key 'value' (did you mean 'values'?); a measured signal "
+                                     "has the keys t, values, interpolation, extrapolation"),
+    ({"t": [0, 1], "values": "1,2"}, "inputs.F.values: expected a list of numbers, got \"1,2\""),
+    ({"t": [0, True], "values": [1, 2]}, "inputs.F.t: expected a list of numbers, got [0, true]"),
+    ({"t": [0, 1]}, "inputs.F.values: expected a list of numbers, got null"),
+    ({"t": [1, 0], "values": [1, 2]}, "inputs.F: signal 'F': times must increase strictly"),
+    ({"t": [0, 1], "values": [1, 2, 3]}, "inputs.F: signal 'F': 2 times but 3 values"),
+    ({"t": [0, 1], "values": [1, 2], "interpolation": "spline"},
+     "inputs.F: signal 'F': unknown interpolation 'spline'"),
+    ({"t": [0, 1], "values": [1, 2], "extrapolation": 0}, "inputs.F.extrapolation: expected a string, got 0"),
+    ({"t": [0] * 100_001, "values": [0]}, "inputs.F.t: 100001 samples, more than the limit of 100000 per request"),
+])
+def test_a_bad_measured_signal_is_refused_with_one_clear_message(signal, message):
+    from lagrangian.serve._tasks import BadRequest, simulate_request
+
+    with pytest.raises(BadRequest) as exc:
+        simulate_request(json.dumps({"model": DRIVEN, "t_end": 1.0, "inputs": {"F": signal}}).encode())
+    assert any(m.startswith(message) for m in exc.value.messages), exc.value.messages
+
+
+@pytest.mark.subprocess
+def test_a_run_beyond_the_signal_is_refused_by_the_playground(server):
+    status, data = server.post_json("/api/simulate", {"model": DRIVEN, "t_end": 5.0,
+                                                      "inputs": {"F": {"t": [0, 1, 2], "values": [0, 1, 0]}}})
+    assert status == 400, data
+    assert "F" in data["errors"][0]["message"] and "hold" in data["errors"][0]["message"], data

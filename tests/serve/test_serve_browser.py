@@ -357,3 +357,35 @@ def test_a_closed_loop_simulates_with_the_dependent_values_completed(server, bro
     moved = lg.simulate(lg.load("four-bar"), 5.0, initial={"th1": 0.9, "th1_dot": 4.0})
     assert float(browser.find_element(By.ID, "value-th3").get_attribute("value")) == pytest.approx(
         moved["th3"][0], rel=1e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.browser
+@pytest.mark.subprocess
+def test_a_measured_signal_from_a_csv_drives_the_simulation(server, browser, tmp_path):
+    """Issue 21, Part 0: the user picks a CSV for the cart's force; the page reads it in the browser,
+    sends the table as numbers (the server reads no file), and the motion is lg.Signal's."""
+    import numpy as np
+
+    t = np.linspace(0.0, 10.0, 201)
+    force = 0.8 * np.sin(2.0 * t)
+    csv = tmp_path / "push.csv"
+    csv.write_text("time,F\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, force)))
+    browser.get(server.url + "?example=cart-pendulum")
+    wait(browser, lambda: ready(browser))
+    js(browser, "document.getElementById('signal-F').hidden = false")
+    browser.find_element(By.ID, "signal-F").send_keys(str(csv))
+    wait(browser, lambda: ready(browser) and isinstance(
+        js(browser, "return window.lagrangianPlayground.state.lastRequest.inputs.F"), dict))
+    request = js(browser, "return window.lagrangianPlayground.state.lastRequest")
+    assert request["inputs"]["F"]["t"] == t.tolist() and request["inputs"]["F"]["values"] == force.tolist()
+    assert browser.find_element(By.ID, "input-F").get_attribute("value") == "@push.csv:F (201 samples, linear)"
+    traj = lg.simulate(lg.derive(loads_model(request["model"])), request["t_end"], request["initial"],
+                       params=request["params"], dt=request["dt"], inputs={"F": lg.Signal(t, force)})
+    shown = js(browser, "return window.lagrangianPlayground.state.simulation.columns.q1")
+    assert shown == traj["q1"].tolist()
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time,F\n0,1\n1,oops\n2,3\n")
+    browser.find_element(By.ID, "signal-F").send_keys(str(bad))
+    wait(browser, lambda: "bad.csv: row 3: expected 2 numbers, got '1,oops'"
+         in browser.find_element(By.ID, "sim-info").text)

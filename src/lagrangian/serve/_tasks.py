@@ -38,7 +38,8 @@ SIMULATE_FIELDS = {
     "t_end": "the final time, a number > 0 (default: the model's [simulation] t_end)",
     "initial": "initial coordinates and velocities, {name: number or constant such as \"pi/2\"}",
     "inputs": "each input as an expression of t, the coordinates and velocities (a feedback law), {name: "
-              "\"1.5*sin(3*t)\", \"-20*(q2 - pi/2) - 5*q2_dot\" or a number}",
+              "\"1.5*sin(3*t)\", \"-20*(q2 - pi/2) - 5*q2_dot\" or a number}, or a measured signal {name: {\"t\": "
+              "[...], \"values\": [...], \"interpolation\": \"linear\" or \"cubic\"}}",
     "params": "parameter values that override the model's, {name: number}",
     "dt": "the output interval, a number > 0 (default: the model's, or 0.01)",
     "rtol": "the relative tolerance, a number > 0 (default 1e-9)",
@@ -353,12 +354,15 @@ def simulate_request(body: bytes, problems: list[str] | None = None) -> tuple[di
         if not isinstance(inputs, dict):
             problems.append(f"inputs: expected an object {{name: expression}}, got {json.dumps(inputs)[:80]}")
         else:
-            for k, v in inputs.items():
-                if isinstance(v, bool) or not isinstance(v, (str, numbers.Real)):
-                    problems.append(f"inputs.{k}: expected an expression of t, the coordinates and velocities (a "
-                                    f"string such as \"1.5*sin(3*t)\" or \"-20*(q2 - pi/2) - 5*q2_dot\") or a number, "
-                                    f"got {json.dumps(v)[:80]}")
             kwargs["inputs"] = dict(inputs)
+            for k, v in inputs.items():
+                if isinstance(v, dict):
+                    kwargs["inputs"][k] = _checked(problems, _signal, v, f"inputs.{k}")
+                elif isinstance(v, bool) or not isinstance(v, (str, numbers.Real)):
+                    problems.append(f"inputs.{k}: expected an expression of t, the coordinates and velocities (a "
+                                    f"string such as \"1.5*sin(3*t)\" or \"-20*(q2 - pi/2) - 5*q2_dot\"), a number, "
+                                    f"or a measured signal {{\"t\": [...], \"values\": [...]}}, got "
+                                    f"{json.dumps(v)[:80]}")
     if obj.get("method") is not None:
         if not isinstance(obj["method"], str):
             problems.append(f"method: expected a name such as \"DOP853\", got {json.dumps(obj['method'])}")
@@ -367,6 +371,42 @@ def simulate_request(body: bytes, problems: list[str] | None = None) -> tuple[di
     if problems and given is None:
         raise BadRequest(*problems)
     return obj, kwargs
+
+
+#: The keys of a measured signal in a simulation request.
+SIGNAL_KEYS = ("t", "values", "interpolation", "extrapolation")
+
+
+def _signal(obj: dict, where: str):
+    """A measured signal sent as data, {"t": [...], "values": [...], "interpolation": "linear" or
+    "cubic", "extrapolation": "error" or "hold"}: a table of numbers (at most MAX_ROWS samples) that
+    the browser read from the user's CSV; never a file on the server."""
+    from ..numeric import Signal
+
+    unknown = [k for k in obj if k not in SIGNAL_KEYS]
+    if unknown:
+        raise BadRequest(f"{where}: unknown key '{str(unknown[0])[:40]}'{did_you_mean(str(unknown[0]), SIGNAL_KEYS)}; "
+                         f"a measured signal has the keys {', '.join(SIGNAL_KEYS)}")
+    columns = []
+    for key in ("t", "values"):
+        column = obj.get(key)
+        if not isinstance(column, list) or not all(isinstance(v, numbers.Real) and not isinstance(v, bool)
+                                                   for v in column):
+            raise BadRequest(f"{where}.{key}: expected a list of numbers, got {json.dumps(column)[:80]}")
+        if len(column) > MAX_ROWS:
+            raise BadRequest(f"{where}.{key}: {len(column)} samples, more than the limit of {MAX_ROWS} per request; "
+                             "resample the signal more coarsely")
+        columns.append(column)
+    options = {}
+    for key, default in (("interpolation", "linear"), ("extrapolation", "error")):
+        value = obj.get(key, default)
+        if not isinstance(value, str):
+            raise BadRequest(f"{where}.{key}: expected a string, got {json.dumps(value)[:80]}")
+        options[key] = value
+    try:
+        return Signal(*columns, options["interpolation"], options["extrapolation"], name=where.partition(".")[2])
+    except ModelError as exc:
+        raise BadRequest(f"{where}: {exc}") from None
 
 
 def _request_problems(obj: dict, problems: list[str]) -> ModelError:
@@ -423,6 +463,7 @@ def simulate_task(body: bytes) -> Reply:
         "columns": {name: table[:, k].tolist() for k, name in enumerate(traj.columns)},
         "state_names": list(traj.state_names),
         "input_names": list(traj.input_names),
+        "output_names": list(traj.outputs),
         "energy_name": traj.energy_name,
         "conservative": bool(traj.conservative),
         "energy_drift": traj.energy_drift,

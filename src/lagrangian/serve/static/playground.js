@@ -19,6 +19,8 @@ const state = {
   checkSeq: 0, simSeq: 0, eqSeq: 0,
   playing: true, playStart: 0, playFrom: 0,
   busy: new Map(),      // what is running -> start time
+  signals: {},          // input name -> a measured signal read from the user's CSV in the browser:
+                        // {t, values, interpolation, label}, sent as data (the server reads no file)
 };
 
 // ------------------------------------------------------------------ status line
@@ -216,24 +218,66 @@ function buildControls(a) {
     state.values[name] = v;
     addSlider(ibox, name, v, a.coordinates.includes(name) ? "q" : "qdot");
   }
+  state.signals = {};
   if (a.inputs.length) {
-    const ubox = group("Inputs (expressions of t, or feedback laws of the state)");
+    const ubox = group("Inputs (expressions of t, feedback laws of the state, or a measured signal from a CSV)");
     for (const name of a.inputs) {
       const value = (sim.inputs || {})[name];
       const row = document.createElement("div");
       row.className = "slider input-row";
-      row.innerHTML = `<label for="input-${name}">${lgEscape(name)}</label><input type="text" id="input-${name}" value="${lgEscape(value == null ? "0" : String(value))}">`;
+      row.innerHTML = `<label for="input-${name}">${lgEscape(name)}</label><input type="text" id="input-${name}" value="${lgEscape(value == null ? "0" : String(value))}">`
+        + `<label class="signal-file" title="a CSV: a header row, time in the column t (or time, or the first), the values in the column ${lgEscape(name)} (or the second)">CSV…<input type="file" accept=".csv,text/csv" id="signal-${name}" hidden></label>`;
       ubox.appendChild(row);
-      row.children[1].addEventListener("change", () => scheduleRun(false));
+      row.children[1].addEventListener("change", () => { delete state.signals[name]; scheduleRun(false); });
+      $(`signal-${name}`).addEventListener("change", (e) => readSignal(name, e.target.files[0]));
     }
   }
+}
+
+// A measured signal: the user's CSV read here, in the browser, and sent as numbers.
+function parseSignalCsv(text, name) {
+  const lines = text.split(/\r?\n/).map((l) => l.trim()).filter((l) => l && !l.startsWith("#"));
+  if (lines.length < 3) throw new Error("expected a header row and at least two rows of numbers");
+  const header = lines[0].split(",").map((h) => h.trim());
+  let ti = header.findIndex((h) => h === "t" || h.toLowerCase() === "time");
+  if (ti < 0) ti = 0;
+  let vi = header.indexOf(name);
+  if (vi < 0) vi = header.findIndex((h, k) => k !== ti);
+  if (vi < 0) throw new Error(`no column of values beside the time column '${header[ti]}'`);
+  const t = [], values = [];
+  for (let k = 1; k < lines.length; k++) {
+    const cells = lines[k].split(",");
+    const a = Number(cells[ti]), b = Number(cells[vi]);
+    if (cells.length !== header.length || !Number.isFinite(a) || !Number.isFinite(b)) {
+      throw new Error(`row ${k + 1}: expected ${header.length} numbers, got '${lines[k].slice(0, 60)}'`);
+    }
+    t.push(a); values.push(b);
+  }
+  return { t, values, column: header[vi] };
+}
+
+function readSignal(name, file) {
+  if (!file) return;
+  const box = $(`input-${name}`);
+  file.text().then((text) => {
+    try {
+      const sig = parseSignalCsv(text, name);
+      state.signals[name] = { t: sig.t, values: sig.values, interpolation: "linear" };
+      box.value = `@${file.name}:${sig.column} (${sig.t.length} samples, linear)`;
+      box.classList.add("signal");
+      scheduleRun(false);
+    } catch (err) {
+      $("sim-info").textContent = `${file.name}: ${err.message}`;
+      $("sim-info").className = "note bad";
+    }
+  });
 }
 
 function simulationRequest() {
   const a = state.analysis, v = state.values;
   const pick = (names) => Object.fromEntries(names.filter((n) => n in v).map((n) => [n, v[n]]));
   const inputs = {};
-  for (const name of a.inputs) inputs[name] = $(`input-${name}`).value.trim() || "0";
+  for (const name of a.inputs) inputs[name] = state.signals[name] || $(`input-${name}`).value.trim() || "0";
   return {
     model: state.goodText,
     t_end: Number($("t-end").value),
