@@ -60,7 +60,7 @@ def test_prismatic_joint_on_a_turntable():
     m.add_rigid_body("I", ["I", "I", "I"], frame="rod")
     m.add_rigid_body("m", [0, 0, 0], frame="bead")
     eqs = lg.derive(m)
-    r, phi = m.q[1], m.q[0]
+    r = m.q[1]
     rd, phid = sp.Symbol("r_dot"), sp.Symbol("phi_dot")
     T = mass * (rd ** 2 + r ** 2 * phid ** 2) / 2 + I * phid ** 2 / 2
     assert m.q == (sp.Symbol("phi"), sp.Symbol("r"))
@@ -267,3 +267,27 @@ def test_joint_name_errors():
     m.parameter("p", 1.0)
     with pytest.raises(ModelError, match=r"'p' is already a parameter"):
         m.add_joint("p", "revolute")
+
+
+def test_limits_with_a_stiffness_are_one_sided_springs():
+    m = lg.Model("stop")
+    m.parameter("k", 1000.0)
+    j = m.add_joint("q", "revolute", limits=(-0.5, 1.0), limit_stiffness="k")
+    m.add_rigid_body(1, [1, 1, 1], frame="q")
+    f = lg.derive(m).forcing[0]
+    q, qd = sp.Symbol("q"), sp.Symbol("q_dot")
+    at = {sp.Symbol("k"): 1000, qd: 0}
+    assert float(f.subs(at | {q: 1.1})) == pytest.approx(-100.0)
+    assert float(f.subs(at | {q: 0.3})) == 0.0
+    assert float(f.subs(at | {q: -0.7})) == pytest.approx(200.0)
+    assert j.limit_stiffness == sp.Symbol("k")
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(limit_stiffness=10), r"a limit stiffness needs limits"),
+    (dict(limits=(0, 1), limit_stiffness=-1), r"a limit stiffness is positive"),
+])
+def test_limit_stiffness_errors(kwargs, match):
+    m = lg.Model("x")
+    with pytest.raises(ModelError, match=match):
+        m.add_joint("j", "revolute", **kwargs)

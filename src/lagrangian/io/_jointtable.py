@@ -13,7 +13,8 @@
     rpy = [0, 0, "pi/2"]             #   or rpy = [roll, pitch, yaw] as in URDF: Rz(yaw) Ry(pitch) Rx(roll))
     axis = "z"                       # optional: "x", "y", "z" or [ax, ay, az] (universal: two of them)
     coordinates = ["q1"]             # optional: the joint's coordinate names (default: from its name)
-    limits = ["-pi/2", "pi/2"]       # optional: [lower, upper] (one pair per coordinate), recorded
+    limits = ["-pi/2", "pi/2"]       # optional: [lower, upper] (one pair per coordinate), recorded ...
+    limit_stiffness = "k_stop"       # ... and enforced by one-sided springs of this stiffness, if given
     damping = "c"                    # optional: viscous damping, D = c q_dot**2 / 2 (per coordinate: a list)
     friction = "F"                   # optional: Coulomb friction, Q = -F sign(q_dot)
     sequence = "xyz"                 # spherical and floating joints: the angle sequence
@@ -35,7 +36,7 @@ __all__ = ["JOINT_KEYS", "declare_joint_coordinates", "read_joints"]
 
 #: The keys of a [[joints]] table.
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "rotation", "matrix", "rpy", "axis", "coordinates",
-              "limits", "damping", "friction", "sequence")
+              "limits", "limit_stiffness", "damping", "friction", "sequence")
 
 
 def _names(table: Mapping[str, Any]) -> list[str]:
@@ -116,6 +117,8 @@ def read_joints(reader, value: object) -> None:
                 angles = [reader.expr(a, f"{key}.rpy[{i}]") for i, a in enumerate(rpy)]
                 if all(a is not None for a in angles):
                     kwargs["rotation"] = [(axis, a) for axis, a in zip("zyx", angles[::-1]) if a != 0] or None
+        if "limit_stiffness" in table:
+            kwargs["limit_stiffness"] = reader.expr(table["limit_stiffness"], f"{key}.limit_stiffness")
         for k in ("damping", "friction"):
             if k in table:
                 v = table[k]
@@ -127,17 +130,23 @@ def read_joints(reader, value: object) -> None:
             kwargs["limits"] = _limits(reader, table["limits"], f"{key}.limits")
         if len(reader.problems) > before or any(v is None for k, v in kwargs.items() if k != "sequence"):
             entry.ok = False
-            reader.frame_names.setdefault(table.get("child", name), None)
+            if isinstance(table.get("child", name), str):
+                reader.frame_names.setdefault(table.get("child", name), None)
             continue
         try:
             reader.model.add_joint(name, table["type"], **kwargs)
         except ModelError as exc:
             prefix = f"joint '{name}'"
             for p in exc.problems:
-                k = p.key or prefix
+                k, message = p.key or prefix, p.message
+                if p.key is None and message.startswith(prefix + "."):  # "joint 'j'.axis: ..." from a Model method
+                    field, _, message = message[len(prefix) + 1:].partition(": ")
+                    k = f"{prefix}.{field}"
                 k = key + k[len(prefix):] if k.startswith(prefix) else k
-                reader.problem(k, p.message)
+                reader.problem(k, message)
             entry.ok = False
+            if isinstance(table.get("child", name), str):
+                reader.frame_names.setdefault(table.get("child", name), None)
             continue
         child = table.get("child", name)
         reader.frame_keys[child] = key

@@ -1017,7 +1017,8 @@ class _Reader:
 
     def model_has_frame_problem(self, name: str) -> bool:
         """Whether `name` is a [[frames]] table that was not built because of its own problems."""
-        return any(p.key and p.key.startswith("frames[") for p in self.problems) and name in self.frame_names
+        return (any(p.key and p.key.startswith(("frames[", "joints[")) for p in self.problems)
+                and name in self.frame_names)
 
     # -- elements -------------------------------------------------------------------------------
     def read_elements(self, data: Mapping[str, Any]) -> None:

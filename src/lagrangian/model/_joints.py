@@ -49,8 +49,10 @@ to the joint frame. `friction` F adds Coulomb friction, the generalized force -F
 coordinate (discontinuous at q' = 0: an adaptive integrator takes small steps there).
 
 Limits: ``limits = (lower, upper)`` per coordinate are recorded on the joint
-(:attr:`Joint.limits`) and checked for lower < upper; they do not yet add forces (no one-sided
-element exists in this version).
+(:attr:`Joint.limits`) and checked for lower < upper. With a `limit_stiffness` k they are enforced
+by two one-sided springs on the coordinate (``add_spring(..., acts=...)``): V = k (q - upper)^2 / 2
+beyond the upper limit, k (lower - q)^2 / 2 below the lower one, nothing in between (a stiff end
+stop; the integrator takes small steps while it is touched). Without it, nothing pushes back.
 """
 
 from __future__ import annotations
@@ -120,6 +122,7 @@ class Joint:
     damping: tuple | None = None
     friction: tuple | None = None
     sequence: str | None = None
+    limit_stiffness: sympy.Expr | None = None
 
     @property
     def motion(self) -> tuple[Factor, ...]:
@@ -213,7 +216,7 @@ def _types_text() -> str:
 
 def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, child: str | None = None,
               origin=(0, 0, 0), rotation=None, axis=None, coordinates=None, limits=None, damping=None,
-              friction=None, sequence: str | None = None) -> Joint:
+              friction=None, sequence: str | None = None, limit_stiffness=None) -> Joint:
     """Add a joint to `model` (:meth:`Model.add_joint` documents the arguments). All or nothing: on a
     problem, nothing is added and one ModelError lists every problem found."""
     from .._util import did_you_mean
@@ -347,6 +350,17 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
     limits_t = _per_coordinate_pairs(model, limits, n, where, problem) if limits is not None else (None,) * n
     damping_t = _per_coordinate(model, damping, n, where, "damping", problem, type)
     friction_t = _per_coordinate(model, friction, n, where, "friction", problem, type)
+    k_limit = None
+    if limit_stiffness is not None:
+        k_limit = _constant(model, limit_stiffness, "limit_stiffness", problem)
+        if limits is None:
+            problem("limit_stiffness", "a limit stiffness needs limits = (lower, upper) to act at: give the limits, "
+                                       "or remove it")
+        elif type in ("spherical", "floating"):
+            problem("limit_stiffness", f"the limits of a {type} joint's angles are not enforced (they are Euler "
+                                       "angles, not a physical stop): remove limit_stiffness")
+        elif k_limit is not None and k_limit.is_number and not k_limit > 0:
+            problem("limit_stiffness", f"a limit stiffness is positive, got {k_limit}")
     if problems:
         raise ModelError(problems)
 
@@ -354,7 +368,8 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
         model.coordinate(cname)
     symbols = {c.name: c for c in model._coordinates}
     q = tuple(symbols[c.name if isinstance(c, sympy.Symbol) else c] for c in names)
-    joint = Joint(name, type, parent, child, q, tuple(o), factors, axes, limits_t, damping_t, friction_t, seq)
+    joint = Joint(name, type, parent, child, q, tuple(o), factors, axes, limits_t, damping_t, friction_t, seq,
+                  k_limit)
     model._frames[child] = joint.frame()
     if damping_t is not None:
         if type in ("spherical",):
@@ -370,6 +385,14 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
             if F != 0:
                 suffix = "" if n == 1 else f"_{i + 1}"
                 model.add_torque(-F * sympy.sign(dot(qi)), angle=qi, name=f"{name}_friction{suffix}")
+    if k_limit is not None:
+        for i, (qi, pair) in enumerate(zip(q, limits_t)):
+            if pair is None:
+                continue
+            suffix = "" if n == 1 else f"_{i + 1}"
+            model.add_spring(k_limit, length=qi, rest_length=pair[1], acts="tension", name=f"{name}_upper_stop{suffix}")
+            model.add_spring(k_limit, length=qi, rest_length=pair[0], acts="compression",
+                             name=f"{name}_lower_stop{suffix}")
     if not hasattr(model, "_joints"):
         model._joints = {}
     model._joints[name] = joint

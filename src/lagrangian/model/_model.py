@@ -404,7 +404,7 @@ class Model:
 
     def add_joint(self, name: str, type: str, *, parent: str = WORLD, child: str | None = None, origin=(0, 0, 0),
                   rotation=None, axis=None, coordinates=None, limits=None, damping=None, friction=None,
-                  sequence: str | None = None):
+                  sequence: str | None = None, limit_stiffness=None):
         """A joint from the frame `parent` to a new frame `child` (default: the joint's name), with its
         coordinates (declared here unless declared before) and its dampers and friction.
 
@@ -426,7 +426,9 @@ class Model:
         coordinates : str or list of str, optional
             The joint's coordinate names (defaults: see :mod:`lagrangian.model._joints`).
         limits : (lower, upper), or one pair (or None) per coordinate
-            Recorded on the joint (not enforced: no forces).
+            Recorded on the joint; enforced only with `limit_stiffness`.
+        limit_stiffness : expression, optional
+            Enforce the limits by one-sided springs of this stiffness (end stops).
         damping, friction : expression, or one per coordinate
             Viscous damping (D = c q_dot^2 / 2; a spherical joint: D = c |omega|^2 / 2) and Coulomb
             friction (Q = -F sign(q_dot)), constants.
@@ -442,7 +444,7 @@ class Model:
 
         return add_joint(self, name, type, parent=parent, child=child, origin=origin, rotation=rotation, axis=axis,
                          coordinates=coordinates, limits=limits, damping=damping, friction=friction,
-                         sequence=sequence)
+                         sequence=sequence, limit_stiffness=limit_stiffness)
 
     # ------------------------------------------------------------------- bodies
     def add_rigid_body(self, mass, inertia, position=None, angle=None, *, frame: str | None = None,
