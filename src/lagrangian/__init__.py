@@ -18,6 +18,7 @@ from .analysis import (Continuation, Equilibria, Equilibrium, LinearModel, Modes
                        continuation, equilibria, linearize, modes, steady_motions)
 from .analysis import InverseDynamics, Kinematics, inverse_dynamics, kinematics
 from .identification import Identifiability, identifiability
+from .optimal_control import OptimalControlError, OptimalMotion, optimal_motion
 from .reporting import Report, report
 
 from ._version import __version__ as __version__
@@ -39,6 +40,7 @@ __all__ = [
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "kinematics", "Kinematics", "inverse_dynamics", "InverseDynamics",
     "identifiability", "Identifiability",
+    "optimal_motion", "OptimalMotion", "OptimalControlError",
     "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate",
     "simulate_batch", "BatchResult", "grid", "Trajectory", "Signal", "dot", "ddot", "t",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",

@@ -166,6 +166,8 @@ _TOP_LEVEL: dict[str, str] = {
     "operating_point": "a table [operating_point] of coordinate or velocity = number or expression of parameters",
     "simulation": "a table [simulation] with t_end, dt, rtol, atol, initial and inputs",
     "outputs": "a table [outputs] of name = expression (or \"<point>.x\"): named outputs of the state",
+    "optimal_control": "a table [optimal_control] (duration, objective, initial, final, inputs, bounds, path): "
+                       "the optimal motion problem of lagrangian optimize",
 }
 
 #: Keys of each kind of element table: required ones first, then optional ones.
@@ -581,6 +583,7 @@ class _Reader:
         self.read_outputs(data.get("outputs"))
         self.read_simulation(data.get("simulation"))
         self.read_operating_point(data.get("operating_point"))
+        self.read_optimal_control(data.get("optimal_control"))
         self.check_model()
         self.raise_if_problems()
         return self.model
@@ -1642,6 +1645,19 @@ class _Reader:
                 continue
             out[name] = e
         self.model.operating_point = out
+
+    def read_optimal_control(self, value: object) -> None:
+        """[optimal_control]: checked by the one validator of the problem (io._optimal)."""
+        if value is None:
+            return
+        from ._optimal import check_optimal_control
+
+        names = {k: v for k, v in self.names.items() if not k.endswith("_ddot")}
+        table = check_optimal_control(value, names, [c.name for c in self.model.q],
+                                      [u.name for u in self.model.inputs], self.problem,
+                                      lambda item, key, known: self.expr(item, key, known))
+        if table is not None:
+            self.model.optimal_control = table
 
     def read_names(self, value: object, key: str, names: list[str], what: str) -> list[str] | None:
         """A list of names among `names` (what: "coordinate" or "velocity"), or None after problems."""

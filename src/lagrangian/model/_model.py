@@ -88,6 +88,8 @@ class Model:
         #: The state to linearize about when none is given: coordinate or velocity name -> an
         #: expression of the parameters (a bicycle at speed v: {"thetaR_dot": -v/rR}).
         self.operating_point: dict = {}
+        #: The validated [optimal_control] table (io._optimal), the problem lagrangian.optimal_motion solves.
+        self.optimal_control: dict = {}
         self._naming_problems: list[Problem] = []
         for c in coordinates:
             self.coordinate(c)
@@ -1044,6 +1046,7 @@ class Model:
         self._outputs = dict(getattr(self, "_outputs", {}))
         self.simulation = copy.deepcopy(self.simulation)
         self.operating_point = dict(self.operating_point)
+        self.optimal_control = dict(getattr(self, "optimal_control", {}))
         return self
 
     def _repr_html_(self) -> str:
