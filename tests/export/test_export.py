@@ -328,6 +328,28 @@ def test_modelica_names_that_are_reserved_words_are_quoted(tmp_path):
     assert res["x"][-1] == pytest.approx(math.cos(2.0), abs=1e-8)  # x'' = -4 x
 
 
+def test_modelica_outputs_are_output_reals_that_rumoca_simulates(tmp_path):
+    """The model file's [outputs] are `output Real`s of the Modelica model (issue 21, Part 0): rumoca
+    simulates them to lagrangian's outputs; an output named like a Modelica keyword is quoted."""
+    rm = pytest.importorskip("rumoca", reason="rumoca (pip install rumoca), a Modelica compiler, checks the model")
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "models" / "double-pendulum-outputs.toml").read_text()
+    eqs = lg.derive(lg.io.loads_model(text + '\nfinal = "th1 - th2"\n', source="dp.toml"))
+    path = tmp_path / "dp.mo"
+    export_modelica(eqs, path, initial={"th1": 0.7, "th2": -0.4})
+    mo = path.read_text()
+    assert "  output Real tip_x \"the output tip_x of the model file\";" in mo
+    assert "  output Real 'final' " in mo and "  'final' = th1 - th2;" in mo
+    assert rm.validate(str(path), model="Dp") == []
+    session = rm.Session(roots=[str(tmp_path)])
+    model = session.loads("model Test\n  Dp plant(F = 0.3*time);\nend Test;\n", model="Test")
+    res = model.simulate(t=(0.0, 2.0), dt=0.1, config=rm.SimConfig(rtol=1e-12, atol=1e-12))
+    ours = lg.simulate(eqs, 2.0, {"th1": 0.7, "th2": -0.4}, inputs={"F": "0.3*t"}, dt=0.1, rtol=1e-13, atol=1e-13)
+    for name, quoted in (("tip_x", "tip_x"), ("tip_y", "tip_y"), ("push", "push"), ("final", "'final'")):
+        assert np.max(np.abs(res[f"plant.{quoted}"] - ours[name])) < 1e-7, name
+
+
 # -------------------------------------------------------------------------------------- C
 
 

@@ -116,8 +116,9 @@ def modelica_source(eq: Equations, params: Mapping | None = None, initial: Mappi
     x0 = start_state(eq, initial, params)
     n = eq.n
     fixed = _fixed_states(eq, x0, pvalues) if eq.is_constrained else [True] * (2 * n)
+    outputs = dict(eq.model.outputs) if eq.model is not None else {}  # the named outputs: output Real
     used = (set(eq.state_names) | {u.name for u in eq.inputs} | {p.name for p in eq.parameters}
-            | {m.name for m in eq.multipliers})
+            | {m.name for m in eq.multipliers} | set(outputs))
     pi = "pi"
     while pi in used:
         pi += "_"
@@ -149,6 +150,8 @@ def modelica_source(eq: Equations, params: Mapping | None = None, initial: Mappi
     for con, lam in zip(eq.model.constraints, eq.multipliers):
         what = modelica_string(f"the multiplier of the {con.kind} constraint {con.name}")
         lines.append(f"  output Real {names[lam.name]} {what};")
+    for name in outputs:
+        lines.append(f"  output Real {names[name]} {modelica_string(f'the output {name} of the model file')};")
     lines.append("protected")
     lines.append(f"  constant Real {pi} = {_number(float(sympy.pi))};")
     lines.append("equation")
@@ -173,6 +176,8 @@ def modelica_source(eq: Equations, params: Mapping | None = None, initial: Mappi
     for con in eq.model.constraints:
         lines.append(f"  {printer.doprint(eq.constraints[con.name])} = 0;  // {con.kind} constraint {con.name}")
     lines.append(f"  {modelica_name(energy)} = {printer.doprint(eq.readable(eq.jacobi_integral))};")
+    for name, expr in outputs.items():
+        lines.append(f"  {names[name]} = {printer.doprint(eq.readable(expr))};")
     sim = eq.model.simulation
     if sim.get("t_end"):
         parts = [f"StartTime = 0, StopTime = {_number(sim['t_end'])}"]
