@@ -337,7 +337,8 @@ CASES = [
     pytest.param('coordinates = ["x"]\n[parameters]\nk = "2"\n', "parameters.k", 'k = "2"',
                  r"expected a number, got the string '2'; write k = 2", id="parameter-string"),
     pytest.param('coordinates = ["x"]\n[parameters]\nk = "2*m"\n', "parameters.k", 'k = "2*m"',
-                 r"expected a number, got the string '2\*m'; a parameter value is a plain number",
+                 r"the parameter 'k' = '2\*m' uses m, which is not a parameter: a derived parameter is an "
+                 r"expression of the other parameters: declare m under \[parameters\] with a value",
                  id="parameter-expression"),
     pytest.param('coordinates = ["x"]\n[parameters]\nk = true\n', "parameters.k", "k = true",
                  r"expected a number, got the boolean true", id="parameter-bool"),

@@ -53,7 +53,11 @@ def parameter_values(model, params: Mapping[str, float], leave_out: Sequence[str
     names = [p.name for p in model.parameters]
     values = {p.name: float(v) for p, v in model.parameters.items() if v is not None}
     values.update({k: v for k, v in params.items() if k in names})
-    return {k: v for k, v in values.items() if k not in leave_out}
+    out = {k: v for k, v in values.items() if k not in leave_out}
+    for k, e in getattr(getattr(model, "model", model), "derived_parameters", {}).items():
+        if {s.name for s in e.free_symbols} <= set(out):  # a derived parameter at these values
+            out[k] = float(e.xreplace({s: out[s.name] for s in e.free_symbols}))
+    return out
 
 
 def check_writable(path: str, example: str = "out.csv", option: str = "--output") -> None:

@@ -586,6 +586,9 @@ class Equations:
                             for k, (c, g) in enumerate(zip(self.model.constraints, self.constraints.values()))],
             "multipliers": [m.name for m in self.multipliers],
         }
+        derived = getattr(self.model, "derived_parameters", {})
+        if derived:  # parameters given as expressions of the others: not free, so not among "parameters"
+            out["derived_parameters"] = {k: s(v) for k, v in derived.items()}
         if self.linear is not None:
             lin = self.linear
             out["linear"] = {k: [[s(x) for x in getattr(lin, k).row(r)] for r in range(self.n)]

@@ -135,7 +135,7 @@ import sympy
 from .._util import closest, did_you_mean
 from ..errors import ExpressionError, ModelError, ModelFileError, Problem, UnknownNameError
 from ..model._elements import Element, shape_problems
-from ..model._model import Model
+from ..model._model import Model, derived_order
 from ._expr import parse_expression
 from ._jointtable import declare_joint_coordinates, read_joints
 
@@ -571,7 +571,7 @@ class _Reader:
         self.read_header(data)
         self.read_symbols(data)
         declare_joint_coordinates(self, data.get("joints"))
-        self.names = self.model.names(accelerations=True)
+        self.names = {**self.model.names(accelerations=True), **self.model.derived_parameters}
         self.read_energy(data.get("energy"))
         self.read_forces(data.get("forces"))
         self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
@@ -670,6 +670,7 @@ class _Reader:
             self.problem("parameters", f"expected a table of name = number, got {_describe(parameters)}; "
                                        "write a [parameters] header followed by lines such as m = 1.5")
             return
+        derived: dict[str, str] = {}  # name = "expression of other parameters"
         for name, value in parameters.items():
             key = f"parameters.{name}"
             if name in _TOP_LEVEL and not _is_number(value):
@@ -677,9 +678,26 @@ class _Reader:
                                   "after the [parameters] header belongs to that table, so move it "
                                   "before the first [table] header")
                 continue
+            if isinstance(value, str) and _toml_number(value) is None:
+                derived[name] = value
+                continue
             number = self.number(value, key, name, what="parameter value")
             # declared even without a valid value, so that expressions using it still parse
             self.declare(key, self.model.parameter, name, number)
+        self.derived_parameters(derived)
+
+    def derived_parameters(self, derived: Mapping[str, str]) -> None:
+        """Parameters given as expressions of the others, declared in dependency order (a cycle is a problem)."""
+        if not derived:
+            return
+        known = {p.name: None for p in self.model.parameters}
+        try:
+            order = [n for n in derived_order({**known, **derived}) if n in derived]
+        except ModelError as exc:
+            self.model_error("parameters", exc)
+            return
+        for name in order:
+            self.declare(f"parameters.{name}", self.model.parameter, name, derived[name])
 
     def name_list(self, value: object, key: str, example: str) -> list[str] | None:
         """A list of names (coordinates, inputs), or None after recording a problem."""

@@ -43,6 +43,8 @@ class Model:
     parameters : mapping of str to float or None, optional
         Named constants and their values (SI units, radians). ``None`` leaves a parameter
         without a value: fine for symbolic work, but a simulation then needs it in ``params``.
+        A value may be an expression of other parameters (``{"lA": "(l + r)/2"}``): a derived
+        parameter (see :meth:`parameter`), in any order (resolved by dependency; a cycle is refused).
     inputs : sequence of str, optional
         Names of external inputs (forces, torques, signals) that may appear in V, D and Q.
     T, V, D : expression, optional
@@ -73,6 +75,7 @@ class Model:
         self.description = description
         self._coordinates: list[sympy.Symbol] = []
         self._parameters: dict[sympy.Symbol, float | None] = {}
+        self._derived: dict[str, sympy.Expr] = {}  # derived parameters: name -> expression of the others
         self._inputs: list[sympy.Symbol] = []
         self._elements: list[Element] = []
         self._frames: dict[str, Frame] = {}
@@ -93,8 +96,9 @@ class Model:
         self._naming_problems: list[Problem] = []
         for c in coordinates:
             self.coordinate(c)
-        for p, v in (parameters or {}).items():
-            self.parameter(p, v)
+        parameters = dict(parameters or {})
+        for p in derived_order(parameters):
+            self.parameter(p, parameters[p])
         for u in inputs:
             self.input(u)
         self.add_energy(T=T, V=V, D=D)
@@ -124,8 +128,21 @@ class Model:
             out.append(s)
         return out[0] if len(out) == 1 else tuple(out)
 
-    def parameter(self, name: str, value: float | None = None) -> sympy.Symbol:
-        """Declare a named constant with its value (SI units, radians)."""
+    def parameter(self, name: str, value: float | str | sympy.Expr | None = None) -> sympy.Expr:
+        """Declare a named constant with its value (SI units, radians); returns its symbol.
+
+        A `value` that is an expression of other parameters (a string in the model-file syntax such
+        as ``"(l + r)/2"``, or a SymPy expression of their symbols) declares a *derived parameter*:
+        it is not a free parameter (it has no symbol of its own and is not among :attr:`parameters`,
+        nor in the parameters of the equations, of fit or linearize); every expression that names it
+        uses its expression instead, so that a new value of ``l`` (``params={"l": 2.0}`` at
+        simulate time) changes it too. Returns that expression. It may name only parameters declared
+        before it (in a model file or the `parameters` mapping: in any order)."""
+        if isinstance(value, (str, sympy.Basic)) and not (isinstance(value, sympy.Basic) and value.is_Number
+                                                          or isinstance(value, str) and _is_number_text(value)):
+            return self._derived_parameter(name, value)  # a number in quotes is refused below, as in a model file
+        if isinstance(value, sympy.Basic):
+            value = float(value)
         self._check_new_name(name, "parameter")
         if value is not None and (not isinstance(value, numbers.Real) or isinstance(value, bool)
                                   or not math.isfinite(value)):
@@ -133,6 +150,52 @@ class Model:
         s = sympy.Symbol(name)
         self._parameters[s] = None if value is None else float(value)
         return s
+
+    def _derived_parameter(self, name: str, value) -> sympy.Expr:
+        from ._expr import identifiers
+
+        self._check_new_name(name, "parameter")
+        where = f"parameters.{name}"
+        if isinstance(value, str):
+            try:
+                used = {n for n, _ in identifiers(value)}
+            except ExpressionError as exc:
+                raise ModelError([Problem(str(exc), key=where)]) from None
+            if name in used:
+                raise ModelError([Problem(f"the parameter '{name}' = {value!r} refers to itself: a derived parameter "
+                                          "is an expression of other parameters; give it a number, or write it with "
+                                          "the others only", key=where)])
+            known = set(self._all_names()) | {"t", "pi"} | {dot(c).name for c in self._coordinates}
+            unknown = [n for n in dict.fromkeys(u for u, _ in identifiers(value)) if n not in known]
+            if unknown:
+                params = [p.name for p in self._parameters] + list(self._derived)
+                raise ModelError([Problem(f"the parameter '{name}' = {value!r} uses {', '.join(unknown)}, which is "
+                                          f"not a parameter{did_you_mean(unknown[0], params)}: a derived parameter is "
+                                          "an expression of the other parameters: declare "
+                                          f"{unknown[0]} under [parameters] with a value, or give '{name}' a number",
+                                          key=where)])
+        expr = self.expr(value, where)
+        symbols = set(self._parameters)
+        others = sorted((s.name for s in expr.free_symbols if s not in symbols), key=str)
+        if others:
+            raise ModelError([Problem(f"a derived parameter is an expression of other parameters, but '{name}' uses "
+                                      f"{', '.join(others)} (not a parameter: a coordinate, velocity, input or t "
+                                      "varies); write it with parameters and numbers only", key=where)])
+        values = {p: v for p, v in self._parameters.items() if v is not None}
+        if expr.free_symbols <= set(values):
+            number = complex(expr.xreplace({p: sympy.Float(v) for p, v in values.items()}).evalf())
+            if not (math.isfinite(number.real) and abs(number.imag) <= 1e-12 * (1 + abs(number.real))):
+                shown = f"{number.real:g}" if number.imag == 0 else f"{number:g}"
+                raise ModelError([Problem(f"the parameter '{name}' = {expr} is not a finite real number at the "
+                                          f"parameters' values ({shown}): check the expression and the values it "
+                                          "uses", key=where)])
+        self._derived[name] = expr
+        return expr
+
+    @property
+    def derived_parameters(self) -> dict[str, sympy.Expr]:
+        """The derived parameters: name -> their expression of the (free) parameters."""
+        return dict(getattr(self, "_derived", {}))
 
     def input(self, name: str) -> sympy.Symbol:
         """Declare a named external input (a force, torque or signal given at simulation time)."""
@@ -237,7 +300,7 @@ class Model:
     def _all_names(self) -> set[str]:
         names = {c.name for c in self._coordinates} | {p.name for p in self._parameters}
         names |= {c.multiplier.name for c in getattr(self, "_constraints", ())} | set(getattr(self, "_outputs", ()))
-        return names | {u.name for u in self._inputs}
+        return names | {u.name for u in self._inputs} | set(getattr(self, "_derived", ()))
 
     # -------------------------------------------------------------- expressions
     def expr(self, value, where: str = "expression") -> sympy.Expr:
@@ -255,7 +318,7 @@ class Model:
             from ._expr import parse_expression
 
             try:
-                return parse_expression(value, self.names())
+                return parse_expression(value, {**self.names(), **getattr(self, "_derived", {})})
             except ExpressionError as exc:
                 raise ModelError([Problem(str(exc), key=where)]) from None
         raise ModelError(f"{where}: expected an expression, a number or a string, got {value!r} "
@@ -1036,6 +1099,7 @@ class Model:
     def _with_copied_containers(self):
         self._coordinates = list(self._coordinates)
         self._parameters = dict(self._parameters)
+        self._derived = dict(getattr(self, "_derived", {}))
         self._inputs = list(self._inputs)
         self._elements = list(self._elements)
         self._frames = dict(self._frames)
@@ -1087,6 +1151,55 @@ class Model:
     def __repr__(self) -> str:
         return (f"Model({self.name!r}, coordinates={[c.name for c in self._coordinates]}, "
                 f"elements={len(self._elements)})")
+
+
+def _is_number_text(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def derived_order(parameters: Mapping[str, object], where: str = "parameters") -> list[str]:
+    """The names of `parameters` (name -> number, None, or an expression: a str or SymPy expression) in
+    an order in which each derived parameter comes after those it uses (numbers first, in their order).
+    A cycle is a ModelError that names it (``lA -> lB -> lA``)."""
+    from ._expr import identifiers
+
+    def uses(value) -> list[str]:
+        if isinstance(value, str):
+            try:
+                return [n for n, _ in identifiers(value) if n in parameters]
+            except ExpressionError:
+                return []  # reported when it is parsed
+        if isinstance(value, sympy.Basic):
+            return sorted(s.name for s in value.free_symbols if s.name in parameters)
+        return []
+
+    derived = [n for n, v in parameters.items() if isinstance(v, (str, sympy.Basic))
+               and not (isinstance(v, sympy.Basic) and v.is_Number or isinstance(v, str) and _is_number_text(v))]
+    out = [n for n in parameters if n not in derived]
+    state: dict[str, int] = {}  # 1: on the path, 2: placed
+
+    def visit(name: str, path: list[str]) -> None:
+        if state.get(name) == 2 or name not in derived:
+            return
+        if state.get(name) == 1:
+            cycle = path[path.index(name):] + [name]
+            if len(cycle) == 2:
+                return  # a self-reference: parameter() says so
+            raise ModelError([Problem(f"the parameters {' -> '.join(cycle)} are defined by each other in a cycle, so "
+                                      f"none of them has a value: give one of them a number", key=f"{where}.{name}")])
+        state[name] = 1
+        for other in uses(parameters[name]):
+            visit(other, path + [name])
+        state[name] = 2
+        out.append(name)
+
+    for name in derived:
+        visit(name, [])
+    return out
 
 
 def _nonlinear_in(expr, variables) -> bool:
