@@ -10,7 +10,7 @@ from .equations import (ConstraintConfiguration, ConstraintSingularityReport, De
                         SingularConfiguration, SingularityReport, constraint_singularities, derive, singularities)
 from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileError, OutputFileError, SimulationError,
                      SingularMassMatrixError, Status, UnknownNameError)
-from .io import load
+from .io import load, load_urdf
 from .model import Model, ddot, dot, t
 from .numeric import BatchResult, CompiledModel, NumericModel, Signal, Trajectory, grid, simulate, simulate_batch
 from .numeric import compile
@@ -34,7 +34,7 @@ def __getattr__(name):
     raise AttributeError(f"module 'lagrangian' has no attribute '{name}'")
 
 __all__ = [
-    "Model", "load", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
+    "Model", "load", "load_urdf", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
     "SingularConfiguration", "constraint_singularities", "ConstraintSingularityReport", "ConstraintConfiguration",
     "DeadPoints", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",

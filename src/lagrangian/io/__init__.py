@@ -10,7 +10,7 @@ from .._util import did_you_mean
 from ..errors import ModelFileError, Problem
 from ..model._expr import parse_expression
 
-__all__ = ["load", "parse_expression", "load_model_file", "loads_model"]
+__all__ = ["load", "parse_expression", "load_model_file", "loads_model", "load_urdf"]
 
 
 def load_model_file(path):
@@ -25,9 +25,40 @@ def loads_model(text: str, *, source: str = "<string>"):
     return _loads(text, source=source)
 
 
+def load_urdf(path: str | os.PathLike, *, floating_base: bool = False, gravity: float | None = 9.81):
+    """A Model from a URDF robot description: each moving joint a joint of the model (its coordinate
+    named after it, in the file's order), each link a rigid body in its frame, fixed joints merged.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.urdf`` file (at most 10 MiB; no DOCTYPE or ENTITY declarations; meshes never opened).
+    floating_base : bool, optional
+        Give the root link 6 coordinates (``floating_base_x`` .. ``floating_base_3``) instead of
+        fixing it to the world.
+    gravity : float or None, optional
+        The value of the parameter ``g``, gravity along -z (default 9.81); None for none.
+
+    Raises
+    ------
+    ModelFileError
+        Every problem of the file, each with what to do (mimic joints, cycles, bad inertia, ...).
+
+    Examples
+    --------
+    >>> arm = lg.load_urdf("ur5_robot.urdf")  # doctest: +SKIP
+    >>> [c.name for c in arm.q]  # doctest: +SKIP
+    ['shoulder_pan_joint', 'shoulder_lift_joint', 'elbow_joint', 'wrist_1_joint', 'wrist_2_joint', 'wrist_3_joint']
+    """
+    from ._urdf import load_urdf as _load
+
+    return _load(path, floating_base=floating_base, gravity=gravity)
+
+
 def load(source: str | os.PathLike):
-    """A Model from a built-in example name (``"cart-pendulum"``, ``"pendulum-chain-5"``) or the
-    path of a TOML model file.
+    """A Model from a built-in example name (``"cart-pendulum"``, ``"pendulum-chain-5"``), the
+    path of a TOML model file, or the path of a URDF robot description (``.urdf``: see
+    :func:`lagrangian.io._urdf.load_urdf`, which takes the options).
 
     Raises
     ------
@@ -37,6 +68,10 @@ def load(source: str | os.PathLike):
     from ..examples import example_names, example_source
 
     text = None
+    if str(source).lower().endswith(".urdf"):  # a robot description: io._urdf
+        from ._urdf import load_urdf
+
+        return load_urdf(source)
     if isinstance(source, str) and not source.endswith(".toml") and os.sep not in source:
         text = example_source(source)
         if text is not None:
