@@ -572,12 +572,14 @@ class _Reader:
         self.read_symbols(data)
         declare_joint_coordinates(self, data.get("joints"))
         self.names = {**self.model.names(accelerations=True), **self.model.derived_parameters}
-        self.read_energy(data.get("energy"))
-        self.read_forces(data.get("forces"))
         self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
         self.read_frames(data.get("frames"))
         read_joints(self, data.get("joints"))
         self.read_elements(data)
+        # [energy] and [forces] after the elements: they may use "<point>.x" (a point's position component)
+        self.names = {**self.names, **self.model._point_components()}
+        self.read_energy(data.get("energy"))
+        self.read_forces(data.get("forces"))
         self.read_constraints(data.get("constraints"))
         self.read_wheels(data.get("wheels"))
         self.read_outputs(data.get("outputs"))

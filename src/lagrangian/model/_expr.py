@@ -25,7 +25,9 @@ Whitespace (spaces, tabs, newlines) between tokens is ignored::
   scientific notation (``1e-3``, ``2.5E+4``). Numbers are exact: an integer becomes a
   ``sympy.Integer`` and a decimal the ``sympy.Rational`` it denotes (``0.5`` is 1/2).
 * ``NAME``: ``[A-Za-z_][A-Za-z0-9_]*``, one of the names given to
-  :func:`parse_expression`, or ``pi``.
+  :func:`parse_expression`, or ``pi``; or ``NAME.NAME`` when that dotted name is one of the
+  names given (a model gives ``<point>.x``, ``.y``, ``.z``: a component of a point's, particle's or
+  body's position). Nothing is looked up on an object: a dotted name is a key of the names given.
 * ``FUNCTION``: one of :data:`ALLOWED_FUNCTIONS`: ``sin cos tan asin acos atan``
   ``atan2(y, x) sinh cosh tanh exp log sqrt abs sign`` (``log`` is the natural
   logarithm, ``abs`` is ``sympy.Abs``).
@@ -289,8 +291,13 @@ def _tokenize(text: str, known: Mapping[str, object] | None = None,
                 continue
             if known is not None and keyword.iskeyword(name) and name not in known:
                 _fail(text, _keyword_reason(name, feedback), i)
+            end = match.end()
+            if known is not None and text.startswith(".", end):  # a point's component, "bob.x": a known name
+                member = _NAME_RE.match(text, end + 1)
+                if member is not None and f"{name}.{member.group()}" in known:
+                    name, end = f"{name}.{member.group()}", member.end()
             tokens.append(_Token(_NAME, name, i))
-            i = match.end()
+            i = end
         elif text.startswith("**", i):
             tokens.append(_Token(_OP, "**", i))
             i += 2
@@ -332,6 +339,13 @@ def _tokenize(text: str, known: Mapping[str, object] | None = None,
             if tokens and tokens[-1].kind in (_NAME, _NUM, _RPAREN) and after in _NAME_START:
                 attribute = _NAME_RE.match(text, i + 1)
                 assert attribute is not None
+                dotted = [k for k in (known or ()) if "." in k]
+                if dotted and tokens[-1].kind == _NAME:
+                    wanted = f"{tokens[-1].text}.{attribute.group()}"
+                    near = closest(wanted, dotted, 0.5)
+                    _fail(text, f"unknown name '{wanted}'" + (f" (did you mean '{near}'?)" if near else "")
+                          + ": a dotted name is a component of a point's, particle's or body's position, "
+                          "<point>.x, .y or .z (.z in space)", tokens[-1].pos)
                 _fail(text, f"attribute access '.{attribute.group()}' is not allowed: a name "
                             "may contain only letters, digits and '_'", i)
             _fail(text, "unexpected '.': a decimal point must belong to a number such as "

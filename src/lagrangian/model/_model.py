@@ -318,7 +318,8 @@ class Model:
             from ._expr import parse_expression
 
             try:
-                return parse_expression(value, {**self.names(), **getattr(self, "_derived", {})})
+                return parse_expression(value, {**self.names(), **getattr(self, "_derived", {}),
+                                                **self._point_components()})
             except ExpressionError as exc:
                 raise ModelError([Problem(str(exc), key=where)]) from None
         raise ModelError(f"{where}: expected an expression, a number or a string, got {value!r} "
@@ -345,6 +346,12 @@ class Model:
             raise ModelError(f"{where}: expected a position with 2 or 3 components "
                              f"(x, y) or (x, y, z), or the name of a point, got {value!r}")
         return tuple(self.expr(v, f"{where}[{i}]") for i, v in enumerate(value))
+
+    def _point_components(self) -> dict[str, sympy.Expr]:
+        """``"<point>.x"`` (``.y``, ``.z``) -> that component of each point's, particle's and body's position:
+        names that an expression (an energy, a force, an output) may use."""
+        return {f"{name}.{axis}": c for name, position in self._points().items()
+                for axis, c in zip("xyz", position)}
 
     def _points(self) -> dict[str, tuple]:
         return {e.name: e.position for e in self._elements if hasattr(e, "position")
