@@ -19,12 +19,17 @@ def register(sub, fmt) -> None:
                        formatter_class=fmt, description="Derive Lagrange's equations of a model and print them "
                        "(text by default, or LaTeX, or JSON).",
                        epilog="Examples:\n  lagrangian derive cart-pendulum\n  lagrangian derive my_model.toml --json\n"
-                              "  lagrangian derive rotating-pendulum --latex")
+                              "  lagrangian derive rotating-pendulum --latex\n"
+                              "  lagrangian derive whipple-bicycle --expanded   # every entry in full (megabytes)")
     d.add_argument("model", help=MODEL_HELP)
     g = d.add_mutually_exclusive_group()
     g.add_argument("--json", action="store_true",
                    help="print one JSON object (coordinates, mass_matrix, forcing, equations, ...)")
     g.add_argument("--latex", action="store_true", help="print LaTeX (each equation and the matrix form)")
+    d.add_argument("--expanded", action="store_true",
+                   help="text: print every entry of M and f in full even when it could expand to more than 5,000 "
+                        "terms (by default such equations, a chain of bodies in space, are written with named "
+                        "quantities); JSON and LaTeX always give every entry in full")
     d.set_defaults(handler=_cmd_derive)
 
     s = sub.add_parser("simulate", help="simulate a model and write its trajectory as CSV",
@@ -78,7 +83,7 @@ def _cmd_derive(args: argparse.Namespace) -> int:
     elif args.latex:
         print(eqs.latex())
     else:
-        print(eqs.text())
+        print(eqs.text(expanded=args.expanded))
     return 0
 
 

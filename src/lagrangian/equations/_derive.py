@@ -64,7 +64,7 @@ def derive(model: Model) -> Equations:
         if c.Q:
             Q = [a + b for a, b in zip(Q, c.Q)]
 
-    _check_sizes(snapshot, T, V, D, Q, kin)
+    _check_sizes(snapshot, V, D, Q, kin)
     L = T - V
     q, qd, t = kin.q, kin.qd, kin.t
     p = [L.diff(v) for v in qd]
@@ -86,14 +86,23 @@ def derive(model: Model) -> Equations:
     return Equations(model=snapshot, core=core)
 
 
-def _check_sizes(model: Model, T, V, D, Q, kin: Kinematics) -> None:
+def _check_sizes(model: Model, V, D, Q, kin: Kinematics) -> None:
     """Refuse, before any work on them, expressions whose expansion could have more terms than
     MAX_TERMS (counted on the tree, not by expanding: ``(x + y + z + w)**200`` has 1,373,701), since
-    the equations' parts and readable forms expand them: every such expression is reported at once."""
+    the equations' parts and readable forms expand them: every such expression is reported at once.
+
+    T* is checked as written ([energy] T and the positions of the particles and bodies), not as
+    assembled from the bodies: the T* of three rods in space, each on a spherical joint, could
+    expand to millions of terms, and derive() never expands it (the equations of such models are
+    shown with named quantities, see ``_named``)."""
     from ._readable import expanded_terms_bound
 
     limit = MAX_TERMS.value
-    parts = [("energy.T", "T*", T), ("energy.V", "V", V), ("energy.D", "D", D)]
+    written = kin.se(model.T)
+    for element in kin.massive_elements:
+        for x in element.position:
+            written = written + kin.se(x) ** 2
+    parts = [("energy.T", "T*", written), ("energy.V", "V", V), ("energy.D", "D", D)]
     parts += [(f"forces.{c}", f"Q[{c}]", Qi) for c, Qi in zip(model.q, Q)]
     parts += [(f"constraints[{k}]", f"constraint {k + 1}", kin.se(con.expression))
               for k, con in enumerate(model.constraints)]

@@ -170,6 +170,29 @@ class Equations:
         return readable(expr, state=self._varying, collect_on=collect_on)
 
     @cached_property
+    def too_large_to_expand(self) -> bool:
+        """True when an entry of M or f could expand to more terms than the readable form's budget
+        (5,000: a chain of bodies in space, the bicycle); :meth:`text` then shows the
+        :attr:`named_form` (unless asked for every entry in full)."""
+        from ._readable import MAX_TERMS as budget, expanded_terms_bound
+
+        memo: dict = {}
+        n = self.n
+        entries = [self.core.M[i, j] for i in range(n) for j in range(i, n)] + list(self.core.f)
+        return any(expanded_terms_bound(e, budget, memo) > budget for e in entries)
+
+    @cached_property
+    def named_form(self):
+        """M and f (and the constraints' G, c and g) with named intermediate quantities: each body's
+        angular velocity and mass-centre velocity, and the common subexpressions, listed once (a
+        :class:`~lagrangian.equations._named.NamedForm`, SymEngine expressions; equal to the derived
+        ones). Compact where the expanded form is not: a chain of three bodies in space prints in
+        50 KB instead of 15 MB."""
+        from ._named import named_form
+
+        return named_form(self)
+
+    @cached_property
     def _varying(self) -> frozenset[str]:
         """Names of the symbols that vary: coordinates, velocities, accelerations, t, inputs."""
         return frozenset(s.name for s in (*self.coordinates, *self.velocities, *self.accelerations, self.t,
@@ -397,6 +420,8 @@ class Equations:
         q, qd, n = self.core.q, self.core.qd, self.n
         states = set(q) | set(qd) | set(qdd)
         varying = states | {self.core.t} | {se.Symbol(u.name) for u in self.inputs}
+        if any(set(x.free_symbols) & varying for x in self.core.M):
+            return None  # dE/dq_ddot = M varies (the first test below, without expanding the residuals)
         blocks = []
         for var in (qdd, qd, q):
             rows = []
@@ -497,8 +522,15 @@ class Equations:
         """The i-th equation as ``sympy.Eq(residual, 0)``."""
         return sympy.Eq(self.equations[i], 0)
 
-    def text(self) -> str:
-        """The equations and the matrix form as plain text."""
+    def text(self, *, expanded: bool = False) -> str:
+        """The equations and the matrix form as plain text.
+
+        When an entry of M or f is too large to expand (:attr:`too_large_to_expand`), M, f and the
+        constraints are shown in the :attr:`named_form` unless `expanded` is True (then every entry
+        is printed in full, as derived where it could not be made readable: megabytes for a chain
+        of bodies in space)."""
+        if not expanded and self.too_large_to_expand:
+            return self._named_text()
         lines = [f"Lagrange's equations of {self.model.name} "
                  f"({self.n} coordinate{'s' if self.n != 1 else ''}: "
                  f"{', '.join(c.name for c in self.coordinates)})", ""]
@@ -535,6 +567,45 @@ class Equations:
         return "\n".join(lines)
 
     __str__ = text
+
+    def _named_text(self) -> str:
+        """:meth:`text` in the named form (see `named_form`)."""
+        from ._readable import MAX_TERMS as budget
+
+        form = self.named_form
+        q, _, u = vector_names(self).values()
+        lines = [f"Lagrange's equations of {self.model.name} "
+                 f"({self.n} coordinate{'s' if self.n != 1 else ''}: "
+                 f"{', '.join(c.name for c in self.coordinates)})", "",
+                 f"The entries of M and f could expand to more than {budget:,} terms each, so they are written with "
+                 "named quantities,",
+                 "in Kane's form (M = sum over bodies of J^T diag(m, I) J with J the Jacobians of their velocities, "
+                 "f = Q - dV/dq - dD/dq_dot - sum J^T (m a, I alpha + w x I w) at q_ddot = 0), equal to Lagrange's;",
+                 "'lagrangian derive MODEL --expanded' (Python: equations.text(expanded=True)) prints every entry "
+                 "in full.",
+                 f"The equations read M {q}_ddot = f" + (" + G^T lambda, with G and c of the constraints."
+                                                         if self.is_constrained else "."),
+                 "", f"Named quantities ({len(form.quantities)}, each in terms of those before it):"]
+        lines += [f"  {name} = {expr}" + (f"    # {note}" if note else "") for name, expr, note in form.quantities]
+        if self.is_constrained:
+            lines += ["", f"Constraints ({len(self.multipliers)}; multipliers "
+                          f"{', '.join(m.name for m in self.multipliers)}):"]
+            lines += [f"  {c.name} ({c.kind}): {g} = 0" for c, g in zip(self.model.constraints, form.g)]
+        form_text = (f"M({q}) {q}_ddot = f({q}, {q}_dot, t, {u})"
+                     + (f" + G^T lambda, G {q}_ddot = c" if self.is_constrained else ""))
+        lines += ["", f"Matrix form {form_text}:", "  M ="]
+        lines += ["    [" + ", ".join(str(x) for x in row) + "]" for row in form.M]
+        lines += ["  f ="] + [f"    {x}" for x in form.f]
+        if self.is_constrained:
+            lines += ["  G ="] + ["    [" + ", ".join(str(x) for x in row) + "]" for row in form.G]
+            lines += ["  c ="] + [f"    {x}" for x in form.c]
+        if self.is_conservative:
+            name = "energy" if self._natural else "jacobi_integral"
+            lines += ["", "Conserved quantities:",
+                      f"  {name} = {q}_dot^T M {q}_dot / 2 + V" + ("" if self._natural else " - T0, T0 = T* at "
+                                                                   f"{q}_dot = 0")
+                      + " (with M above and V of the model)"]
+        return "\n".join(lines)
 
     def latex(self, *, matrix_form: bool = True) -> str:
         """LaTeX of each equation (an ``align`` environment) and of the matrix form."""

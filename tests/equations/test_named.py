@@ -1,0 +1,146 @@
+"""The named form of M and f (issue 22: readable equations of spatial systems): equations too large
+to expand are printed with named quantities in Kane's form; substituted back, they are the derived
+M, f (and G, c, g); `derive` shows them by default for such models and in full with --expanded."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import symengine as se
+import sympy
+
+import lagrangian as lg
+from lagrangian.cli import main
+from lagrangian.equations import _readable as R
+
+MODELS = Path(__file__).resolve().parents[1] / "models"
+CHAIN3 = MODELS / "spatial-chain-3.toml"
+
+
+@pytest.fixture(scope="module")
+def chain3():
+    return lg.derive(lg.load(str(CHAIN3)))
+
+
+def assert_same(pairs, points: int = 3, seed: int = 5):
+    """Each (a, b) of SymEngine expressions equal at random points (all symbols in 0.3 .. 1.7)."""
+    a = [se.sympify(x) for x, _ in pairs]
+    b = [se.sympify(y) for _, y in pairs]
+    symbols = sorted(set().union(*(e.free_symbols for e in a + b)), key=str)
+    fa, fb = (se.Lambdify(symbols, exprs, real=False, cse=True) for exprs in (a, b))
+    rng = np.random.default_rng(seed)
+    for _ in range(points):
+        x = rng.uniform(0.3, 1.7, len(symbols)).astype(complex)
+        got, want = (np.asarray(f(x), complex).ravel() for f in (fa, fb))
+        assert np.all(np.isfinite(want))
+        assert np.allclose(got, want, rtol=1e-11, atol=1e-11 * (1 + np.abs(want).max()))
+
+
+def derived_pairs(eqs):
+    back = eqs.named_form.substituted()
+    core, n = eqs.core, eqs.n
+    pairs = [(back["M"][i][j], core.M[i, j]) for i in range(n) for j in range(n)]
+    pairs += [(back["f"][i], core.f[i]) for i in range(n)]
+    m = len(core.c)
+    pairs += [(back["G"][k][j], core.G[k, j]) for k in range(m) for j in range(n)]
+    pairs += [(back["c"][k], core.c[k]) for k in range(m)] + [(back["g"][k], core.g[k]) for k in range(m)]
+    return pairs
+
+
+# ----------------------------------------------------------------- equal to the derived equations
+def test_the_spatial_chain_derives_within_the_bounds_and_its_named_form_is_the_derived_one(chain3):
+    assert chain3.n == 9 and chain3.too_large_to_expand
+    form = chain3.named_form
+    names = [name for name, _, _ in form.quantities]
+    assert len(names) == len(set(names))
+    assert any(name.startswith("w_ball") for name in names) or any(name.startswith("v_") for name in names)
+    assert_same(derived_pairs(chain3))
+    # M symmetric as printed
+    assert all(form.M[i][j] == form.M[j][i] for i in range(9) for j in range(9))
+
+
+def test_each_quantity_uses_only_the_model_and_the_quantities_before_it(chain3):
+    model = chain3.model
+    allowed = {s.name for s in (*model.q, *model.q_dot, *model.parameters)} | {"t"}
+    for name, expr, _ in chain3.named_form.quantities:
+        assert {s.name for s in expr.free_symbols} <= allowed, name
+        allowed.add(name)
+    used = set().union(*(e.free_symbols for row in chain3.named_form.M for e in row),
+                       *(e.free_symbols for e in chain3.named_form.f))
+    assert {s.name for s in used} <= allowed
+
+
+def test_a_planar_chain_named_form_equals_the_readable_one_exactly():
+    eqs = lg.derive(lg.load("pendulum-chain-3"))
+    assert not eqs.too_large_to_expand
+    back = eqs.named_form.substituted()
+    for i in range(3):
+        assert R.trigonometric_polynomial(se.sympify(back["f"][i]) - eqs.core.f[i]) == 0
+        for j in range(3):
+            assert R.readable(back["M"][i][j] - se.sympify(eqs.mass_matrix[i, j])) == 0
+
+
+@pytest.mark.parametrize("name", ["heavy-top", "gyroscope", "rolling-disk", "double-pendulum", "cart-pendulum",
+                                  "slider-crank", "robot-arm-3", "sliding-disk-heavy-rod"])
+def test_the_named_form_of_examples_with_bodies_loads_and_constraints_is_the_derived_one(name):
+    assert_same(derived_pairs(lg.derive(lg.load(name))))
+
+
+@pytest.mark.slow
+def test_the_bicycle_prints_with_named_quantities_equal_to_the_derived_ones():
+    eqs = lg.derive(lg.load("whipple-bicycle"))
+    assert eqs.too_large_to_expand
+    assert_same(derived_pairs(eqs), points=2)
+    text = eqs.text()
+    assert "Named quantities" in text and "Constraints (5;" in text and len(text) < 200_000
+
+
+def test_a_mass_that_varies_and_an_energy_written_out_go_through_lagrange_s_operator():
+    model = lg.Model(coordinates=["x", "th"], T="J*th_dot**2/2", V="k*x**2/2", D="c*x_dot**2/2",
+                     Q={"x": "F*cos(th)"}, parameters={"J": 0.3, "k": 2.0, "c": 0.1, "F": 1.0, "m": 1.0})
+    m, x, th = sympy.symbols("m x th")
+    model.add_particle(m * (1 + x**2), (x * sympy.cos(th), x * sympy.sin(th)), name="bead")
+    model.add_particle(m, (sympy.cos(th), x), name="slider")
+    assert_same(derived_pairs(lg.derive(model)))
+
+
+def test_the_temporaries_are_named_apart_from_the_model_s_symbols():
+    text = CHAIN3.read_text().replace("iXX = 0.9", "iXX = 0.9\nx1 = 2.0").replace('"iXX", "iYY"', '"iXX*x1", "iYY"')
+    path = Path(__file__).parent / "_tmp_named_x1.toml"
+    try:
+        path.write_text(text)
+        eqs = lg.derive(lg.load(str(path)))
+    finally:
+        path.unlink()
+    names = [name for name, _, _ in eqs.named_form.quantities]
+    assert "x1" not in names and names[0].startswith("z")
+    assert_same(derived_pairs(eqs), points=1)
+
+
+# --------------------------------------------------------------------------------- printing
+def test_derive_prints_the_spatial_chain_small_with_named_quantities(capsys, chain3):
+    assert main(["derive", str(CHAIN3)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("Lagrange's equations of spatial-chain-3 (9 coordinates: qx1, qy1, qz1, qx2")
+    assert "Named quantities (" in out and "in Kane's form" in out and "--expanded" in out
+    assert "energy = q_dot^T M q_dot / 2 + V" in out
+    assert len(out) < 70_000  # the expanded form: 15 MB
+    assert out.strip() == chain3.text()
+
+
+@pytest.mark.parametrize("name", ["cart-pendulum", "double-pendulum", "heavy-top", "slider-crank"])
+def test_small_models_print_as_before_and_expanded_changes_nothing(capsys, name):
+    eqs = lg.derive(lg.load(name))
+    assert not eqs.too_large_to_expand
+    assert eqs.text() == eqs.text(expanded=True)
+    assert main(["derive", name, "--expanded"]) == 0
+    assert capsys.readouterr().out.strip() == eqs.text()
+    assert "Named quantities" not in eqs.text()
+
+
+def test_expanded_is_in_the_help(capsys):
+    with pytest.raises(SystemExit):
+        main(["derive", "--help"])
+    assert "--expanded" in capsys.readouterr().out
