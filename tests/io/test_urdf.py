@@ -249,6 +249,12 @@ def test_hostile_and_unsupported_urdfs(text, match):
     assert re.search(match, _error(text))
 
 
+def test_problems_carry_the_line_of_their_link_or_joint():
+    text = _robot(ARM.replace('value="1"', 'value="-2"') + "\n\n" + _joint(extra='<mimic joint="x"/>'))
+    message = _error(text)
+    assert "<string>:3 [link 'a'.mass]" in message and "<string>:5 [joint 'j']" in message
+
+
 def test_a_file_larger_than_the_bound_is_not_read(tmp_path, monkeypatch):
     path = tmp_path / "big.urdf"
     path.write_text(_robot(ARM + _joint()) + " " * 2000)

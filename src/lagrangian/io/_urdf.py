@@ -196,12 +196,13 @@ def loads_urdf(text: str | bytes, *, source: str = "<string>", floating_base: bo
         line = exc.position[0] if getattr(exc, "position", None) else None
         raise ModelFileError([Problem(f"the URDF is not well-formed XML: {exc}; fix the XML there", line=line)],
                              file=source) from None
-    return _Builder(root, source, floating_base, gravity, default_name, folder).build()
+    return _Builder(root, source, floating_base, gravity, default_name, folder, raw).build()
 
 
 class _Builder:
-    def __init__(self, root, source, floating_base, gravity, default_name, folder):
+    def __init__(self, root, source, floating_base, gravity, default_name, folder, raw=b""):
         self.root = root
+        self.raw = raw
         self.source = source
         self.floating_base = bool(floating_base)
         self.gravity = gravity
@@ -211,6 +212,11 @@ class _Builder:
         self.notes: list[str] = []
 
     def problem(self, key, message, line=None):
+        if line is None and key:  # the line of <link name="..."> or <joint name="..."> (ElementTree keeps none)
+            match = re.match(r"(link|joint) '(.*?)'", key)
+            if match:
+                at = self.raw.find(f'<{match.group(1)} name="{match.group(2)}"'.encode())
+                line = self.raw[:at].count(b"\n") + 1 if at >= 0 else None
         self.problems.append(Problem(message, key=key, line=line))
 
     def raise_if_problems(self):
