@@ -14,7 +14,7 @@ The table (every key optional but ``duration``)::
     initial = { q1 = 0.0, q1_dot = 0.0 }     # fixed states at t = 0 (the others free)
     final = { q1 = 1.0, q2 = 3.14159 }       # fixed states at the end
     bounds = { q1 = [-2.0, 2.0] }            # path bounds on coordinates and velocities
-    inputs = { F = [-20.0, 20.0] }           # the free inputs with bounds; a number holds one fixed
+    inputs = { F = [-20.0, 20.0] }           # inputs' bounds; a number holds one fixed (others: free)
     path = { track = { expression = "q1 + L*cos(q2)", min = -2.0, max = 2.0 } }
     intervals = 25                    # the first mesh
     tolerance = 1e-6                  # the collocation error to reach by mesh refinement

@@ -124,8 +124,8 @@ def _translate(ca, e: sympy.Basic, memo, symbols, where):
         if value.imag != 0:
             raise ModelError(f"{where}: the number {e} is not real; use real expressions")
         return float(value.real)
-    if e in (sympy.true, sympy.false):
-        return 1.0 if e == sympy.true else 0.0
+    if e is sympy.true or e is sympy.false:
+        return 1.0 if e is sympy.true else 0.0
     args = [memo[a] for a in e.args]
     name = type(e).__name__
     if e.is_Add:

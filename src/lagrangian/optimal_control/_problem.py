@@ -112,8 +112,9 @@ def build_problem(equations, overrides: Mapping[str, Any]) -> OptimalControlProb
         checked = check_optimal_control(given, names, coordinates, inputs,
                                         lambda key, message: problems.append(Problem(message, key=key)),
                                         _python_expr(problems))
-        if "duration" in table and any(p.key == "optimal_control" and "duration" in p.message for p in problems):
-            problems = [p for p in problems if not (p.key == "optimal_control" and "duration" in p.message)]
+        # the duration may come from the table: its absence is judged after the merge
+        problems = [p for p in problems if not (p.key == "optimal_control" and "needs the motion's duration"
+                                                in p.message)]
         if checked is not None:
             table.update(checked)
     if problems:
@@ -125,7 +126,7 @@ def build_problem(equations, overrides: Mapping[str, Any]) -> OptimalControlProb
     if table.get("minimum_time") and not isinstance(table["duration"], tuple):
         raise ModelError("minimum_time=True needs a free duration, but duration is fixed; give duration=(0.1, 10.0) "
                          "(its bounds)")
-    input_bounds: dict[str, Any] = {u: 0.0 for u in inputs}
+    input_bounds: dict[str, Any] = {u: (-math.inf, math.inf) for u in inputs}  # not named: free
     input_bounds.update(table.get("inputs", {}))
     _check_constrained_ends(equations, table)
     kwargs = {k: table[k] for k in OPTIMAL_CONTROL_KEYS if k in table and k != "inputs"}

@@ -48,7 +48,7 @@ def optimal_motion(equations, *, duration=None, objective=None, terminal_cost=No
     bounds : mapping of str to (float, float)
         Bounds on coordinates and velocities along the whole motion (``-inf``/``inf`` for none).
     inputs : mapping of str to (float, float) or float
-        The free inputs with their bounds; a number holds an input fixed; inputs not named are held at 0.
+        The inputs' bounds; a number holds an input fixed; inputs not named are free and unbounded.
     path : mapping of str to mapping
         Path constraints ``{"track": {"expression": "q1", "min": -2, "max": 2}}`` on expressions of
         the state, inputs, parameters and t.
