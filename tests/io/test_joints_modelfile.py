@@ -105,6 +105,13 @@ def _problems(text):
     ('name = "j"\ntype = "revolute"\nlimits = "wide"', r"\[joints\[0\]\.limits\].*expected \[lower, upper\]"),
     ('name = "j"\ntype = "revolute"\ndamping = 1e400', r"joints\[0\]\.damping"),
     ('name = "j"\ntype = "spherical"\nfriction = 1', r"\[joints\[0\]\.friction\].*no Coulomb friction"),
+    ('name = "j"\ntype = "revolute"\nmatrix = [[1, 0, 0], [0, 1, 0], [0, 0, 2]]',
+     r"\[joints\[0\]\.matrix\].*the matrix is not a rotation"),
+    ('name = "j"\ntype = "revolute"\ncoordinates = 5', r"a revolute joint has 1 coordinate, got 5; give 1 name, e\.g\. "
+                                                    r"\['j'\]"),
+    ('name = "j"\ntype = "revolute"\nparent = 5', r"\[joints\[0\]\.parent\].*no frame is named '5'"),
+    ('name = "j"\ntype = "revolute"\nchild = "a b"', r"\[joints\[0\]\.child\].*must be an identifier"),
+    ('name = "j"\ntype = "revolute"\nfriction = {a = 1}', r"\[joints\[0\]\.friction\].*got a table"),
     (f'name = "j"\ntype = "revolute"\nchild = "{"x" * 5000}"\ncoordinates = ["q"]\nparent = "{"y" * 5000}"',
      r"no frame is named"),
 ])

@@ -150,6 +150,7 @@ def read_joints(reader, value: object) -> None:
             continue
         child = table.get("child", name)
         reader.frame_keys[child] = key
+        reader.key_map[f"frame '{child}'"] = (key, {"rotation": given[0] if given else "rotation"})
         reader.frame_names.setdefault(child, None)
 
 

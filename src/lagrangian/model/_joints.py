@@ -321,7 +321,7 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
     if names is None or len(names) != n:
         example = list(default_coordinates(name, type, axis, seq))
         problem("coordinates", f"a {type} joint has {n} coordinate{'s' if n != 1 else ''}, got {coordinates!r}"
-                               + (f"; give {n} names, e.g. {example}" if n else "; remove it"))
+                               + (f"; give {n} name{'s' if n != 1 else ''}, e.g. {example}" if n else "; remove it"))
         names = ()
     existing = {c.name: c for c in model._coordinates}
     used = {c.name: j.name for j in joints.values() for c in j.coordinates}
