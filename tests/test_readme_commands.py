@@ -53,6 +53,12 @@ EXCLUDED = {
         "the benchmark: minutes of timing runs against the peers, a measurement rather than an example",
     "python benchmarks/serve_load.py --requests 1000 --concurrency 400":
         "the playground's load test: a measurement (1000 requests against a server of its own), not an example",
+    "lagrangian optimize cart-pole.toml -o motion.csv --input-law law.csv":
+        "CasADi is the optional `optimal` extra (tests/optimal_control/test_docs_page.py runs the page's commands)",
+    "lagrangian simulate cart-pole.toml --input F=@law.csv:F --t-end 2 -o replay.csv":
+        "replays law.csv, which `lagrangian optimize` (the optional `optimal` extra) writes",
+    "lagrangian animate cart-pole.toml --input F=@law.csv:F --t-end 2 -o swing-up.gif":
+        "animates law.csv, which `lagrangian optimize` (the optional `optimal` extra) writes",
 }
 
 #: Lines of the pages' Python blocks not run here (they need an optional extra), with the reason.
@@ -60,6 +66,8 @@ EXCLUDED = {
 EXCLUDED_PYTHON = {
     "sys = lin.to_control()": "python-control is the optional `control` extra",
     "from dask.distributed import Client": "Dask is the optional `dask` extra (the whole block uses its client)",
+    "from lagrangian import optimal_motion":
+        "CasADi is the optional `optimal` extra (tests/optimal_control/test_docs_page.py runs the block)",
     "from fmpy import simulate_fmu":
         "fmpy is the optional `fmu` extra (tests/export/test_export.py runs the FMUs with it)",
 }
