@@ -188,7 +188,7 @@ _GRAVITY_KEYS = ("g", "direction")
 _SIMULATION_KEYS = ("t_end", "dt", "rtol", "atol", "initial", "inputs", "sample_time", "independent",
                     "independent_speeds")
 _CONSTRAINT_KEYS = ("name", "holonomic", "velocity")
-_WHEEL_KEYS = (("frame", "radius"), ("name", "axis", "center", "lateral"))
+_WHEEL_KEYS = (("frame", "radius"), ("name", "axis", "center", "lateral", "shape", "semi_axes"))
 #: Default element names: particle1, body2, ...
 _DEFAULT_PREFIX = {"points": "point", "particles": "particle", "bodies": "body",
                    "springs": "spring", "dampers": "damper"}
@@ -1608,11 +1608,25 @@ class _Reader:
             for name in entry.table:
                 if name not in required + optional:
                     self.unknown_key(f"{key}.{name}", name, required + optional, "[[wheels]]")
-            missing = [k for k in required if k not in entry.table]
+            ellipsoid = entry.table.get("shape") == "ellipsoid"
+            missing = [k for k in required if k not in entry.table and not (ellipsoid and k == "radius")]
             for k in missing:
                 self.problem(key, f"a wheel needs {k}: " + ('frame = "wheel" (the frame that carries it, its '
                                                              'spin its last rotation)' if k == "frame"
                                                              else 'radius = "r" (a parameter or a number)'))
+            shape = entry.table.get("shape", "disk")
+            if not isinstance(shape, str):
+                self.problem(f"{key}.shape", f"expected \"disk\" or \"ellipsoid\" in quotes, got {_describe(shape)}")
+                continue
+            semi_axes = entry.table.get("semi_axes")
+            if semi_axes is not None:
+                if not isinstance(semi_axes, list) or len(semi_axes) != 3:
+                    self.problem(f"{key}.semi_axes", "expected the 3 semi-axes [\"a\", \"b\", \"c\"] along the "
+                                                     f"frame's x, y and z axes, got {_describe(semi_axes)}")
+                    continue
+                semi_axes = [self.expr(a, f"{key}.semi_axes[{i}]") for i, a in enumerate(semi_axes)]
+                if any(a is None for a in semi_axes):
+                    continue
             name, frame, axis = (entry.table.get(k) for k in ("name", "frame", "axis"))
             for k, v in (("name", name), ("frame", frame), ("axis", axis)):
                 if v is not None and not isinstance(v, str):
@@ -1631,11 +1645,11 @@ class _Reader:
                                                "false to leave out the wheel's lateral no-slip condition (one of "
                                                "two wheels on a rigid axle), or leave the key out")
                 continue
-            if missing or radius is None or any(c is None for c in center):
+            if missing or (radius is None and "radius" in entry.table) or any(c is None for c in center):
                 continue
             try:
                 wheel = self.model.add_wheel(frame, radius, axis=axis or "y", center=center, lateral=lateral,
-                                             name=name)
+                                             shape=shape, semi_axes=semi_axes, name=name)
                 for cname in wheel.constraint_names:
                     self.key_map[f"constraint '{cname}'"] = (key, {})
             except ModelError as exc:

@@ -21,7 +21,7 @@ from ._elements import (SPRING_ACTS, Damper, Element, Force, Gravity, Particle, 
                         RotationalDamper, Shape, Spring, Torque, Torque3D, shape_problems)
 from ._frames import AXES, WORLD, Factor, Frame, frame_pose, world_factors
 from ._symbols import check_name, ddot, dot, t
-from ._wheels import Wheel, rolling_conditions
+from ._wheels import WHEEL_SHAPES, Wheel, ellipsoid_conditions, rolling_conditions
 
 __all__ = ["Model"]
 
@@ -817,8 +817,8 @@ class Model:
         a(q, t) . q_dot + b(q, t) (a knife edge: ``x_dot*sin(phi) - y_dot*cos(phi)``)."""
         return self._add_constraint(expression, name, VELOCITY)
 
-    def add_wheel(self, frame: str, radius, *, axis: str = "y", center=(0, 0, 0), lateral: bool = True,
-                  name: str | None = None) -> Wheel:
+    def add_wheel(self, frame: str, radius=None, *, axis: str = "y", center=(0, 0, 0), lateral: bool = True,
+                  shape: str = "disk", semi_axes=None, name: str | None = None) -> Wheel:
         """A wheel rolling without slipping on the ground plane z = 0 (z up): a disk of `radius`
         carried by `frame`, its axle the frame's `axis` (``"x"``, ``"y"`` or ``"z"``) through `center`
         (in the frame's axes). Adds the contact condition (holonomic, ``<name>_contact``; left out when
@@ -830,8 +830,26 @@ class Model:
         ``lateral=False`` leaves out the lateral no-slip condition: the wheel keeps only the
         longitudinal one (``<name>_longitudinal``: no velocity of the contact point along the rolling
         direction a x n), so two wheels on one rigid axle (whose lateral conditions are one condition
-        written twice) give independent constraints: give one of them ``lateral=False``."""
+        written twice) give independent constraints: give one of them ``lateral=False``.
+
+        ``shape="ellipsoid"`` with ``semi_axes=(a, b, c)`` (along the frame's x, y, z; parameters and
+        numbers) and no radius: a convex body rolling without slipping on the ground (the
+        rattleback; a ball when a = b = c), its contact point the surface's lowest point from its
+        support function (see :func:`~lagrangian.model._wheels.ellipsoid_conditions`), both no-slip
+        conditions generated, the same constraint names."""
         self._check_mutable()
+        if shape not in WHEEL_SHAPES:
+            raise ModelError(f"wheel '{name}'.shape: unknown shape {shape!r}{did_you_mean(str(shape), WHEEL_SHAPES)}; "
+                             "a \"disk\" (a wheel of radius r across its axle) or an \"ellipsoid\" (semi_axes = "
+                             "[a, b, c] along its frame's axes) rolls on the ground")
+        if shape == "ellipsoid":
+            return self._add_ellipsoid(frame, radius, semi_axes, center, lateral, name)
+        if semi_axes is not None:
+            raise ModelError(f"wheel '{name}'.semi_axes: semi-axes belong to shape = \"ellipsoid\"; a disk has a "
+                             "radius: give shape = \"ellipsoid\", or remove semi_axes")
+        if radius is None:
+            raise ModelError(f"wheel '{name}'.radius: a wheel (a disk) needs its radius, a number or an expression of "
+                             "parameters such as \"r\"")
         if not isinstance(lateral, bool):
             raise ModelError(f"wheel '{name}'.lateral: expected true or false (whether the wheel cannot slide along "
                              f"its axle), got {lateral!r}")
@@ -878,6 +896,60 @@ class Model:
             self._add_constraint(cond.no_slip_y, f"{name}_y", VELOCITY)
         else:
             self._add_constraint(cond.longitudinal, f"{name}_longitudinal", VELOCITY)
+        self._wheels.append(wheel)
+        return wheel
+
+    def _add_ellipsoid(self, frame, radius, semi_axes, center, lateral, name) -> Wheel:
+        """add_wheel(shape="ellipsoid"): the contact and both no-slip conditions of an ellipsoid."""
+        if name is None:
+            k = len(self._wheels) + 1
+            while f"wheel{k}" in {w.name for w in self._wheels}:
+                k += 1
+            name = f"wheel{k}"
+        where = f"wheel '{name}'"
+        why = check_name(name, "wheel")
+        if why is None and name in {w.name for w in self._wheels}:
+            why = f"two wheels are named '{name}': give each wheel its own name"
+        if why is None and radius is not None:
+            why = (f"{where}.radius: an ellipsoid has semi_axes = [a, b, c], not a radius (a ball of radius r: "
+                   "semi_axes = [r, r, r]); remove radius")
+        if why is None and lateral is not True:
+            why = f"{where}.lateral: an ellipsoid rolls without slipping in both directions; remove lateral"
+        if why is not None:
+            raise ModelError([Problem(why, key=where)])
+        frame = self._frame_name(frame, f"{where}.frame")
+        if frame == WORLD:
+            raise ModelError(f"{where}.frame: a rolling body is carried by a frame that moves with it, not the world; "
+                             "add its frame (rotations of the body) and name it")
+        if not isinstance(semi_axes, (list, tuple)) or len(semi_axes) != 3:
+            raise ModelError(f"{where}.semi_axes: an ellipsoid needs its 3 semi-axes [a, b, c] along its frame's x, "
+                             f"y and z axes (numbers or expressions of parameters), got {semi_axes!r}")
+        axes = tuple(self.expr(a, f"{where}.semi_axes[{i}]") for i, a in enumerate(semi_axes))
+        variables = set(self.names(accelerations=True).values()) - set(self._parameters)
+        values = {p: v for p, v in self._parameters.items() if v is not None}
+        for i, a in enumerate(axes):
+            if a.free_symbols & variables:
+                raise ModelError(f"{where}.semi_axes[{i}]: a semi-axis is a number or an expression of parameters, "
+                                 f"got {a}")
+            number = a.subs(values)
+            if number.is_number and not (number.is_real and number > 0):
+                raise ModelError(f"{where}.semi_axes[{i}]: a semi-axis is positive, got {number}")
+        c = self._vector(center, f"{where}.center")
+        if len(c) != 3:
+            raise ModelError(f"{where}.center: expected 3 components (in the frame's axes), got {len(c)}")
+        values.update({q: 0 for q in self._coordinates})
+        values.update({self.symbol(k): v for k, v in (self.simulation.get("initial") or {}).items()
+                       if k in {q.name for q in self._coordinates}})
+        cond = ellipsoid_conditions(self._frames, frame, axes, c, self._coordinates, t, values)
+        wheel = Wheel(name, frame, None, "z", c, cond.contact is not None, True, "ellipsoid", axes)
+        for cname in wheel.constraint_names:
+            if cname in {k.name for k in self._constraints}:
+                raise ModelError([Problem(f"{where}: its constraint '{cname}' is already the name of a constraint; "
+                                          "rename the wheel or the constraint", key=where)])
+        if cond.contact is not None:
+            self._add_constraint(cond.contact, f"{name}_contact", HOLONOMIC)
+        self._add_constraint(cond.no_slip_x, f"{name}_x", VELOCITY)
+        self._add_constraint(cond.no_slip_y, f"{name}_y", VELOCITY)
         self._wheels.append(wheel)
         return wheel
 

@@ -36,7 +36,11 @@ import sympy
 
 from ._frames import AXES, Factor, chain, rotation_product
 
-__all__ = ["Wheel", "RollingConditions", "rolling_conditions", "contact_is_identity"]
+__all__ = ["Wheel", "RollingConditions", "rolling_conditions", "contact_is_identity", "ellipsoid_conditions",
+           "WHEEL_SHAPES"]
+
+#: The shapes that roll on the ground: a disk (a wheel) and an ellipsoid (a rattleback, a ball).
+WHEEL_SHAPES = ("disk", "ellipsoid")
 
 
 @dataclass(frozen=True)
@@ -52,6 +56,8 @@ class Wheel:
     center: tuple = (0, 0, 0)
     contact: bool = True  # False: the coordinates keep the wheel on the ground
     lateral: bool = True  # False: only the longitudinal no-slip condition (the wheel may slide along its axle)
+    shape: str = "disk"  # or "ellipsoid", of semi-axes `semi_axes` along the frame's x, y, z (radius None)
+    semi_axes: tuple | None = None
 
     @property
     def constraint_names(self) -> tuple[str, ...]:
@@ -109,6 +115,65 @@ def rolling_conditions(frames, frame: str, radius, axis: str, center, coordinate
         omega = omega + rate(angle) * a
     vP = sympy.Matrix([rate(c) for c in C]) + omega.cross(-radius * d)
     return RollingConditions(None if on_ground else C[2] - radius * s, vP[0], vP[1], vP[0] * a[1] - vP[1] * a[0])
+
+
+def ellipsoid_conditions(frames, frame: str, semi_axes, center, coordinates, time, values) -> RollingConditions:
+    """The contact and no-slip conditions of an ellipsoid rolling without slipping on the ground z = 0:
+    semi-axes (a, b, c) along the x, y, z axes of `frame`, centred at `center` (in the frame's axes).
+
+    The contact point is the surface's lowest point, from its support function: with n_b = R^T e_z the
+    ground's normal in body axes and D = diag(a^2, b^2, c^2), the point of the surface whose outward
+    normal is -n_b is p = -D n_b / sqrt(n_b^T D n_b) from the centre C (the gradient of the support
+    function h(u) = sqrt(u^T D u) at u = -n_b), at the height C_z - sqrt(n_b^T D n_b). So the contact
+    condition (holonomic) is C_z - sqrt(n_b^T D n_b) = 0 (left out when the coordinates keep the body on
+    the ground), and no slip is (v_C + omega x R p)_x = 0 and _y = 0: the material point at the contact
+    has no horizontal velocity (its vertical velocity is the contact condition's rate). A sphere
+    (a = b = c = r) gives the rolling ball's conditions, v_C + omega x (-r e_z) = 0 horizontally."""
+    from ._frames import angular_velocity, frame_pose
+    from ._kinematics import Kinematics, to_sympy
+
+    def rate(expr):
+        from ._symbols import dot
+
+        return sum((sympy.diff(expr, q) * dot(q) for q in coordinates), sympy.diff(expr, time))
+
+    origin, R = frame_pose(frames, frame)
+    C = sympy.Matrix(origin) + R * sympy.Matrix(center)
+    n_b = R.T * sympy.Matrix([0, 0, 1])
+    D = sympy.diag(*[a ** 2 for a in semi_axes])
+    s = sympy.sqrt((n_b.T * D * n_b)[0])
+    p_b = -D * n_b / s
+    factors = tuple(f for fr in chain(frames, frame) for f in fr.factors)
+    omega_b = sympy.Matrix([to_sympy(w) for w in angular_velocity(factors, Kinematics(coordinates))])
+    vP = sympy.Matrix([rate(c) for c in C]) + R * omega_b.cross(p_b)
+    on_ground = _identically_zero(C[2] ** 2 - s ** 2, values) and _positive(C[2], values)
+    return RollingConditions(None if on_ground else C[2] - s, vP[0], vP[1])
+
+
+def _identically_zero(expr, values) -> bool:
+    """Whether `expr` vanishes at random points of its variables (the parameters near their values)."""
+    import numpy as np
+    import symengine as se
+
+    symbols = sorted(expr.free_symbols, key=str)
+    if not symbols:
+        return expr == 0
+    f = se.Lambdify([se.Symbol(x.name) for x in symbols], [se.sympify(expr)], real=True)
+    rng = np.random.default_rng(7)
+    base = np.array([float(values.get(x, 1.0)) for x in symbols])
+    for _ in range(5):
+        point = base * (1 + 0.3 * rng.standard_normal(len(symbols))) + 0.7 * rng.standard_normal(len(symbols))
+        scale = float(np.max(np.abs(point))) ** 2 + 1.0
+        if not abs(float(np.asarray(f(point)).ravel()[0])) <= 1e-12 * scale:
+            return False
+    return True
+
+
+def _positive(expr, values) -> bool:
+    try:
+        return float(expr.subs(values)) > 0
+    except (TypeError, ValueError):
+        return False
 
 
 def contact_is_identity(height, az, radius, values) -> bool:
