@@ -924,6 +924,9 @@ class _Problem:
                 return
             if all(x <= 0 for x in e) or (flip and (sum(e) < 0 or (sum(e) == 0 and next(x for x in e if x) < 0))):
                 e = [-x for x in e]  # m*l**2 rather than 1/(m*l**2)
+            nonzero = [x for x in e if x]
+            if len(nonzero) == 2 and nonzero[0] == -nonzero[1] and nonzero[0] > 0:
+                e = [-x for x in e]  # a ratio over the parameter named first: mb/ma, mc/ma
             chosen.append(e)
 
         ratios = self._term_ratios()
