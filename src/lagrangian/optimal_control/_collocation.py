@@ -119,6 +119,10 @@ class Transcription:
         else:
             self.parts = ca.Function("parts", [q, v, u, t], [Mx, fx, ca.SX(0, n), ca.SX(0, 1)])
         self.dyn = ca.Function("dyn", args, [res])
+        # the implicit function theorem on M a - f = 0 (unconstrained): da/d(q, v, u) = -M^-1 d(M a - f)/d(q, v, u)
+        unconstrained = ca.mtimes(Mx, a) - fx
+        self.jac = ca.Function("implicit_jacobian", [q, v, a, u, t], [Mx, ca.jacobian(unconstrained, ca.vertcat(q, v)),
+                                                        ca.jacobian(unconstrained, u)])
         zero = ca.SX(0)
         obj = to_casadi([problem.objective], symbols, where="the objective")[0] if problem.objective is not None \
             else zero
@@ -306,6 +310,18 @@ class Transcription:
         else:
             a = np.linalg.solve(Mv, fv.ravel())
         return np.concatenate([x[n:], a])
+
+    def linear(self, x: np.ndarray, u: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """A = dF/dx (2n x 2n) and B = dF/du (2n x k) of F = [q_dot, a] at one point (unconstrained models)."""
+        n = self.n
+        a = self.rates(x, u, t)[n:]
+        Mv, Rx, Ru = (np.asarray(z, dtype=float) for z in self.jac(x[:n], x[n:], a, u, t))
+        A = np.zeros((2 * n, 2 * n))
+        A[:n, n:] = np.eye(n)
+        A[n:] = -np.linalg.solve(Mv, Rx)
+        B = np.zeros((2 * n, self.k))
+        B[n:] = -np.linalg.solve(Mv, Ru.reshape(n, self.k))
+        return A, B
 
     def errors(self, s: Solution) -> np.ndarray:
         n = self.n

@@ -74,6 +74,7 @@ class OptimalMotion:
     replay_deviation: dict[str, float]
     replay_failure: str | None = None
     equations: Any = field(default=None, repr=False)
+    _transcription: Any = field(default=None, repr=False)
 
     # ------------------------------------------------------------------ access
     @property
@@ -104,6 +105,40 @@ class OptimalMotion:
     @property
     def max_replay_deviation(self) -> float:
         return max(self.replay_deviation.values()) if self.replay_deviation else 0.0
+
+    def state_at(self, s: float) -> np.ndarray:
+        """The state at time s: the collocation's cubic Hermite interpolant (exact at the points)."""
+        n = self.n
+        nodes = self.t[0::2]
+        s = min(max(float(s), nodes[0]), nodes[-1])
+        j = min(max(int(np.searchsorted(nodes, s, side="right")) - 1, 0), len(nodes) - 2)
+        h = nodes[j + 1] - nodes[j]
+        x0, x1 = self.x[2 * j], self.x[2 * j + 2]
+        f0 = np.concatenate([x0[n:], self.accelerations[2 * j]])
+        f1 = np.concatenate([x1[n:], self.accelerations[2 * j + 2]])
+        r = (s - nodes[j]) / h
+        return ((2 * r**3 - 3 * r**2 + 1) * x0 + (r**3 - 2 * r**2 + r) * h * f0 + (-2 * r**3 + 3 * r**2) * x1
+                + (r**3 - r**2) * h * f1)
+
+    def tracking_lqr(self, Q=None, R=None, Qf=None):
+        """A time-varying LQR that holds this motion on the nonlinear model (unconstrained models).
+
+        Parameters
+        ----------
+        Q : mapping of state name to weight, or array, shape (2n, 2n); default identity
+        R : mapping of input name to weight (> 0), or array, shape (k, k); default identity
+        Qf : array, shape (2n, 2n), optional
+            The final weight S(T) (default Q).
+
+        Returns
+        -------
+        TrackingLaw
+            ``law.gains`` K(t) at the points; ``simulate(eqs, T, initial=x0, inputs=law.inputs())``
+            runs u = u*(t) - K(t) (x - x*(t)).
+        """
+        from ._tracking import tracking_lqr
+
+        return tracking_lqr(self, Q, R, Qf)
 
     # ------------------------------------------------------------------ output
     def to_dict(self) -> dict:

@@ -130,7 +130,7 @@ def optimal_motion(equations, *, duration=None, objective=None, terminal_cost=No
         iterations=iterations, status=sol.status, intervals=len(tau_nodes) - 1, collocation_error=worst,
         converged=worst <= problem.tolerance, tolerance=problem.tolerance, meshes=tuple(meshes),
         constraint_error=constraint_error, input_law=law_signals, replay_deviation=deviation,
-        replay_failure=failure, equations=equations)
+        replay_failure=failure, equations=equations, _transcription=tr)
 
 
 def _ro(a: np.ndarray) -> np.ndarray:
