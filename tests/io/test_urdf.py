@@ -282,3 +282,19 @@ def test_load_routes_urdf_by_suffix_and_the_cli_reads_it(tmp_path, capsys):
 def test_loads_urdf_takes_text_only():
     with pytest.raises(TypeError, match=r"expects the text of a URDF file"):
         loads_urdf(3)
+
+
+def test_floating_and_planar_urdf_joints():
+    floating = loads_urdf(_robot(ARM + _joint(type="floating")))
+    assert [c.name for c in floating.q] == ["j_x", "j_y", "j_z", "j_1", "j_2", "j_3"]
+    M0 = lg.derive(floating).mass_matrix.subs({c: 0 for c in floating.q})
+    assert M0 == sp.diag(1, 1, 1, 1, 1, 1)
+    planar = loads_urdf(_robot(ARM + _joint(type="planar")))
+    assert [c.name for c in planar.q] == ["j_x", "j_y", "j_angle"]
+    assert lg.derive(planar).mass_matrix == sp.eye(3)
+
+
+def test_coordinates_of_two_joints_that_collide_are_refused():
+    text = _robot(ARM + _joint(type="planar") + ARM.replace('"a"', '"b"') + _joint(name="j_x", parent="a", child="b"))
+    assert "two joints' coordinates are both named 'j_x'" in _error(text)
+    assert "floating_base_x" in _error(_robot(ARM + _joint(name="floating_base_x")), floating_base=True)

@@ -527,22 +527,28 @@ class _Builder:
         children: dict[str, list[_Joint]] = {}
         for j in joints:
             children.setdefault(j.parent, []).append(j)
+        from ..model._joints import default_coordinates
+
         moving = [j for j in joints if j.type != "fixed"]
-        # coordinates in the file's order of the joints
+        # coordinates in the file's order of the joints (a planar or floating joint's: <name>_x, ...)
+        names_of = {j.name: list(default_coordinates(j.coordinate, j.type, _planar_normal(j.axis)))
+                    for j in moving}
+        names = [n for j in moving for n in names_of[j.name]]
         if self.floating_base:
-            names = [f"{FLOATING_BASE}_{s}" for s in ("x", "y", "z", "1", "2", "3")]
-            taken = {j.coordinate for j in moving}
-            clash = [n for n in names if n in taken]
-            if clash:
-                raise ModelFileError([Problem(f"a joint's name '{clash[0]}' is a floating base coordinate's: rename "
-                                              "the joint, or load without floating_base")], file=self.source)
+            names = list(default_coordinates(FLOATING_BASE, "floating")) + names
+        seen: set[str] = set()
+        for n in names:
+            if n in seen:
+                raise ModelFileError([Problem(f"two joints' coordinates are both named '{n}' (a planar or floating "
+                                              "joint's coordinates are <name>_x, ..., the floating base's "
+                                              f"{FLOATING_BASE}_x, ...): rename one of the joints in the URDF")],
+                                     file=self.source)
+            seen.add(n)
+        if names:
             model.coordinate(*names)
-        for j in moving:
-            model.coordinate(j.coordinate)
         gname = None
         if self.gravity is not None:
-            coords = {j.coordinate for j in moving}
-            gname = "g" if "g" not in coords else "g_gravity"
+            gname = "g" if "g" not in seen else "g_gravity"
             model.parameter(gname, float(self.gravity))
         # frames, parents first
         root_frame = links[base].frame
@@ -582,14 +588,13 @@ class _Builder:
                 kwargs = {"limits": j.limits, "damping": _number(j.damping) if j.damping else None,
                           "friction": _number(j.friction) if j.friction else None}
             if j.type == "planar":
-                axis = "xyz"[int(np.argmax(np.abs(j.axis)))]
-                if max(j.axis) < 0:
+                axis = _planar_normal(j.axis)
+                if max(j.axis) <= 0:
                     self.notes.append(f"planar joint '{j.name}': its normal taken as +{axis}")
             elif j.type == "floating":
                 axis = None
             model.add_joint(j.coordinate, j.type, parent=frame_of[j.parent], child=frame, origin=origin,
-                            rotation=rotation, axis=axis,
-                            coordinates=None if j.type in ("planar", "floating") else [j.coordinate], **kwargs)
+                            rotation=rotation, axis=axis, coordinates=names_of[j.name], **kwargs)
             anchor[j.child] = j.child
             offset[j.child] = (np.eye(3), np.zeros(3))
         # bodies: the links that move together, merged
@@ -606,6 +611,11 @@ class _Builder:
                                  center=tuple(_number(c) for c in com), name=links[head].frame)
         if gname is not None:
             model.add_gravity(model.symbol(gname), direction=(0, 0, -1))
+
+
+def _planar_normal(axis) -> str:
+    """The letter of the unit axis a planar joint's normal is along."""
+    return "xyz"[int(np.argmax(np.abs(axis)))]
 
 
 def _merge(parts):
