@@ -291,7 +291,7 @@ def test_the_top_of_the_model_files_page_is_a_model_file():
     from pathlib import Path
 
     page = (Path(__file__).resolve().parents[2] / "docs" / "model-files.md").read_text()
-    (block,) = [b for b in re.findall(r"```toml\n(.*?)```", page, re.S) if "[[frames]]" in b]
+    (block,) = [b for b in re.findall(r"```toml\n(.*?)```", page, re.S) if re.search(r"^\[\[frames\]\]", b, re.M)]
     eqs = lg.derive(lg.io.loads_model(block))
     assert eqs.input_matrix[:, 0] == sp.Matrix([0, sp.cos(S("theta")), 1])
     top = lg.derive(lg.load("heavy-top"))
