@@ -291,3 +291,39 @@ def test_limit_stiffness_errors(kwargs, match):
     m = lg.Model("x")
     with pytest.raises(ModelError, match=match):
         m.add_joint("j", "revolute", **kwargs)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n", [6])
+def test_robot_arm_n_with_joints_equals_the_generated_frame_by_frame_arm(n):
+    """robot-arm-<n> rebuilt with Model.add_joint (motor torques as generalized forces on the joints'
+    coordinates): the same M and f at random states (numerically: n links are too many for simplify)."""
+    import numpy as np
+
+    from lagrangian.examples import ARM_AXES
+
+    ref = lg.load(f"robot-arm-{n}")
+    m = lg.Model(f"robot-arm-{n}-joints")
+    for p, v in ref.parameters.items():
+        m.parameter(p.name, v)
+    for k in range(1, n + 1):
+        m.input(f"tau{k}")
+    axes = [ARM_AXES[k] if k < len(ARM_AXES) else ("y", "x")[k % 2] for k in range(n)]
+    for k in range(1, n + 1):
+        origin = (0, 0, 0) if k == 1 else ((0, 0, "h") if k == 2 else ("l", 0, 0))
+        m.add_joint(f"j{k}", "revolute", parent="world" if k == 1 else f"link{k - 1}", child=f"link{k}",
+                    origin=origin, axis=axes[k - 1], coordinates=f"q{k}")
+        m.add_generalized_force(f"q{k}", f"tau{k}")
+    for e in ref.elements:
+        if isinstance(e, lg.model.RigidBody3D):
+            m.add_rigid_body(e.mass, e.inertia, frame=e.frame, center=e.position, center_frame="world", name=e.name)
+    m.add_gravity("g")
+    a, b = (lg.compile(lg.derive(x), backend="scipy") for x in (m, ref))
+    assert a.state_names == b.state_names and a.input_names == b.input_names
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        x, u = rng.uniform(-2, 2, 2 * n), rng.uniform(-1, 1, n)
+        np.testing.assert_allclose(a.mass_matrix(0, x, u, a.parameter_values),
+                                   b.mass_matrix(0, x, u, b.parameter_values), rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(a.forcing(0, x, u, a.parameter_values),
+                                   b.forcing(0, x, u, b.parameter_values), rtol=1e-11, atol=1e-12)
