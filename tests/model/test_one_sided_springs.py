@@ -173,3 +173,27 @@ def test_api_acts_error():
     with pytest.raises(ModelError, match=re.escape("unknown value 'tensoin' (did you mean 'tension'?)")) as info:
         _balls("tensoin")
     assert "\"tension\" only (it pulls when longer: a cable)" in str(info.value)
+
+
+@pytest.mark.slow
+@pytest.mark.subprocess
+def test_the_c_backend_and_the_exports_run_the_one_sided_spring(tmp_path):
+    import subprocess
+
+    from lagrangian.export import export_c, export_modelica
+    from lagrangian.numeric._cbackend import c_compiler
+
+    if c_compiler() is None:
+        pytest.skip("no C compiler ($CC, cc or gcc) to build the export")
+    eqs = lg.derive(_balls())
+    x0 = {"x2": 1.0, "x2_dot": -1.0}
+    c = lg.simulate(eqs, 2.0, initial=x0, rtol=1e-11, atol=1e-11, backend="c")
+    numba = lg.simulate(eqs, 2.0, initial=x0, rtol=1e-11, atol=1e-11, backend="numba")
+    assert c.stats["backend"] == "c" and np.allclose(c.x, numba.x, atol=1e-12, rtol=0)
+    export_c(eqs, tmp_path)
+    build = subprocess.run([*c_compiler().split(), "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O2",
+                            "-o", str(tmp_path / "demo"), str(tmp_path / "main.c"), str(tmp_path / "balls.c"), "-lm"],
+                           capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    export_modelica(eqs, tmp_path / "balls.mo")
+    assert "(if 2*r - sqrt((-x1 + x2)^2) > 0 then " in (tmp_path / "balls.mo").read_text()

@@ -89,6 +89,16 @@ class _ModelicaPrinter(StrPrinter):
                              "exported to Modelica")
         return f"{name}({', '.join(self._print(a) for a in expr.args)})"
 
+    def _print_Piecewise(self, expr):
+        """(if c1 then e1 elseif c2 then e2 else en): the one-sided springs' potentials and forces."""
+        *pieces, (last, cond) = expr.args
+        if cond != sympy.true or not all(isinstance(c, sympy.core.relational.Relational) for _, c in pieces):
+            raise ModelError("a Piecewise whose conditions are not comparisons has no Modelica counterpart; the "
+                             "model cannot be exported to Modelica")
+        text = "".join(f"{'if' if k == 0 else ' elseif'} {self._print(c.lhs)} {c.rel_op} {self._print(c.rhs)} "
+                       f"then {self._print(e)}" for k, (e, c) in enumerate(pieces))
+        return f"({text} else {self._print(last)})"
+
     def _print_Float(self, expr):
         return repr(float(expr))
 
