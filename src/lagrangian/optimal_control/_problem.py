@@ -105,7 +105,7 @@ def build_problem(equations, overrides: Mapping[str, Any]) -> OptimalControlProb
     table = dict(getattr(model, "optimal_control", None) or {})
     given = {k: v for k, v in overrides.items() if v is not None}
     problems: list[Problem] = []
-    names = model.names()
+    names = {**model.names(), **getattr(model, "derived_parameters", {})}  # derived: their expressions
     coordinates = [c.name for c in model.q]
     inputs = [u.name for u in model.inputs]
     if given:
