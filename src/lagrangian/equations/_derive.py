@@ -21,7 +21,7 @@ from .._limits import MAX_COORDINATES, MAX_TERMS
 from ..errors import ModelError, Problem
 from ..model import Model
 from ..model._constraints import HOLONOMIC
-from ..model._elements import Particle, RigidBody, RigidBody3D
+from ..model._elements import Gravity, Particle, RigidBody, RigidBody3D
 from ..model._kinematics import Kinematics
 from ._equations import Equations, SymbolicCore
 
@@ -58,13 +58,16 @@ def derive(model: Model) -> Equations:
     V = kin.se(snapshot.V)
     D = kin.se(snapshot.D)
     Q = [kin.se(snapshot.Q.get(c, 0)) for c in snapshot.q]
+    V_written = V  # V without gravity's, a sum over the positions (bounded as T's inputs, see _check_sizes)
     for element in snapshot.elements:
         c = element.contribute(kin)
         T, V, D = T + c.T, V + c.V, D + c.D
+        if not isinstance(element, Gravity):
+            V_written = V_written + c.V
         if c.Q:
             Q = [a + b for a, b in zip(Q, c.Q)]
 
-    _check_sizes(snapshot, V, D, Q, kin)
+    _check_sizes(snapshot, V_written, D, Q, kin)
     L = T - V
     q, qd, t = kin.q, kin.qd, kin.t
     p = [L.diff(v) for v in qd]
@@ -91,22 +94,20 @@ def _check_sizes(model: Model, V, D, Q, kin: Kinematics) -> None:
     MAX_TERMS (counted on the tree, not by expanding: ``(x + y + z + w)**200`` has 1,373,701), since
     the equations' parts and readable forms expand them: every such expression is reported at once.
 
-    T* is checked as written ([energy] T and the positions of the particles and bodies), not as
-    assembled from the bodies: the T* of three rods in space, each on a spherical joint, could
-    expand to millions of terms, and derive() never expands it (the equations of such models are
-    shown with named quantities, see ``_named``)."""
+    T* is checked as written in [energy] T, and V without gravity's sum over the positions: the
+    positions of bodies down a chain of frames are products of the frames' rotations (3^k terms
+    at depth k, expanded), and T* of three rods in space, each on a spherical joint, could expand
+    to millions of terms, which derive() never expands (the equations of such models are shown
+    with named quantities, see ``_named``; the Jacobi integral is expanded only within the same
+    budget)."""
     from ._readable import expanded_terms_bound
 
     limit = MAX_TERMS.value
-    written = kin.se(model.T)
-    for element in kin.massive_elements:
-        for x in element.position:
-            written = written + kin.se(x) ** 2
-    parts = [("energy.T", "T*", written), ("energy.V", "V", V), ("energy.D", "D", D)]
+    memo: dict = {}
+    parts = [("energy.T", "T*", kin.se(model.T)), ("energy.V", "V", V), ("energy.D", "D", D)]
     parts += [(f"forces.{c}", f"Q[{c}]", Qi) for c, Qi in zip(model.q, Q)]
     parts += [(f"constraints[{k}]", f"constraint {k + 1}", kin.se(con.expression))
               for k, con in enumerate(model.constraints)]
-    memo: dict = {}
     problems = [Problem(f"{name} could expand to more than {limit:,} terms (counted on its expression, e.g. a power "
                         "of a long sum): write it in a shorter form (fewer terms in a raised sum, a parameter for a "
                         f"repeated factor); {MAX_TERMS.how_to_raise()}", key=key)

@@ -450,7 +450,17 @@ class Equations:
     @cached_property
     def _jacobi_se(self) -> se.Basic:
         h = sum((v * pi for v, pi in zip(self.core.qd, self.core.p)), se.Integer(0)) - self.core.L
-        return se.expand(h)
+        return h if self._jacobi_too_large else se.expand(h)
+
+    @cached_property
+    def _jacobi_too_large(self) -> bool:
+        """Whether h = q_dot . dL/dq_dot - L could expand to more terms than derive() allows (a chain
+        of bodies in space): then it is kept as derived (h - T* - V = 0 exactly when T* = T2)."""
+        from .._limits import MAX_TERMS as limit
+        from ._readable import expanded_terms_bound
+
+        h = sum((v * pi for v, pi in zip(self.core.qd, self.core.p)), se.Integer(0)) - self.core.L
+        return expanded_terms_bound(h, limit.value) > limit.value
 
     @property
     def is_conservative(self) -> bool:
@@ -498,7 +508,7 @@ class Equations:
         out: dict[str, sympy.Expr] = {}
         if self.is_conservative:
             h = self._jacobi_se
-            is_energy = se.expand(h - self.core.T - self.core.V) == 0
+            is_energy = self._natural if self._jacobi_too_large else se.expand(h - self.core.T - self.core.V) == 0
             out["energy" if is_energy else "jacobi_integral"] = self._readable_jacobi_integral()
         names = [c.name for c in self.coordinates]
         for c in self.cyclic_coordinates:
