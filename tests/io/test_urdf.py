@@ -298,3 +298,24 @@ def test_coordinates_of_two_joints_that_collide_are_refused():
     text = _robot(ARM + _joint(type="planar") + ARM.replace('"a"', '"b"') + _joint(name="j_x", parent="a", child="b"))
     assert "two joints' coordinates are both named 'j_x'" in _error(text)
     assert "floating_base_x" in _error(_robot(ARM + _joint(name="floating_base_x")), floating_base=True)
+
+
+def test_visual_shapes_are_drawn_in_their_link_frames():
+    """A box 0.2 x 0.1 x 0.4 at xyz 0 0 -0.2 of a link turned by q about y: its outline's corners are where the
+    frame puts them (plot._geometry.scene_of, Scene.visual_outlines)."""
+    from lagrangian.plot._geometry import outline_of, scene_of
+
+    text = _robot(ARM.replace("</link>", '<visual><origin xyz="0 0 -0.2"/><geometry><box size="0.2 0.1 0.4"/>'
+                              '</geometry></visual></link>') + _joint().replace('0 0 1', '0 1 0'))
+    model = loads_urdf(text)
+    scene = scene_of(model)
+    assert scene.visuals == ("a box",)
+    q = 0.7
+    (outline,) = scene.visual_outlines(np.array([0.0]), np.array([[q]]))
+    corners = outline[0][~np.isnan(outline[0][:, 0])]
+    R = np.array([[math.cos(q), 0, math.sin(q)], [0, 1, 0], [-math.sin(q), 0, math.cos(q)]])
+    local = outline_of("box", (0.2, 0.1, 0.4), (0, 0, -0.2))
+    expected = local[~np.isnan(local[:, 0])] @ R.T
+    np.testing.assert_allclose(corners, expected, atol=1e-12)
+    assert {tuple(np.round(p, 12)) for p in local[~np.isnan(local[:, 0])]} == {
+        (x, y, z) for x in (-0.1, 0.1) for y in (-0.05, 0.05) for z in (-0.4, 0.0)}

@@ -231,6 +231,10 @@ class Animation:
         for k, name in enumerate(self.trace):
             self.artists[f"trace {name}"] = ax.plot(*empty, lw=1, alpha=0.7, color=f"C{(k + 4) % 10}",
                                                     zorder=1)[0]
+        self._outlines = scene.visual_outlines(self.trajectory.t[self.frame_indices],
+                                               self.trajectory.q[self.frame_indices])
+        for j, label in enumerate(scene.visuals):  # a URDF's visual shapes
+            self.artists[f"visual {j} {label}"] = ax.plot(*empty, color="C7", lw=1.0, zorder=3)[0]
         for body in scene.spatial:
             if body.link > 1:
                 self.artists[f"{body.name} link"] = ax.plot(*empty, **_ROD)[0]
@@ -322,6 +326,8 @@ class Animation:
                 r = self._radius[i]
                 put(self.artists[f"{nd.name} spoke"], [p[i], p[i] + r * np.array([np.cos(a), np.sin(a)])])
                 changed.append(disk)
+        for j, (label, outline) in enumerate(zip(scene.visuals, self._outlines)):
+            put(self.artists[f"visual {j} {label}"], outline[k])
         for body, drawing in zip(scene.spatial, self._spatial):
             if body.link > 1:
                 put(self.artists[f"{body.name} link"], drawing.link[k])

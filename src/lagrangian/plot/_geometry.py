@@ -28,6 +28,9 @@ once (docs/plots.md repeats them):
   each segment only where its length never changes, nonzero: a body centred on its frame's
   origin hangs from the parent's origin), and their shape if they have one:
   a disk is the circle of its radius about the centre, across its body axis.
+* **Visual shapes** (a URDF's ``<visual>`` boxes, cylinders and spheres, meshes as small markers, kept
+  in ``model.visuals``): each is drawn as its outline (a box's edges, a cylinder's two end circles
+  and four sides, a sphere's three great circles), fixed in its link's frame.
 * **The ground**: a model with wheels rolls on the plane z = 0, which is drawn (a square grid).
 * **The framing** (:func:`framing_of`): a drawing shows one box for the whole motion, unless the
   motion reaches more than :data:`FOLLOW_RATIO` times the mechanism's own size (the largest extent
@@ -152,6 +155,22 @@ class Scene:
     spatial: tuple[SpatialBody, ...] = ()
     _poses: object = None
     ground: bool = False
+    visuals: tuple[str, ...] = ()  # the drawn visual shapes ("<frame> box"), see visual_outlines
+    _visual_local: tuple = ()
+    _visual_poses: object = None
+
+    def visual_outlines(self, t, q) -> tuple[np.ndarray, ...]:
+        """The outline of each visual shape (in `visuals` order) in world coordinates at times `t` (N,)
+        and coordinates `q` (N, n): shape (N, k, 3) each, NaN rows between its strokes."""
+        t, q = _times_and_coordinates(t, q)
+        if not self.visuals:
+            return ()
+        flat = self._visual_poses(t, q)
+        out = []
+        for k, local in enumerate(self._visual_local):
+            origin, R = flat[:, 12 * k:12 * k + 3], flat[:, 12 * k + 3:12 * k + 12].reshape(-1, 3, 3)
+            out.append(origin[:, None, :] + np.einsum("nij,kj->nki", R, local))
+        return tuple(out)
 
     def index(self, name: str) -> int:
         """Index of the node named `name`."""
@@ -614,8 +633,50 @@ def scene_of(model, params=None) -> Scene:
     def poses(t, q):
         return _columns(fpose(t, *q.T), t)
 
+    labels, local, visual_exprs = [], [], []
+    for v in getattr(model, "visuals", ()) if dim == 3 else ():
+        if v.frame != WORLD and v.frame not in model.frames:
+            continue
+        origin, R = frame_pose(model.frames, v.frame)
+        labels.append(f"{v.frame} {v.kind}")
+        local.append(outline_of(v.kind, v.size, v.origin, v.rpy))
+        visual_exprs += [*b.numeric(origin), *b.numeric(R)]
+    fvisual = sympy.lambdify(args, visual_exprs or [0], "numpy", cse=True)
+
+    def visual_poses(t, q):
+        return _columns(fvisual(t, *q.T), t)
+
     return Scene(dim, tuple(nodes), tuple(rods), tuple(springs), tuple(dampers), tuple(tracks), tuple(undrawn),
-                 positions, angles, bodies, spatial, poses, ground=dim == 3 and bool(model.wheels))
+                 positions, angles, bodies, spatial, poses, ground=dim == 3 and bool(model.wheels),
+                 visuals=tuple(labels), _visual_local=tuple(local), _visual_poses=visual_poses)
+
+
+def outline_of(kind: str, size, origin=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """The outline of a visual shape in its frame's axes, shape (k, 3), NaN rows between strokes: a
+    "box" of edge lengths `size`, a "cylinder" (radius, length) along z, a "sphere" or "marker" of
+    radius `size[0]`; placed at `origin` and turned by `rpy` (Rz(yaw) Ry(pitch) Rx(roll)) in the frame."""
+    gap = np.full((1, 3), np.nan)
+    phi = np.linspace(0.0, 2 * np.pi, 25)
+    c, s, z = np.cos(phi), np.sin(phi), np.zeros_like(phi)
+    if kind == "box":
+        a, b, h = (x / 2 for x in size)
+        loop = np.array([[-a, -b], [a, -b], [a, b], [-a, b], [-a, -b]])
+        strokes = [np.column_stack([loop, np.full(5, -h)]), np.column_stack([loop, np.full(5, h)])]
+        strokes += [np.array([[x, y, -h], [x, y, h]]) for x, y in loop[:4]]
+    elif kind == "cylinder":
+        r, h = size[0], size[1] / 2
+        strokes = [np.column_stack([r * c, r * s, z - h]), np.column_stack([r * c, r * s, z + h])]
+        strokes += [np.array([[r * x, r * y, -h], [r * x, r * y, h]]) for x, y in ((1, 0), (0, 1), (-1, 0), (0, -1))]
+    else:  # a sphere or a marker
+        r = size[0]
+        strokes = [np.column_stack([r * c, r * s, z]), np.column_stack([r * c, z, r * s]),
+                   np.column_stack([z, r * c, r * s])]
+    points = np.vstack([row for stroke in strokes for row in (stroke, gap)][:-1])
+    roll, pitch, yaw = rpy
+    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    R = (np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]]) @ np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+         @ np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]]))
+    return points @ R.T + np.asarray(origin, dtype=float)
 
 
 def _spatial_bodies(model, b: _Builder, index_of) -> tuple[tuple[SpatialBody, ...], list]:
