@@ -242,6 +242,17 @@ def test_past_the_exact_bound_the_numeric_path_gives_the_same_answer(monkeypatch
     assert r.identifiable == ("l1", "l2") and r.combinations == (m2 / m1,) and r.symmetry == "scaling"
 
 
+@pytest.mark.slow
+def test_four_bar_only_the_crank_angle_measured():
+    """An encoder on the crank alone (th1), the initial crank angle and speed unknown: the same answer
+    as with every angle measured, from simulated sensitivities (the dependent angles follow the loop)."""
+    r = identifiability(four_bar(True), ["a", "b", "ma", "mb", "mc"], measured=["th1"])
+    ma, mb, mc = sympy.symbols("ma mb mc")
+    assert r.identifiable == ("a", "b") and r.combinations == (mb / ma, mc / ma) and r.symmetry == "scaling"
+    assert "the 2 initial values of each experiment unknown too" in r.method
+    assert r.singular_values[3] > 1e3 * r.singular_values[4]
+
+
 def _simulated_sensitivities(e, names, values, h=1e-5):
     """d th(t_k) / d log p by central differences of simulate (the independent path)."""
     nm = lg.compile(e)
@@ -344,8 +355,12 @@ def test_bad_measured_and_inputs():
         identifiability(e, ["m"], measured=["th_dot", "th_dot"])
     with pytest.raises(ModelError, match="measured must be a non-empty list"):
         identifiability(e, ["m"], measured=[])
-    with pytest.raises(ModelError, match="does not handle constraints yet"):
-        identifiability(four_bar(False), ["a"], measured=["th1_dot"])
+    with pytest.raises(ModelError, match="does not handle velocity constraints yet, and model 'rolling-disk' has"):
+        identifiability(lg.derive(lg.load("rolling-disk")), ["m"], measured=["x"])
+    text = example_source("four-bar").replace('independent = ["th1"]\n', "")
+    with pytest.raises(ModelError, match=r"needs the independent coordinates of the constrained model 'four-bar' .*"
+                                         r"add independent = \[\.\.\.\] to its \[simulation\] table"):
+        identifiability(lg.derive(loads_model(text)), ["a"], measured=["th1"])
     with pytest.raises(ModelError, match="equations must be the Equations of a model"):
         identifiability("pendulum", ["m"])
 

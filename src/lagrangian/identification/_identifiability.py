@@ -40,7 +40,8 @@ How the rank is found, in order:
 3. With only some quantities measured (``measured=["bob.x"]``): the sensitivities of the measured
    outputs along simulated experiments (random initial states, which are unknowns too, and random
    known inputs), by central finite differences of :func:`lagrangian.simulate`, rank as in 2 with
-   rtol = 1e-5 (the differences' accuracy).
+   rtol = 1e-5 (the differences' accuracy). A constrained model's experiments start from its
+   [simulation] independent coordinates and their velocities; velocity constraints are refused.
 
 The null space, found at two generic parameter vectors, is then classified: the same rational vectors
 in log coordinates at both is a scaling symmetry; the same in the parameters themselves a translation
@@ -239,8 +240,11 @@ def _svd_rank(S: np.ndarray, rtol: float) -> tuple[int, np.ndarray, np.ndarray]:
     sigma[:len(s)] = s[:P]
     top = sigma[0] if len(sigma) else 0.0
     rank = int(np.sum(sigma > rtol * top)) if top > 0 else 0
-    null = vt[rank:] / scale  # back to the columns' own coordinates
-    return rank, _rref_float(null), sigma
+    null = vt[rank:]
+    # entries at the noise level of the null vectors (round-off, or the differences' error) are zero
+    null = np.where(np.abs(null) > max(1e-9, 100 * rtol) * np.max(np.abs(null), axis=1, initial=0.0)[:, None],
+                    null, 0.0)
+    return rank, _rref_float(null / scale), sigma  # back to the columns' own coordinates
 
 
 def _normalized(S: np.ndarray, rtol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -468,10 +472,11 @@ def _check_measured(eq: Equations, measured) -> tuple[tuple[str, ...], list] | N
         raise ModelError(problems)
     if set(q) <= set(names) or (set(q) | set(v)) <= set(names):
         return None
-    if eq.is_constrained:
+    velocity = [c.name for c in model.constraints if c.kind != "holonomic"]
+    if velocity:
         raise ModelError(f"identifiability with only some quantities measured ({', '.join(names)}) does not handle "
-                         f"constraints yet, and model '{model.name}' has some: measure every coordinate "
-                         f"(measured=None), which the analysis of constrained models supports")
+                         f"velocity constraints yet, and model '{model.name}' has {', '.join(velocity)}: measure every "
+                         "coordinate (measured=None), which the analysis of constrained models supports")
     return tuple(names), exprs
 
 
@@ -805,9 +810,9 @@ class _Problem:
         S1, count = self._sensitivities(p1, exprs)
         rank, null1, sigma = _svd_rank(S1, SENSITIVITY_RTOL)
         method = (f"numeric: the rank of the sensitivities of {', '.join(names)} with respect to log p (the "
-                  f"{2 * self.n} initial values unknown too, projected out), by central differences of simulations "
-                  f"of {count} experiments with random initial states and inputs (singular values above "
-                  f"{SENSITIVITY_RTOL:g} * the largest)")
+                  f"{self._unknown_count} initial values of each experiment unknown too, projected out), by central "
+                  f"differences of simulations of {count} experiments with random initial states and inputs (singular "
+                  f"values above {SENSITIVITY_RTOL:g} * the largest)")
         if not len(null1):
             return self._build(NONE, [], p1, sigma, SENSITIVITY_RTOL, method)
         S2, _ = self._sensitivities(p2, exprs)
@@ -818,11 +823,25 @@ class _Problem:
             return self._build(OTHER, [list(r) for r in null1], p1, sigma, SENSITIVITY_RTOL, method, exact=False)
         return self._finish(p1, p2, rec1, rec2, sigma, SENSITIVITY_RTOL, method)
 
+    def _unknown_initial(self) -> list[str]:
+        """The names of the initial state a simulation is given (and the analysis treats as unknown): the
+        whole state, or for a constrained model its [simulation] independent coordinates and their velocities."""
+        names = list(self.eq.state_names)
+        if not self.m:
+            return names
+        independent = list(self.eq.model.simulation.get("independent") or [])
+        if not independent:
+            raise ModelError(f"identifiability with only some quantities measured needs the independent coordinates "
+                             f"of the constrained model '{self.eq.model.name}' (the initial states of the simulated "
+                             "experiments are given by them): add independent = [...] to its [simulation] table, or "
+                             "measure every coordinate (measured=None)")
+        return independent + [f"{q}_dot" for q in independent]
+
     def _sensitivities(self, p: list[Fraction], exprs) -> tuple[np.ndarray, int]:
-        """d(measured values)/d(log p), the initial state's columns projected out."""
+        """d(measured values)/d(log p), the unknown initial state's columns projected out."""
         from ..numeric import compile as compile_model, simulate
 
-        n, P = self.n, self.P
+        P = self.P
         if not hasattr(self, "_nm"):
             self._nm = compile_model(self.eq)
             self._out_f = se.Lambdify([self.t, *self.q, *self.qd, *self.u, *self.p_all], list(exprs), cse=True,
@@ -831,15 +850,18 @@ class _Problem:
         base.update({s.name: float(v) for s, v in self.known.items()})
         experiments = 3
         times = np.linspace(0.0, 2.0, 41)
+        unknown = self._unknown_initial()
+        model_initial = self.eq.model.simulation.get("initial") or {}
+        spread = 0.2 if self.m else 0.8
         blocks = []
         for _ in range(experiments):
-            x0 = self.nrng.uniform(-0.8, 0.8, 2 * n)
+            x0 = {k: float(model_initial.get(k, 0.0)) + float(self.nrng.uniform(-spread, spread)) for k in unknown}
             inputs = {u.name: " + ".join(f"{a:.3f}*sin({w:.3f}*t + {ph:.3f})" for a, w, ph in
                                          zip(self.nrng.uniform(0.3, 1.0, 2), self.nrng.uniform(0.5, 4.0, 2),
                                              self.nrng.uniform(0, 3, 2))) for u in self.eq.inputs}
 
             def run(params, x0=x0, inputs=inputs):
-                tr = simulate(self._nm, t_end=float(times[-1]), initial=list(x0), inputs=inputs, params=params,
+                tr = simulate(self._nm, t_end=float(times[-1]), initial=x0, inputs=inputs, params=params,
                               t_eval=times, rtol=1e-12, atol=1e-12)
                 if len(tr.t) != len(times):
                     raise ModelError(f"identifiability: a simulation of model '{self.eq.model.name}' stopped early "
@@ -849,34 +871,33 @@ class _Problem:
                 return np.concatenate([np.asarray(self._out_f(np.concatenate(([tk], xk, uk, pv))), float).ravel()
                                        for tk, xk, uk in zip(times, np.asarray(tr.x), U)])
 
+            h = 1e-4
             cols = []
-            for j, name in enumerate(self.names):
-                h = 1e-4
+            for name in self.names:
                 up, down = dict(base), dict(base)
                 up[name] = base[name] * (1 + h)
                 down[name] = base[name] * (1 - h)
                 cols.append((run(up) - run(down)) / (2 * h))
             xcols = []
-            for i in range(2 * n):
-                h = 1e-4
-                xu, xd = x0.copy(), x0.copy()
-                xu[i] += h
-                xd[i] -= h
+            for k in unknown:
+                xu, xd = dict(x0), dict(x0)
+                xu[k] += h
+                xd[k] -= h
                 xcols.append((run(base, xu) - run(base, xd)) / (2 * h))
             blocks.append((np.array(cols).T, np.array(xcols).T))
         rows = sum(len(b[0]) for b in blocks)
-        S = np.zeros((rows, P + 2 * n * experiments))
+        k = len(unknown)
+        S = np.zeros((rows, P + k * experiments))
         r = 0
         for e, (Sp, Sx) in enumerate(blocks):
             S[r:r + len(Sp), :P] = Sp
-            S[r:r + len(Sp), P + 2 * n * e:P + 2 * n * (e + 1)] = Sx
+            S[r:r + len(Sp), P + k * e:P + k * (e + 1)] = Sx
             r += len(Sp)
-        # project the initial states' columns out: S_p - Sx Sx^+ S_p
-        Sx = S[:, P:]
-        Q, Rx = np.linalg.qr(Sx)
-        keep = np.abs(np.diag(Rx)) > 1e-10 * max(np.max(np.abs(np.diag(Rx))), 1e-300)
-        Q = Q[:, keep]
-        Sp = S[:, :P] - Q @ (Q.T @ S[:, :P])
+        # project the initial states' columns out: S_p - U U^T S_p, U spanning the columns of S_x
+        U, sx, _ = np.linalg.svd(S[:, P:], full_matrices=False)
+        U = U[:, sx > 1e-10 * max(sx[0] if len(sx) else 0.0, 1e-300)]
+        Sp = S[:, :P] - U @ (U.T @ S[:, :P])
+        self._unknown_count = k
         return Sp, experiments
 
     # ------------------------------------------------------------------------- result
