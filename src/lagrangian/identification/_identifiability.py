@@ -212,7 +212,8 @@ def numeric_rank(S, names: Sequence[str], rtol: float = 1e-6) -> tuple[int, tupl
     null_directions : tuple of dict of str to float
         A basis of the null space in the columns' own coordinates (a change dp of the parameters that
         leaves S dp = 0), in reduced echelon form (each direction 1 at its own leading parameter),
-        entries below 1e-9 dropped: ``({"m": 1.0, "c": 1.0},)`` when m and c trade off.
+        entries at the noise level (below ``max(1e-9, 100 * rtol)`` of the direction's largest, columns
+        normalized) dropped: ``({"m": 1.0, "c": 1.0},)`` when m and c trade off.
     """
     names = tuple(names)
     S = np.asarray(S, dtype=float)
