@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import symengine as se
 
 from ..model._elements import Particle, RigidBody, RigidBody3D
+from ..model._frames import WORLD
 
 __all__ = ["NamedForm", "named_form"]
 
@@ -106,42 +107,228 @@ def _massive_kane(element, varying: set, kin) -> bool:
     return not any(set(kin.se(p).free_symbols) & varying for p in parts)
 
 
+def _cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _rotT(R, x):
+    """R^T x for a 3x3 SymEngine matrix R and a 3-list x."""
+    return [R[0, i] * x[0] + R[1, i] * x[1] + R[2, i] * x[2] for i in range(3)]
+
+
+def _add(*vectors):
+    return [sum(parts, se.Integer(0)) for parts in zip(*vectors)]
+
+
+class _FrameMotion:
+    """Each frame's angular velocity w, origin velocity v (both in the frame's own axes), their
+    Jacobians Jw[j], Jv[j] (d/dq_dot_j) and their components' rates at q_ddot = 0 (alpha, a),
+    by recursion down the chain of frames (as PyDy writes a chain: each quantity from its parent's
+    in a few terms), and the gravity vector g in the frame's axes. With R the frame's rotation in
+    its parent's axes (angular velocity w_rel, in its axes) and o its origin in the parent's:
+
+        w = R^T w_P + w_rel,                 v = R^T (v_P + w_P x o + o')
+        alpha = R^T alpha_P - w_rel x R^T w_P + w_rel'
+        a = R^T (a_P + alpha_P x o + w_P x o' + o'') - w_rel x v       (d/dt R^T = -[w_rel]x R^T)
+    """
+
+    def __init__(self, frames, kin, gravity):
+        self.frames, self.kin = frames, kin
+        n = len(kin.q)
+        zero = [se.Integer(0)] * 3
+        self.gravity = gravity
+        self._state = {WORLD: (zero, zero, [zero] * n, [zero] * n, zero, zero, gravity)}
+        self._pose: dict = {}
+
+    def __call__(self, name: str):
+        """(w, v, Jw, Jv, alpha, a, g) of the frame `name`."""
+        out = self._state.get(name)
+        if out is not None:
+            return out
+        from ..model._frames import angular_velocity, rotation_product
+
+        frame = self.frames[name]
+        kin = self.kin
+        wP, vP, JwP, JvP, alP, aP, gP = self(frame.parent)
+        R = se.DenseMatrix(3, 3, [kin.se(x) for x in rotation_product(frame.factors)])
+        wr = angular_velocity(frame.factors, kin)
+        o = [kin.se(x) for x in frame.origin]
+        od = [kin.rate(x) for x in o]
+        odd = _at_rest(od, kin)
+        w = _add(_rotT(R, wP), wr)
+        u = _add(vP, _cross(wP, o), od)
+        v = _rotT(R, u)
+        RwP = _rotT(R, wP)
+        alpha = _add(_rotT(R, alP), [-x for x in _cross(wr, RwP)], _at_rest(wr, kin))
+        udot = _add(aP, _cross(alP, o), _cross(wP, od), odd)
+        a = _add(_rotT(R, udot), [-x for x in _cross(wr, v)])
+        Jw, Jv = [], []
+        for j, (qj, uj) in enumerate(zip(kin.q, kin.qd)):
+            Jw.append(_add(_rotT(R, JwP[j]), [x.diff(uj) for x in wr]))
+            Jv.append(_rotT(R, _add(JvP[j], _cross(JwP[j], o), [x.diff(qj) for x in o])))
+        g = None if gP is None else _rotT(R, gP)
+        out = self._state[name] = (w, v, Jw, Jv, alpha, a, g)
+        return out
+
+    def pose_at_zero(self, name: str):
+        """(origin in world coordinates, R_world) of the frame at q = 0, t = 0 (SymPy, parameters only)."""
+        out = self._pose.get(name)
+        if out is None:
+            import sympy
+
+            from ..model._frames import frame_pose
+
+            origin, R = frame_pose(self.frames, name)
+            zero = {s: 0 for s in self.kin_symbols_sympy()}
+            out = self._pose[name] = (sympy.Matrix(origin).xreplace(zero), sympy.Matrix(R).xreplace(zero))
+        return out
+
+    def kin_symbols_sympy(self):
+        import sympy
+
+        return [sympy.Symbol(s.name) for s in (*self.kin.q, self.kin.t)]
+
+
+def _at_rest(vec, kin):
+    """d/dt of each expression of q, q_dot and t, at q_ddot = 0."""
+    q, qd, t = kin.q, kin.qd, kin.t
+    return [sum((x.diff(qj) * v for qj, v in zip(q, qd)), x.diff(t)) for x in vec]
+
+
+def _local(element, motion: _FrameMotion, frame: str, kin, rng):
+    """The element's centre in the axes of `frame`, c with position = o_frame + R_frame c, constant
+    (parameters only), or None: c is read at q = 0, t = 0 and checked at random states."""
+    import sympy
+
+    from ..model._frames import frame_pose
+
+    position = [sympy.sympify(x) for x in element.position]
+    if len(position) != 3:
+        return None
+    origin0, R0 = motion.pose_at_zero(frame)
+    zero = {s: 0 for s in motion.kin_symbols_sympy()}
+    p0 = sympy.Matrix(position).xreplace(zero)
+    c = [sympy.nsimplify(x) if x.is_number else sympy.simplify(x) for x in (R0.T * (p0 - origin0))]
+    if any(set(x.free_symbols) & set(motion.kin_symbols_sympy()) for x in c):
+        return None
+    origin, R = frame_pose(motion.frames, frame)
+    residual = [kin.se(position[i] - origin[i] - sum(R[i, k] * c[k] for k in range(3))) for i in range(3)]
+    symbols = sorted(set().union(*(r.free_symbols for r in residual)), key=str)
+    for _ in range(2):
+        point = {s: se.Float(float(x)) for s, x in zip(symbols, rng.uniform(0.3, 1.7, len(symbols)))}
+        try:
+            values = [abs(complex(r.xreplace(point).n())) for r in residual]
+        except (RuntimeError, TypeError, ValueError):
+            return None
+        if not all(v <= 1e-9 for v in values):
+            return None
+    return [kin.se(x) for x in c]
+
+
 def kane_form(model, kin) -> tuple[list, list, list]:
     """(M, f, quantities) of `model` (frozen snapshot) with its particles and bodies in Kane's form
     and the rest by Lagrange's operator, in SymEngine (trees sharing their subexpressions).
-    `quantities` is [(name, [components], note)] of each body's angular velocity and mass-centre
-    velocity."""
+    `quantities` is [(name, [components], note)]: each frame's angular velocity and origin velocity
+    (in its axes), then the mass-centre velocity of each element not fixed in a frame.
+
+    A body in space (and a particle fixed in a frame) moves with its frame: its velocity and
+    acceleration come from the frame's (``_FrameMotion``), in the frame's axes; other particles and
+    bodies from their positions (world axes). Gravity acts on the Jacobians of the velocities when
+    every particle and body is taken in Kane's form, else through V."""
+    import numpy as np
+
+    from ..model._elements import Gravity
+    from ..model._frames import WORLD as _WORLD  # noqa: F401
+
     q, qd, t = kin.q, kin.qd, kin.t
     n = len(q)
     varying = set(q) | set(qd) | {t}
     M = [[se.Integer(0)] * n for _ in range(n)]
     f = [se.Integer(0)] * n
-
-    def at_rest(vec):  # d/dt at q_ddot = 0
-        return [sum((x.diff(qj) * v for qj, v in zip(q, qd)), x.diff(t)) for x in vec]
-
     T_rest = kin.se(model.T)
     V = kin.se(model.V)
     D = kin.se(model.D)
     Q = [kin.se(model.Q.get(c, 0)) for c in model.q]
+    massive = [e for e in model.elements if isinstance(e, (Particle, RigidBody, RigidBody3D))]
+    kane = [e for e in massive if _massive_kane(e, varying, kin)]
+    gravities = [e for e in model.elements if isinstance(e, Gravity)]
+    gravity_here = len(kane) == len(massive) and len(gravities) == 1
+    g_world = None
+    if gravity_here:
+        (grav,) = gravities
+        dim = len(massive[0].position) if massive else 3
+        if grav.direction is not None:
+            import sympy
+
+            norm = sympy.sqrt(sum(c ** 2 for c in grav.direction))
+            unit = [kin.se(c / norm) for c in grav.direction]
+        else:
+            unit = [se.Integer(0)] * (dim - 1) + [se.Integer(-1)]
+        g_world = [kin.se(grav.g) * x for x in unit]
+    frames = model.frames
+    motion = _FrameMotion(frames, kin, g_world if g_world is not None and len(g_world) == 3 else None)
+    rng = np.random.default_rng(2024)
     quantities = []
+    listed_frames: set = set()
+
+    def list_frame(name):
+        if name in listed_frames or name == WORLD:
+            return
+        list_frame(frames[name].parent)
+        listed_frames.add(name)
+        w, v = motion(name)[:2]
+        quantities.append((f"w_{name}", w, f"angular velocity of frame {name} (its axes)"))
+        quantities.append((f"v_{name}", v, f"velocity of the origin of frame {name} (its axes)"))
+
+    def add_translation(mass, Jv, acc, g):
+        for i in range(n):
+            for j in range(i, n):
+                M[i][j] = M[i][j] + mass * sum((Jv[i][k] * Jv[j][k] for k in range(len(acc))), se.Integer(0))
+            force = sum((Jv[i][k] * acc[k] for k in range(len(acc))), se.Integer(0))
+            if g is not None:
+                force = force - sum((Jv[i][k] * g[k] for k in range(len(acc))), se.Integer(0))
+            f[i] = f[i] - mass * force
+
+    def add_rotation(I, w, Jw, alpha):
+        Iw = [sum((I[r][k] * w[k] for k in range(3)), se.Integer(0)) for r in range(3)]
+        torque = [sum((I[r][k] * alpha[k] for k in range(3)), se.Integer(0)) for r in range(3)]
+        torque = _add(torque, _cross(w, Iw))
+        for i in range(n):
+            for j in range(i, n):
+                M[i][j] = M[i][j] + sum((Jw[i][r] * I[r][k] * Jw[j][k] for r in range(3) for k in range(3)),
+                                        se.Integer(0))
+            f[i] = f[i] - sum((Jw[i][r] * torque[r] for r in range(3)), se.Integer(0))
+
     for element in model.elements:
-        if _massive_kane(element, varying, kin):
+        if element in kane:
             mass = kin.se(element.mass)
+            frame = element.frame if isinstance(element, RigidBody3D) else None
+            c = None
+            if frame is not None:
+                c = _local(element, motion, frame, kin, rng)
+            elif isinstance(element, Particle) and len(element.position) == 3 and frames:
+                c, frame = _particle_frame(element, motion, frames, kin, rng)
+            if c is not None:
+                list_frame(frame)
+                w, v, Jw, Jv, alpha, a, g = motion(frame)
+                vG = _add(v, _cross(w, c))
+                JvG = [_add(Jv[j], _cross(Jw[j], c)) for j in range(n)]
+                aG = _add(a, _cross(alpha, c), _cross(w, vG))
+                add_translation(mass, JvG, aG, g if gravity_here else None)
+                if isinstance(element, RigidBody3D):
+                    add_rotation([[kin.se(x) for x in row] for row in element.inertia], w, Jw, alpha)
+                continue
             v = kin.velocity(element.position)
             quantities.append((f"v_{element.name}", v, f"velocity of the mass centre of {element.name} (world axes)"))
-            Jv = [[x.diff(u) for u in qd] for x in v]
-            a = at_rest(v)
-            for i in range(n):
-                for j in range(i, n):
-                    M[i][j] = M[i][j] + mass * sum((Jv[k][i] * Jv[k][j] for k in range(len(v))), se.Integer(0))
-                f[i] = f[i] - mass * sum((Jv[k][i] * a[k] for k in range(len(v))), se.Integer(0))
+            Jv = [[x.diff(u) for x in v] for u in qd]
+            gw = (g_world if gravity_here and g_world is not None and len(g_world) == len(v) else None)
+            add_translation(mass, Jv, _at_rest(v, kin), gw)
             if isinstance(element, RigidBody):
                 w = kin.rate(element.angle)
                 quantities.append((f"w_{element.name}", [w], f"angular velocity of {element.name}"))
                 I = kin.se(element.inertia)
                 Jw = [w.diff(u) for u in qd]
-                alpha = at_rest([w])[0]
+                alpha = _at_rest([w], kin)[0]
                 for i in range(n):
                     for j in range(i, n):
                         M[i][j] = M[i][j] + I * Jw[i] * Jw[j]
@@ -150,17 +337,9 @@ def kane_form(model, kin) -> tuple[list, list, list]:
                 w = element.omega(kin)
                 quantities.append((f"w_{element.name}", w, f"angular velocity of {element.name} (its axes)"))
                 I = [[kin.se(x) for x in row] for row in element.inertia]
-                Jw = [[x.diff(u) for u in qd] for x in w]
-                alpha = at_rest(w)
-                Iw = [sum((I[r][k] * w[k] for k in range(3)), se.Integer(0)) for r in range(3)]
-                torque = [sum((I[r][k] * alpha[k] for k in range(3)), se.Integer(0)) for r in range(3)]
-                torque = [torque[0] + w[1] * Iw[2] - w[2] * Iw[1], torque[1] + w[2] * Iw[0] - w[0] * Iw[2],
-                          torque[2] + w[0] * Iw[1] - w[1] * Iw[0]]
-                for i in range(n):
-                    for j in range(i, n):
-                        M[i][j] = M[i][j] + sum((Jw[r][i] * I[r][k] * Jw[k][j] for r in range(3) for k in range(3)),
-                                                se.Integer(0))
-                    f[i] = f[i] - sum((Jw[r][i] * torque[r] for r in range(3)), se.Integer(0))
+                add_rotation(I, w, [[x.diff(u) for x in w] for u in qd], _at_rest(w, kin))
+            continue
+        if gravity_here and isinstance(element, Gravity):
             continue
         c = element.contribute(kin)
         T_rest, V, D = T_rest + c.T, V + c.V, D + c.D
@@ -177,6 +356,36 @@ def kane_form(model, kin) -> tuple[list, list, list]:
         for j in range(i):
             M[i][j] = M[j][i]
     return M, f, quantities
+
+
+def _particle_frame(element, motion: _FrameMotion, frames, kin, rng):
+    """(c, frame) of a particle fixed in a frame (its position o + R c with c constant): the frames
+    whose chain holds exactly the coordinates of its position are tried, the deepest first."""
+    import sympy
+
+    from ..model._frames import chain
+
+    used = set().union(*(sympy.sympify(x).free_symbols for x in element.position))
+    coordinates = {sympy.Symbol(s.name) for s in kin.q}
+    wanted = used & coordinates
+    candidates = []
+    for name in frames:
+        path = chain(frames, name)
+        held = set()
+        for fr in path:
+            for x in fr.origin:
+                held |= sympy.sympify(x).free_symbols & coordinates
+            for fac in fr.factors:
+                parts = [fac.angle] if fac.matrix is None else [x for row in fac.matrix for x in row]
+                for x in parts:
+                    held |= sympy.sympify(x).free_symbols & coordinates
+        if held == wanted:
+            candidates.append((len(path), name))
+    for _, name in sorted(candidates, reverse=True):
+        c = _local(element, motion, name, kin, rng)
+        if c is not None:
+            return c, name
+    return None, None
 
 
 def named_form(equations) -> NamedForm:
@@ -198,6 +407,9 @@ def named_form(equations) -> NamedForm:
     taken = {s.name for s in (*model.q, *model.q_dot, *model.q_ddot, *model.parameters, *model.inputs)}
     taken |= {"t"} | {name for name, _, _ in quantities}
     replacements, reduced = se.cse(exprs)
+    temporaries = {lhs for lhs, _ in replacements}
+    keep = {r for r in reduced[:len(defined)] if type(r) is se.Symbol and r in temporaries}
+    replacements, reduced = _inlined(replacements, reduced, keep)
     prefix = _prefix(taken)
     # the quantities named by the model come first, as their own names where cse made them one temporary
     names: dict = {}
@@ -238,6 +450,32 @@ def named_form(equations) -> NamedForm:
     gn = rest[pos + m:pos + 2 * m]
     return NamedForm(quantities=tuple(listed), M=tuple(tuple(r) for r in Mn), f=tuple(fn),
                      G=tuple(tuple(r) for r in Gn), c=tuple(cn), g=tuple(gn))
+
+
+def _inlined(replacements: list, reduced: list, keep: set) -> tuple[list, list]:
+    """The common subexpressions with the short ones written in place: a temporary whose text is
+    short enough that writing it where it is used (uses x (length - a name's)) costs less than
+    its own line (length + a line's overhead) is substituted, in order (so that what it uses is
+    already written out). Fewer names, and a shorter text: cse names every repeated product of two
+    factors."""
+    uses: dict = {}
+    for e in [rhs for _, rhs in replacements] + list(reduced):
+        for s in e.free_symbols:
+            uses[s] = uses.get(s, 0) + 1
+    inline: dict = {}
+    kept = []
+    for lhs, rhs in replacements:
+        here = {s: inline[s] for s in rhs.free_symbols if s in inline}
+        if here:
+            rhs = rhs.xreplace(here)
+        size = len(str(rhs))
+        if lhs not in keep and uses.get(lhs, 0) * (size - 3) <= size + 12:
+            inline[lhs] = rhs
+        else:
+            kept.append((lhs, rhs))
+    if inline and reduced:
+        reduced = list(se.DenseMatrix(list(reduced)).xreplace(inline))
+    return kept, reduced
 
 
 def _prefix(taken: set) -> str:
