@@ -13,7 +13,7 @@ from ..errors import ModelError, Problem
 from ..model import Model
 
 __all__ = ["ExportResult", "equations_of", "identifier", "parameter_values", "start_state", "energy_name",
-           "output_file", "held_names", "consistent_start"]
+           "output_file", "held_names", "consistent_start", "named_outputs"]
 
 
 @dataclass(frozen=True)
@@ -143,3 +143,20 @@ def energy_name(eq: Equations) -> str:
     while name in taken:
         name += "_"
     return name
+
+
+def named_outputs(eq: Equations, taken=()) -> dict:
+    """The model's named outputs (``[outputs]``, ``Model.add_output``) that an export carries after its
+    other variables, in the order they were declared: name -> SymPy expression; {} without outputs.
+    An output may not take the name of the exported energy (``energy_`` when a parameter is named
+    ``energy``) or of another exported variable (`taken`): refused, with the fix."""
+    outputs = dict(eq.model.outputs) if eq.model is not None else {}
+    energy = energy_name(eq)
+    base = "energy" if eq._natural else "jacobi_integral"
+    used = {name: "another exported variable" for name in taken}
+    used[energy] = f"the exported {base.replace('_', ' ')}, named '{energy}' since the model uses '{base}'"
+    problems = [Problem(f"output '{name}': the export already has a variable of that name ({used[name]}); rename "
+                        "the output", key=f"outputs.{name}") for name in outputs if name in used]
+    if problems:
+        raise ModelError(problems)
+    return outputs

@@ -22,8 +22,8 @@ from .._codetext import c_strings, comment_text, xml_attribute
 from ..equations import Equations
 from ..io._files import check_replaceable, replacing
 from ._c import c_files, cannot_write
-from ._common import (ExportResult, energy_name, equations_of, identifier, output_file, parameter_values,
-                      start_state)
+from ._common import (ExportResult, energy_name, equations_of, identifier, named_outputs, output_file,
+                      parameter_values, start_state)
 
 __all__ = ["export_fmu", "fmu_platform", "SOLVER_DEFAULTS"]
 
@@ -95,6 +95,10 @@ def _variables(eq: Equations, pvalues, x0) -> list[dict]:
     for name, value in SOLVER_DEFAULTS.items():
         out.append(dict(name=name, causality="parameter", variability="tunable", initial="exact", start=value,
                         description=notes[name]))
+    # the model's named outputs last: the value references above are those of an FMU without outputs
+    for name, expr in named_outputs(eq, [v["name"] for v in out]).items():
+        out.append(dict(name=name, causality="output", variability="continuous", initial="calculated",
+                        description=f"the model's output {name} = {expr}"))
     return out
 
 
@@ -141,7 +145,7 @@ def _model_description(eq: Equations, ident: str, guid: str, variables: list[dic
         lines.append(f'      <Real {" ".join(real)}/>'.replace("<Real />", "<Real/>"))
         lines.append('    </ScalarVariable>')
     lines.append('  </ModelVariables>')
-    # the energy and the multipliers: the outputs without a start value
+    # the energy, the multipliers and the named outputs: the outputs without a start value
     calculated = [i + 1 for i, v in enumerate(variables) if v["causality"] == "output" and "start" not in v]
     outputs = [*range(1, n2 + 1), *calculated]
     states = list(range(1, n2 + 1)) if variables[0]["initial"] == "approx" else []
@@ -187,6 +191,12 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     each communication step (``fmi2SetupExperiment``'s tolerance, when given, sets both
     tolerances).
 
+    The model's named outputs (``[outputs]``, ``Model.add_output``) are outputs too (causality
+    output, continuous, calculated), after all the variables above (the value references of an FMU
+    without outputs do not move), computed with the energy from the exported C's ``<id>_outputs``.
+    An output whose name the FMU already uses (``energy_`` when a parameter takes ``energy``) is
+    refused (:class:`~lagrangian.errors.ModelError`).
+
     A constrained model's FMU also has the multipliers ``lambda_<name>`` as outputs (after the
     energy), and x' solves the saddle-point system [M G^T; G 0] [q_ddot; -lambda] = [f; c]. Its
     states are ``initial="approx"``: when initialization ends the FMU moves them onto the
@@ -228,6 +238,9 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     key = f"lagrangian:{fingerprint(eq)}:{pvalues}:{x0}"
     if eq.is_constrained:  # the fingerprint does not see the constraints
         key += ":" + "|".join(f"{c.kind}:{c.name}:{c.expression}" for c in eq.model.constraints)
+    outputs = named_outputs(eq)
+    if outputs:  # nor the outputs
+        key += ":outputs:" + "|".join(f"{name}={expr}" for name, expr in outputs.items())
     guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, key)) + "}"
     files = c_files(eq, params, initial)
     template = (_HERE / "fmu_template.c").read_text()
@@ -236,6 +249,7 @@ def export_fmu(system, path, *, params: Mapping | None = None, initial: Mapping 
     fmu_c = (template.replace("@ID@", ident).replace("@NAME@", comment_text(eq.model.name))
              .replace("@NX@", str(2 * eq.n))
              .replace("@NU@", str(len(eq.inputs))).replace("@NC@", str(len(eq.multipliers)))
+             .replace("@NY@", str(len(outputs)))
              .replace("@UP@", ident.upper()).replace("@NP@", str(len(eq.parameters))).replace("@GUID@", guid)
              .replace("@START@", starts).replace("@NAMES@", names).replace("@DOP853@", _dop853_tables()))
     sources = {f"{ident}.h": files[f"{ident}.h"], f"{ident}.c": files[f"{ident}.c"], "fmu.c": fmu_c}

@@ -11,8 +11,12 @@
        [VR_LAMBDA, + NC)      the multipliers lambda_<name>          outputs, calculated
        VR_RTOL, VR_ATOL,      the embedded integrator of             parameters, tunable
        VR_MAX_STEP            Co-Simulation (DOP853)
+       [VR_OUTPUT, + NY)      the model's named outputs ([outputs])  outputs, calculated
 
-   The right-hand side, M, the forcing and the energy come from @ID@.c (lagrangian's generated
+   The named outputs come last, so that the value references before them are those of the same
+   model exported without outputs.
+
+   The right-hand side, M, the forcing, the energy and the outputs come from @ID@.c (lagrangian's generated
    C code); Co-Simulation integrates them with the adaptive DOP853 (Hairer, Norsett and Wanner's
    8(5,3) pair, SciPy's step-size control), the inputs held over each communication step.
 
@@ -44,9 +48,12 @@
 #define VR_RTOL (VR_LAMBDA + NC)
 #define VR_ATOL (VR_RTOL + 1)
 #define VR_MAX_STEP (VR_RTOL + 2)
-#define NR (VR_RTOL + 3)
-/* der(x), the energy and the multipliers: computed by the FMU */
-#define CALCULATED(vr) (((vr) >= VR_DER && (vr) < VR_PARAM) || ((vr) >= VR_ENERGY && (vr) < VR_RTOL))
+#define NY @NY@
+#define VR_OUTPUT (VR_RTOL + 3)
+#define NR (VR_OUTPUT + NY)
+/* der(x), the energy, the multipliers and the outputs: computed by the FMU */
+#define CALCULATED(vr) (((vr) >= VR_DER && (vr) < VR_PARAM) || ((vr) >= VR_ENERGY && (vr) < VR_RTOL) || \
+                        (vr) >= VR_OUTPUT)
 #define GUID "@GUID@"
 #define SINGULAR 1e-12
 
@@ -63,7 +70,7 @@ typedef struct {
     int logging;
     double time;
     double r[NR];
-    int dirty;      /* der(x), the energy and the multipliers need computing */
+    int dirty;      /* der(x), the energy, the multipliers and the outputs need computing */
     double h;       /* the last step of the Co-Simulation integrator (0: none yet) */
     int pending;    /* the state is to be made consistent with the constraints (NC > 0) */
     int changed[NX];  /* start values set to other values than the FMU's (held when made consistent) */
@@ -141,8 +148,8 @@ static const char *state_text(double measure) {
 }
 #endif
 
-/* der(x), the energy and the multipliers at the instance's time and state; 0 when M (or the
-   saddle-point system) is singular or f not finite */
+/* der(x), the energy, the multipliers and the outputs at the instance's time and state; 0 when M
+   (or the saddle-point system) is singular or f not finite */
 static int evaluate(Instance *c) {
     double measure;
     if (!c->dirty) return 1;
@@ -158,6 +165,9 @@ static int evaluate(Instance *c) {
         return 0;
     }
     c->r[VR_ENERGY] = @ID@_energy(c->time, c->r, c->r + VR_INPUT, c->r + VR_PARAM);
+#if NY > 0
+    @ID@_outputs(c->time, c->r, c->r + VR_INPUT, c->r + VR_PARAM, c->r + VR_OUTPUT);
+#endif
     c->dirty = 0;
     return 1;
 }
