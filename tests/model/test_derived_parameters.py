@@ -114,3 +114,8 @@ def test_the_cli_json_and_options_may_use_derived_parameters(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["operating_point"]["th"] == pytest.approx((2 + 0.5) / 2 / 5)
     assert "lA" not in d["parameters"]
+
+
+def test_the_notebook_table_lists_derived_parameters():
+    html = loads_model(TOML)._repr_html_()
+    assert "derived parameters" in html and "lA = $\\frac{l}{2} + \\frac{r}{2}$" in html

@@ -1203,6 +1203,9 @@ class Model:
                 ("parameters", ", ".join(f"{tex(p)} = {v:g}" if v is not None else f"{tex(p)} (no value)"
                                          for p, v in self._parameters.items()) or "none"),
                 ("inputs", ", ".join(tex(u) for u in self._inputs) or "none")]
+        if getattr(self, "_derived", None):
+            rows.insert(2, ("derived parameters", ", ".join(f"{html.escape(k)} = {tex(v)}"
+                                                            for k, v in self._derived.items())))
         for e in self._elements:
             parts = []
             for key, value in e.__dict__.items():
