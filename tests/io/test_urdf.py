@@ -277,6 +277,8 @@ def test_load_routes_urdf_by_suffix_and_the_cli_reads_it(tmp_path, capsys):
     with pytest.raises(ModelFileError, match=r"no such URDF file"):
         lg.load(str(tmp_path / "missing.urdf"))
     assert main(["check", str(tmp_path / "missing.urdf")]) == 2
+    with pytest.raises(ModelFileError, match=r"is a xacro file, a template that expands to a URDF: expand it first"):
+        lg.load(str(tmp_path / "robot.urdf.xacro"))
 
 
 def test_loads_urdf_takes_text_only():

@@ -72,6 +72,10 @@ def load(source: str | os.PathLike):
         from ._urdf import load_urdf
 
         return load_urdf(source)
+    if str(source).lower().endswith(".xacro"):
+        raise ModelFileError([Problem(
+            f"'{source}' is a xacro file, a template that expands to a URDF: expand it first (with ROS: "
+            "xacro robot.urdf.xacro > robot.urdf) and load the .urdf")], file=str(source))
     if isinstance(source, str) and not source.endswith(".toml") and os.sep not in source:
         text = example_source(source)
         if text is not None:
