@@ -104,12 +104,25 @@ def to_casadi(exprs: Iterable, symbols: Mapping[str, Any], *, where: str = "expr
             if e in memo:
                 continue
             if not ready and e.args and not (e.is_Number or e.is_NumberSymbol):
+                _check_known(e, where)  # before its arguments: the outermost unknown function is named
                 stack.append((e, True))
                 stack.extend((a, False) for a in e.args if a not in memo)
                 continue
             memo[e] = _translate(ca, e, memo, symbols, where)
         out.append(ca.SX(memo[root]) if not isinstance(memo[root], ca.SX) else memo[root])
     return out
+
+
+_OPERATIONS = frozenset({"Add", "Mul", "Pow", "Min", "Max", "Piecewise", "ExprCondPair", "And", "Or", "Not",
+                         *_RELATIONS, *_FUNCTIONS})
+
+
+def _check_known(e: sympy.Basic, where: str) -> None:
+    name = type(e).__name__
+    if name not in _OPERATIONS:
+        raise ModelError(f"{where}: the function '{name}' cannot be used in an optimal control problem (the "
+                         f"translator to CasADi does not know it); the known functions are "
+                         f"{', '.join(KNOWN_FUNCTIONS)}: write the expression with those")
 
 
 def _translate(ca, e: sympy.Basic, memo, symbols, where):
@@ -119,7 +132,7 @@ def _translate(ca, e: sympy.Basic, memo, symbols, where):
             raise ModelError(f"{where}: the name '{e.name}' is not known here; an expression of the optimal "
                              f"control problem may use {known}")
         return symbols[e.name]
-    if e.is_Number or e.is_NumberSymbol:
+    if e.is_Number or e.is_NumberSymbol or (e.is_Atom and e.is_number):
         value = complex(e)
         if value.imag != 0:
             raise ModelError(f"{where}: the number {e} is not real; use real expressions")
@@ -180,6 +193,5 @@ def _translate(ca, e: sympy.Basic, memo, symbols, where):
         return ca.logic_not(args[0])
     if name in _FUNCTIONS:
         return _FUNCTIONS[name](ca)(*args)
-    raise ModelError(f"{where}: the function '{name}' cannot be used in an optimal control problem (the "
-                     f"translator to CasADi does not know it); the known functions are "
-                     f"{', '.join(KNOWN_FUNCTIONS)}: write the expression with those")
+    _check_known(e, where)  # an atom of another kind (a symbol-like object, a set): refused by name
+    raise ModelError(f"{where}: '{e}' ({name}) cannot be translated to CasADi")  # pragma: no cover
