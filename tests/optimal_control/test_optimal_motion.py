@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 
 import numpy as np
@@ -197,6 +199,9 @@ def test_result_outputs(double_integrator, tmp_path):
     d = motion.to_dict()
     assert d["cost"] == pytest.approx(12.0) and d["states"]["x"][-1] == pytest.approx(1.0)
     assert set(d) >= {"status", "duration", "iterations", "collocation_error", "replay_deviation", "meshes"}
+    failed = dataclasses.replace(motion, replay_deviation={"x": math.nan, "x_dot": 1.0}, collocation_error=math.inf)
+    strict = json.loads(json.dumps(failed.to_dict(), allow_nan=False))  # strict JSON: NaN and inf as null
+    assert strict["replay_deviation"] == {"x": None, "x_dot": 1.0} and strict["collocation_error"] is None
     law = motion.input_law_csv(per_interval=4).splitlines()
     assert law[0] == "t,u" and len(law) == 1 + 4 * 4 + 1
     with pytest.raises(KeyError, match="no column 'y'"):

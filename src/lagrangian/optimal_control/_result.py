@@ -142,17 +142,17 @@ class OptimalMotion:
 
     # ------------------------------------------------------------------ output
     def to_dict(self) -> dict:
-        """Plain data (JSON-ready): the numbers, the checks and the columns."""
-        return {
+        """Plain data (JSON-ready: a number that is not finite is None): the numbers, the checks and the columns."""
+        return _finite({
             "status": self.status, "cost": self.cost, "duration": self.duration, "iterations": self.iterations,
             "intervals": self.intervals, "collocation_error": self.collocation_error, "tolerance": self.tolerance,
             "converged": self.converged, "constraint_error": self.constraint_error,
-            "replay_deviation": {k: (None if np.isnan(v) else v) for k, v in self.replay_deviation.items()},
+            "replay_deviation": dict(self.replay_deviation),
             "replay_failure": self.replay_failure, "meshes": [dict(m) for m in self.meshes],
             "columns": list(self.columns),
             "t": self.t.tolist(), "states": {s: self[s].tolist() for s in self.state_names},
             "inputs": {u: self[u].tolist() for u in self.input_names},
-        }
+        })
 
     def to_csv(self, path: str | os.PathLike | None = None) -> str | None:
         """The columns t, states, inputs as CSV (header first); the text when `path` is None, else
@@ -206,3 +206,13 @@ class OptimalMotion:
                 f"intervals={self.intervals}, collocation_error={self.collocation_error:.2g}, "
                 f"replay_deviation={dev})")
 
+
+def _finite(value):
+    """The same data with every float that is not finite (NaN, inf) as None: strict JSON."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
