@@ -1,5 +1,6 @@
 """export_c: the model as C99 source and header (the right-hand side f(t, x, u, p), M, the
-forcing, the energy and the inverse dynamics tau = M q_ddot - f; for a constrained model also the
+forcing, the energy, the inverse dynamics tau = M q_ddot - f and, for a model with named outputs,
+the outputs y = <id>_outputs(t, x, u, p); for a constrained model also the
 multipliers, the constraints' residuals and Jacobian, the projection onto them and the consistent
 state), a CMakeLists.txt and a small example main, from the same generated C code as the C backend
 (lagrangian.numeric._codegen.c_source, and for constraints numeric._codegen_constrained.constrained_c).
@@ -808,8 +809,10 @@ def export_c(system, folder, *, params: Mapping | None = None, initial: Mapping 
     ``<id>_mass_forcing``, ``<id>_energy`` and ``<id>_inverse_dynamics(t, q, qd, qdd, u, p, tau)``
     (tau = M q_ddot - f, :func:`lagrangian.inverse_dynamics`), the names and the model's parameter values and
     initial state; ``main.c``, an example that integrates the model (RK4) and prints CSV; and
-    ``CMakeLists.txt``. ``<id>`` is the model's name as a C identifier (cart-pendulum:
-    cart_pendulum).
+    ``CMakeLists.txt``. A model with named outputs (``[outputs]``, ``Model.add_output``) also gets
+    ``<id>_outputs(t, x, u, p, y)`` (``<ID>_NY`` values, named by ``<id>_output_names``), printed
+    by the example as its last columns; without outputs the files are those of before outputs.
+    ``<id>`` is the model's name as a C identifier (cart-pendulum: cart_pendulum).
 
     A constrained model's ``<id>_rhs`` solves the saddle-point system [M G^T; G 0]
     [q_ddot; -lambda] = [f; c] (the algorithm of the numba and C backends, see
