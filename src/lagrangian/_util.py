@@ -59,16 +59,21 @@ def real_number(value) -> float | None:
 
 
 def named_values(values: Mapping | None, names: tuple[str, ...], what: str, key: str,
-                 problems: list[Problem]) -> dict[str, float]:
+                 problems: list[Problem], derived: Mapping | None = None) -> dict[str, float]:
     """{name: value} of a mapping of names (or symbols) to real numbers, for names among `names`;
     every unknown name (with the closest one) and every value that is not a finite number within
     lagrangian._limits.MAX_MAGNITUDE becomes a Problem keyed `key`.name. `what` says what a name
-    must be: "a parameter of the model"."""
+    must be: "a parameter of the model". `derived`: the model's derived parameters (name ->
+    expression), whose names are refused with what they are."""
     out: dict[str, float] = {}
     for name, value in (values or {}).items():
         name = str(getattr(name, "name", name))
         number = real_number(value)
-        if name not in names:
+        if name in (derived or {}) and name not in names:
+            uses = ", ".join(sorted(str(s) for s in getattr(derived[name], "free_symbols", ()))) or "none"
+            problems.append(Problem(f"'{name}' is a derived parameter, {name} = {derived[name]}: it follows the "
+                                    f"parameters it uses ({uses}); give those instead", key=f"{key}.{name}"))
+        elif name not in names:
             problems.append(Problem(f"'{name}' is not {what}{did_you_mean(name, names, 0.5)}; the choices are "
                                     f"{', '.join(names) or 'none'}", key=f"{key}.{name}"))
         elif (why := value_problem(name, value if number is None else number)) is not None:

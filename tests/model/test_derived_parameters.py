@@ -119,3 +119,13 @@ def test_the_cli_json_and_options_may_use_derived_parameters(tmp_path, capsys):
 def test_the_notebook_table_lists_derived_parameters():
     html = loads_model(TOML)._repr_html_()
     assert "derived parameters" in html and "lA = $\\frac{l}{2} + \\frac{r}{2}$" in html
+
+
+def test_a_derived_parameter_given_a_value_is_refused_with_what_it_is():
+    eqs = lg.derive(loads_model(TOML))
+    message = ("'lA' is a derived parameter, lA = l/2 + r/2: it follows the parameters it uses (l, r); "
+               "give those instead")
+    with pytest.raises(ModelError, match=re.escape(message)):
+        lg.simulate(eqs, 1.0, params={"lA": 2.0})
+    with pytest.raises(ModelError, match=re.escape(message)):
+        lg.linearize(eqs, {"th": 0.0}, params={"lA": 2.0})

@@ -54,7 +54,8 @@ def resolve_setting(equations: Equations, params: Mapping | None = None, inputs:
     problems: list[Problem] = []
     pnames = tuple(p.name for p in equations.parameters)
     unames = tuple(u.name for u in equations.inputs)
-    given_p = named_values(params, pnames, "a parameter of the model", "params", problems)
+    given_p = named_values(params, pnames, "a parameter of the model", "params", problems,
+                           getattr(equations.model, "derived_parameters", None))
     given_u = named_values(inputs, unames, "an input of the model", "inputs", problems)
     values: dict[str, float] = {}
     for sym, default in equations.parameters.items():

@@ -121,16 +121,18 @@ def _as_numeric(system):
 
 
 def _named_values(values: Mapping, names: tuple[str, ...], what: str, key: str,
-                  problems: list[Problem]) -> dict[int, float]:
+                  problems: list[Problem], derived: Mapping | None = None) -> dict[int, float]:
     """{index in `names`: value} for a mapping of names (or symbols) to finite numbers; every bad
     name or value becomes a problem (see lagrangian._util.named_values: the analysis' rule)."""
-    return {names.index(name): value for name, value in named_values(values, names, what, key, problems).items()}
+    return {names.index(name): value
+            for name, value in named_values(values, names, what, key, problems, derived).items()}
 
 
 def _parameters(nm: NumericModel, params: Mapping | None, problems: list[Problem]) -> np.ndarray:
     values = nm.parameter_values.copy()
+    derived = getattr(getattr(getattr(nm, "equations", None), "model", None), "derived_parameters", None)
     for i, v in _named_values(params or {}, nm.parameter_names, "a parameter of the model", "params",
-                              problems).items():
+                              problems, derived).items():
         values[i] = v
     reported = {p.key for p in problems}
     for name, v in zip(nm.parameter_names, values):
