@@ -147,14 +147,16 @@ def test_a_fixed_joint_is_merged_into_its_parent_link():
 
 
 def test_floating_base_gives_the_root_six_coordinates():
-    model = loads_urdf(FIXED, floating_base=True)
+    base = ('<link name="base"><inertial><origin xyz="0.01 0.02 -0.03"/><mass value="3"/>'
+            '<inertia ixx="0.05" ixy="0" ixz="0" iyy="0.04" iyz="0" izz="0.03"/></inertial></link>')
+    model = loads_urdf(FIXED.replace('<link name="base"/>', base), floating_base=True)
     assert [c.name for c in model.q] == ["floating_base_x", "floating_base_y", "floating_base_z",
                                          "floating_base_1", "floating_base_2", "floating_base_3", "j1"]
     nm = lg.compile(lg.derive(model), backend="scipy")
     x = np.zeros(14)
     qdd = np.linalg.solve(nm.mass_matrix(0, x, [], nm.parameter_values), nm.forcing(0, x, [], nm.parameter_values))
     f = nm.forcing(0, x, [], nm.parameter_values)
-    np.testing.assert_allclose(f[:3], [0, 0, -2.5 * 9.81], atol=1e-12)  # gravity on the whole robot's mass
+    np.testing.assert_allclose(f[:3], [0, 0, -5.5 * 9.81], atol=1e-12)  # gravity on the whole robot's mass
     np.testing.assert_allclose(qdd, [0, 0, -9.81, 0, 0, 0, 0], atol=1e-9)  # free fall: no rotation, no bending
 
 
