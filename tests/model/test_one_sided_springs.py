@@ -8,6 +8,7 @@ written by hand (NumPy positions, finite differences: an independent path); the 
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -197,3 +198,53 @@ def test_the_c_backend_and_the_exports_run_the_one_sided_spring(tmp_path):
     assert build.returncode == 0, build.stderr
     export_modelica(eqs, tmp_path / "balls.mo")
     assert "(if 2*r - sqrt((-x1 + x2)^2) > 0 then " in (tmp_path / "balls.mo").read_text()
+
+
+PYDY_CHAIN = Path(__file__).resolve().parents[1] / "models" / "spatial-chain-3.toml"
+
+
+@pytest.mark.slow
+def test_pydy_n_body_pendulum_ball_contacts_equal_the_hand_written_potential():
+    """PyDy's 3D n-body pendulum (tests/models/spatial-chain-3.toml: nine body-fixed angles) with its balls'
+    contacts as compression springs between the balls' centres (rest length 2r): the forces at rest,
+    gravity off, are -dV/dq of the contact potential written by hand from sympy.physics.mechanics'
+    positions of the balls (PyDy's construction: orient_body_fixed "123", the ball l/2 along the rod)."""
+    import sympy.physics.mechanics as me
+
+    text = PYDY_CHAIN.read_text().replace("[parameters]", "[parameters]\nk = 200.0", 1)
+    for i, j in ((1, 2), (1, 3), (2, 3)):
+        text += (f'\n[[springs]]\nname = "contact{i}{j}"\nstiffness = "k"\nbetween = ["ball{i}", "ball{j}"]\n'
+                 'rest_length = "2*r"\nacts = "compression"\n')
+    eqs = lg.derive(loads_model(text))
+    values = {p.name: v for p, v in eqs.parameters.items()}
+    values["g"] = 0.0
+    nm = lg.compile(eqs, backend="scipy")
+    p = np.array([values[s.name] for s in eqs.parameters])
+
+    q = me.dynamicsymbols("qx1 qy1 qz1 qx2 qy2 qz2 qx3 qy3 qz3")
+    N, root = me.ReferenceFrame("N"), me.Point("P0")
+    joint, frames, centres = root, [], []
+    for i in range(3):
+        A = me.ReferenceFrame(f"A{i}")
+        A.orient_body_fixed(N if i == 0 else frames[-1], q[3 * i:3 * i + 3], "123")
+        if i > 0:
+            joint = joint.locatenew(f"P{i}", values["l"] * frames[-1].y)
+        frames.append(A)
+        centres.append(joint.locatenew(f"D{i}", values["l"] / 2 * A.y))
+    positions = sp.lambdify(q, [c.pos_from(root).to_matrix(N) for c in centres])
+    k, r = values["k"], values["r"]
+
+    def V(x):
+        c = [np.ravel(np.asarray(v, dtype=float)) for v in positions(*x)]
+        return sum(k / 2 * max(0.0, 2 * r - np.linalg.norm(c[i] - c[j])) ** 2 for i, j in ((0, 1), (0, 2), (1, 2)))
+
+    rng = np.random.default_rng(9)
+    touching = 0
+    for _ in range(30):
+        x = rng.uniform(-2.5, 2.5, 9)
+        f = np.asarray(nm.forcing(0.0, np.concatenate([x, np.zeros(9)]), np.zeros(0), p), dtype=float)
+        h = 1e-6
+        grad = np.array([(V(x + h * e) - V(x - h * e)) / (2 * h) for e in np.eye(9)])
+        assert np.allclose(f, -grad, atol=1e-5 * (1 + np.abs(grad).max())), x
+        touching += np.abs(grad).max() > 0
+    assert touching >= 3
