@@ -26,7 +26,7 @@ _LAZY_NAMES = {
     **dict.fromkeys(("Continuation", "Equilibria", "Equilibrium", "LinearModel", "Modes", "SteadyMotion",
                      "SteadyMotions", "continuation", "equilibria", "linearize", "modes", "steady_motions",
                      "InverseDynamics", "Kinematics", "inverse_dynamics", "kinematics"), "analysis"),
-    **dict.fromkeys(("Identifiability", "identifiability"), "identification"),
+    **dict.fromkeys(("FitResult", "Identifiability", "fit", "identifiability"), "identification"),
     **dict.fromkeys(("OptimalControlError", "OptimalMotion", "optimal_motion"), "optimal_control"),
     **dict.fromkeys(("Report", "report"), "reporting"),
 }
@@ -56,7 +56,7 @@ __all__ = [
     "DeadPoints", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "kinematics", "Kinematics", "inverse_dynamics", "InverseDynamics",
-    "identifiability", "Identifiability",
+    "identifiability", "Identifiability", "fit", "FitResult",
     "optimal_motion", "OptimalMotion", "OptimalControlError",
     "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate",
     "simulate_batch", "BatchResult", "grid", "Trajectory", "Signal", "dot", "ddot", "t",
