@@ -38,9 +38,9 @@ def _parser() -> argparse.ArgumentParser:
 
 def _command_modules():
     """Each module adds its commands with `register(sub, fmt)`, each command setting `handler`."""
-    from . import _analysis, _control, _core, _kinematics, _report, _serve, _visual, _optimize
+    from . import _analysis, _control, _core, _fit, _kinematics, _report, _serve, _visual, _optimize
 
-    return [_core, _analysis, _kinematics, _visual, _report, _serve, _control, _optimize]
+    return [_core, _analysis, _kinematics, _visual, _report, _serve, _control, _optimize, _fit]
 
 
 def _version() -> str:

@@ -15,7 +15,7 @@ from ._figures import energy_drift, phase_portrait, time_history, units
 from ._geometry import Scene, scene_of
 
 __all__ = ["time_history", "phase_portrait", "energy_drift", "animate", "Animation", "FORMATS", "Scene",
-           "scene_of", "units", "bifurcation_diagram"]
+           "scene_of", "units", "bifurcation_diagram", "plot_fit"]
 
 
 def __getattr__(name):
@@ -23,4 +23,8 @@ def __getattr__(name):
         from ._bifurcation import bifurcation_diagram
 
         return bifurcation_diagram
+    if name == "plot_fit":
+        from ._fit import plot_fit
+
+        return plot_fit
     raise AttributeError(f"module 'lagrangian.plot' has no attribute '{name}'")
