@@ -113,3 +113,15 @@ def test_bad_csv(files, capsys, tmp_path):
     assert "bad.csv: the column 'thetta' is not a coordinate" in err and "did you mean 'theta'" in err
     assert main(["fit", model, str(tmp_path / "none.csv"), "--params", "l"]) == 2
     assert "cannot read the measurements file" in capsys.readouterr().err
+
+
+def test_columns_of_a_simulation(files, capsys, tmp_path):
+    model, _, _ = files
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", model, "--t-end", "3", "--initial", "theta=1", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["fit", model, str(out), "--columns", "theta", "--params", "l,c", "--guess", "l=0.7,c=0.2",
+                 "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["parameters"]["l"]["estimate"] == pytest.approx(0.5, abs=1e-5)
+    assert d["parameters"]["c"]["estimate"] == pytest.approx(0.1, abs=1e-4)

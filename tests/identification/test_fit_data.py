@@ -4,7 +4,6 @@ row and the column (or the option) and says the fix; nothing read from a table i
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 import pytest
@@ -136,3 +135,19 @@ def test_missing_input_and_parameter_without_value(tmp_path):
         fit(eqs, data, ["m", "k"], guess={"k": 1.0})
     with pytest.raises(ModelError, match=r"no measured column to fit \(only inputs F\)"):
         fit(eqs, csv(tmp_path, GOOD.replace("theta", "F", 1)), ["m", "k"], guess={"k": 1.0})
+
+
+def test_columns_selects_and_checks(tmp_path, pend):
+    """columns= keeps only the named columns (a simulation's CSV has theta_dot and energy too)."""
+    run = lg.simulate(pend, 2.0, initial={"theta": 1.0}, dt=0.02)
+    path = str(tmp_path / "sim.csv")
+    run.to_csv(path)
+    with pytest.raises(ModelError, match=r"the column 'energy' is not a coordinate, velocity, input, output or point"):
+        fit(pend, path, ["l"])
+    r = fit(pend, path, ["l"], columns=["theta"], guess={"l": 0.6})
+    assert list(r.fitted[0]) == ["theta"] and r["l"] == pytest.approx(0.5, abs=1e-5)
+    with pytest.raises(ModelError, match=r"columns: .*sim\.csv has no column 'thta' \(did you mean 'theta'\?\); its "
+                                         r"columns are theta, theta_dot, energy"):
+        fit(pend, path, ["l"], columns=["thta"])
+    with pytest.raises(ModelError, match=r"columns: expected a list of column names"):
+        fit(pend, path, ["l"], columns=[1])

@@ -27,6 +27,9 @@ def register(sub, fmt) -> None:
                    help="first guesses of fitted parameters, values of others (default: the model's values)")
     f.add_argument("--bounds", action="append", default=[], metavar="NAME=LOW:HIGH",
                    help="bounds of a fitted parameter, e.g. c=0:10 (an empty side is open: m=0:)")
+    f.add_argument("--columns", default=None, metavar="NAME,...",
+                   help="the columns of the data to use (default: all), e.g. theta to leave out a simulation's "
+                        "theta_dot and energy columns")
     f.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE",
                    help="known initial states, held for every experiment (the others are estimated)")
     f.add_argument("--noise", action="append", default=[], metavar="[NAME=]SIGMA",
@@ -92,7 +95,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     initial = {k: number(v, f"--initial {k}", names) for k, v in assignments(args.initial, "initial").items()}
     inputs = {k: number(v, f"--input {k}", names) for k, v in assignments(args.input, "input").items()}
     result = fit(eqs, list(args.data), args.params, guess=guess, bounds=_bounds(args.bounds), initial=initial or None,
-                 noise=_noise(args.noise), inputs=inputs or None, intervals=args.intervals,
+                 noise=_noise(args.noise), inputs=inputs or None, intervals=args.intervals, columns=args.columns,
                  confidence=args.confidence, max_iterations=args.max_iterations)
     if args.plot:
         import matplotlib

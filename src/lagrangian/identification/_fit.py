@@ -148,17 +148,35 @@ def _input_function(value, name: str) -> Callable:
                      f"{type(value).__name__}")
 
 
+def _select(experiments: list[Measurements], columns) -> list[Measurements]:
+    """Only the columns named in `columns` (None: all of them)."""
+    if columns is None:
+        return experiments
+    if isinstance(columns, str):
+        columns = [c.strip() for c in columns.split(",") if c.strip()]
+    if not isinstance(columns, Sequence) or not columns or not all(isinstance(c, str) for c in columns):
+        raise ModelError("columns: expected a list of column names of the data (e.g. ['theta', 'F'])")
+    out = []
+    for ex in experiments:
+        for c in columns:
+            if c not in ex.columns:
+                raise ModelError(f"columns: {ex.source} has no column '{c}'{did_you_mean(c, ex.columns)}; its "
+                                 f"columns are {', '.join(ex.columns)}")
+        out.append(Measurements(ex.t, {c: ex.columns[c] for c in columns}, ex.source))
+    return out
+
+
 class _Setup:
     """The validated problem: experiments, measured expressions, weights, the shooting layout."""
 
-    def __init__(self, equations, data, params, guess, bounds, initial, noise, inputs, intervals):
+    def __init__(self, equations, data, params, guess, bounds, initial, noise, inputs, intervals, columns=None):
         from ..numeric import Signal
 
         self.equations = equations
         model = equations.model
         self.names = _names(params)
         self.values, self.fitted, self.lo, self.hi = _check_params(equations, self.names, guess, bounds)
-        self.experiments: list[Measurements] = measurements(data)
+        self.experiments: list[Measurements] = _select(measurements(data), columns)
         n = equations.n
         self.n = n
         state = list(equations.state_names)
@@ -579,7 +597,7 @@ def _one_blas_thread():
 # ---------------------------------------------------------------------------------------------- front door
 def fit(equations, data, params, *, guess: Mapping | None = None, bounds: Mapping | None = None,
         initial=None, noise=None, inputs: Mapping | None = None, intervals: int | None = None,
-        confidence: float = 0.95, max_iterations: int = 200) -> FitResult:
+        columns: Sequence[str] | None = None, confidence: float = 0.95, max_iterations: int = 200) -> FitResult:
     """Fit parameters of `equations` to measurements: multiple shooting, exact sensitivities,
     Gauss-Newton / Levenberg-Marquardt.
 
@@ -609,6 +627,9 @@ def fit(equations, data, params, *, guess: Mapping | None = None, bounds: Mappin
         Inputs that are not measured columns.
     intervals : int, optional
         Shooting intervals per experiment (1: single shooting); default one per 10 samples, at most 40.
+    columns : sequence of str, optional
+        The columns of the data to use (default: all; the others, such as a simulation's energy
+        column, are then left out).
     confidence : float
         The level of the confidence intervals (default 0.95).
     max_iterations : int
@@ -621,11 +642,12 @@ def fit(equations, data, params, *, guess: Mapping | None = None, bounds: Mappin
         columns against the data, and which parameters the data cannot determine.
     """
     with _one_blas_thread():
-        return _fit(equations, data, params, guess, bounds, initial, noise, inputs, intervals, confidence,
+        return _fit(equations, data, params, guess, bounds, initial, noise, inputs, intervals, columns, confidence,
                     max_iterations)
 
 
-def _fit(equations, data, params, guess, bounds, initial, noise, inputs, intervals, confidence, max_iterations):
+def _fit(equations, data, params, guess, bounds, initial, noise, inputs, intervals, columns, confidence,
+         max_iterations):
     from scipy.optimize import least_squares
     from scipy.stats import norm, t as student
 
@@ -634,7 +656,7 @@ def _fit(equations, data, params, guess, bounds, initial, noise, inputs, interva
         raise ModelError(f"confidence: {confidence!r} must be a level between 0 and 1, e.g. 0.95")
     if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
         raise ModelError(f"max_iterations: {max_iterations!r} must be a whole number >= 1")
-    setup = _Setup(equations, data, params, guess, bounds, initial, noise, inputs, intervals)
+    setup = _Setup(equations, data, params, guess, bounds, initial, noise, inputs, intervals, columns)
     sens = Sensitivities.build(equations, setup.fitted, setup.exprs)
     nth = len(setup.names)
 
