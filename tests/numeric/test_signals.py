@@ -6,6 +6,7 @@ run and hostile CSV files get one clear error."""
 from __future__ import annotations
 
 import math
+import re
 import shutil
 
 import numpy as np
@@ -224,3 +225,30 @@ def test_cli_bad_csv_and_span(tmp_path, capsys):
     assert rc == 0, err
     rc, _, err = run_cli(capsys, "simulate", model_file(tmp_path), "--t-end", "1", "--input", "F=@")
     assert rc != 0 and "expected a CSV file after '@'" in err
+
+
+def test_a_signal_from_its_polynomials_is_run_exactly_by_the_compiled_loop():
+    """Signal.from_polynomials: s**2 given as one quadratic per interval, in powers of (s - t_k); the
+    compiled run of x'' = F from rest gives x = t**4/12 (the integrator's accuracy), SciPy's the same."""
+    sig = lg.Signal.from_polynomials([0.0, 1.0, 2.0], [[1.0, 0.0, 0.0], [1.0, 2.0, 1.0]], name="F",
+                                     interpolation="quadratic")
+    s = np.linspace(0.0, 2.0, 9)
+    np.testing.assert_allclose(sig(s), s**2, rtol=0, atol=1e-15)
+    assert sig.interpolation == "quadratic" and sig.values.tolist() == [0.0, 1.0, 4.0]
+    model = lg.Model("push", coordinates=["x"], inputs=["F"], T="x_dot**2/2", Q={"x": "F"})
+    eqs = lg.derive(model)
+    for backend in ("numba", "scipy"):
+        traj = lg.simulate(eqs, 2.0, {}, inputs={"F": sig}, dt=0.5, backend=backend, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(traj["x"], traj.t**4 / 12, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("times, coefficients, message", [
+    ([0, 1, 2], [[1, 0, 0]], "coefficients must have shape (2, d + 1) with degree d <= 3"),
+    ([0, 1], [[1, 0, 0, 0, 0]], "coefficients must have shape (1, d + 1) with degree d <= 3"),
+    ([0, 1], [[float("nan"), 0]], "a coefficient is not finite (NaN or inf)"),
+    ([1, 0], [[1, 0]], "times must increase strictly"),
+    ([0, 1], "ab", "times and coefficients must be arrays of numbers"),
+])
+def test_bad_polynomials_are_refused(times, coefficients, message):
+    with pytest.raises(lg.ModelError, match=re.escape(message)):
+        lg.Signal.from_polynomials(times, coefficients, name="u")

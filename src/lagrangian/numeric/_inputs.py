@@ -105,6 +105,34 @@ class Signal:
                              {"nargs": 1, "signal": self, "_imp_": staticmethod(self._scalar)})
 
     @classmethod
+    def from_polynomials(cls, times, coefficients, extrapolation: str = "error", name: str | None = None,
+                         interpolation: str = "piecewise polynomial") -> "Signal":
+        """A signal given by its polynomial on each interval [times[k], times[k+1]], in powers of
+        (s - times[k]), highest power first, of degree at most 3: `coefficients` has shape
+        (len(times) - 1, d + 1) with d <= 3 (an optimal motion's piecewise-quadratic input, a spline
+        computed elsewhere). `interpolation` is the label it reports (``repr``, ``.interpolation``)."""
+        what = f"signal '{name or 'signal'}'"
+        try:
+            coef = np.array(coefficients, dtype=np.float64)
+            t = np.array(times, dtype=np.float64).ravel()
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: times and coefficients must be arrays of numbers") from None
+        if coef.ndim != 2 or coef.shape[0] != t.size - 1 or not 1 <= coef.shape[1] <= 4:
+            raise ModelError(f"{what}: coefficients must have shape ({max(t.size - 1, 0)}, d + 1) with degree "
+                             f"d <= 3 (one row per interval between the {t.size} times), got {coef.shape}")
+        if not np.all(np.isfinite(coef)):
+            raise ModelError(f"{what}: a coefficient is not finite (NaN or inf); give finite polynomials")
+        coef = np.hstack([np.zeros((coef.shape[0], 4 - coef.shape[1])), coef])
+        h = np.diff(t)
+        last = ((coef[-1, 0] * h[-1] + coef[-1, 1]) * h[-1] + coef[-1, 2]) * h[-1] + coef[-1, 3] if h.size else 0.0
+        signal = cls(t, np.append(coef[:, 3], last), "linear", extrapolation, name)  # checks the times
+        coef.setflags(write=False)
+        signal.coefficients = coef
+        signal._rows = coef.tolist()
+        signal.interpolation = str(interpolation)
+        return signal
+
+    @classmethod
     def from_csv(cls, path, column: str, interpolation: str = "linear", extrapolation: str = "error") -> "Signal":
         """The signal of `column` of the CSV file `path` (a header row; time is the column named t or
         time, else the first column)."""

@@ -201,12 +201,8 @@ def _input_law(tr, problem, times, U, law) -> dict:
         coef[:, 1] = 2.0 * (u0 - 2.0 * um + u1) / h**2
         coef[:, 2] = (4.0 * um - 3.0 * u0 - u1) / h
         coef[:, 3] = u0
-        sig = Signal(nodes, U[0::2, j], interpolation="linear", extrapolation="hold", name=name)
-        coef.setflags(write=False)
-        sig.coefficients = coef
-        sig._rows = coef.tolist()
-        sig.interpolation = "quadratic"
-        out[name] = sig
+        out[name] = Signal.from_polynomials(nodes, coef[:, 1:], extrapolation="hold", name=name,
+                                            interpolation="quadratic")
     return out
 
 
