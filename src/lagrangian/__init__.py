@@ -3,6 +3,8 @@
 model -> derive -> Equations -> simulate -> Trajectory.
 """
 
+from typing import TYPE_CHECKING
+
 from sympy import (Abs, acos, asin, atan, atan2, cos, cosh, exp, log, pi, sign, sin, sinh, sqrt, tan,
                    tanh)
 
@@ -14,6 +16,16 @@ from .io import load, load_urdf
 from .model import Model, ddot, dot, t
 
 from ._version import __version__ as __version__
+
+if TYPE_CHECKING:  # the lazy names below, for type checkers and the API reference's static reader (griffe)
+    from .analysis import (Continuation, Equilibria, Equilibrium, InverseDynamics, Kinematics, LinearModel, Modes,
+                           SteadyMotion, SteadyMotions, continuation, equilibria, inverse_dynamics, kinematics,
+                           linearize, modes, steady_motions)
+    from .identification import FitResult, Identifiability, fit, identifiability
+    from .numeric import (BatchResult, CompiledModel, NumericModel, Signal, Trajectory, compile, grid, simulate,
+                          simulate_batch)
+    from .optimal_control import OptimalControlError, OptimalMotion, optimal_motion
+    from .reporting import Report, report
 
 _LAZY = ("plot",)  # subpackages imported on first use (plot needs Matplotlib)
 
