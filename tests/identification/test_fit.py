@@ -206,3 +206,28 @@ def test_bounds(pend, pend_run):
     r = fit(pend, noisy(pend_run, ["theta"], 0.01, 9), ["l", "c"], guess={"l": 0.8, "c": 0.3},
             bounds={"c": (0.2, 1.0)})
     assert r["c"] == pytest.approx(0.2, abs=1e-6)  # the truth (0.1) is outside: held at the bound
+
+
+def test_nothing_determined_is_an_error():
+    """With c = 0 the swing says nothing of m (it enters only as c/(m l^2)): a fit of m alone is
+    refused with the reason."""
+    eqs = pendulum(c=0.0)
+    tr = lg.simulate(eqs, 2.0, initial={"theta": 0.5}, dt=0.02, rtol=1e-10, atol=1e-10)
+    with pytest.raises(lg.ModelError, match=r"none of m can be determined by these data \(m is not identifiable "
+                                            r"structurally\); fit other parameters or measure more"):
+        fit(eqs, noisy(tr, ["theta"], 0.01, 11), ["m"])
+
+
+def test_numeric_rank_alone_holds_what_the_data_leave_open(pend, pend_run, monkeypatch):
+    """Without the structural analysis the singular values of the sensitivity find the same: m and c
+    move together (c/m), one of them is held, said to be so by the data."""
+    import lagrangian.identification._fit as fitmod
+
+    monkeypatch.setattr(fitmod, "_structural", lambda eqs, setup: (None, "the structural analysis is off"))
+    r = fit(pend, noisy(pend_run, ["theta"], 0.01, 3), ["m", "l", "c"], guess={"m": 2.0, "l": 0.8, "c": 0.3})
+    (held, why), = r.held_reasons.items()
+    assert held in ("m", "c") and why == "numerically (by the data)"
+    kept = "c" if held == "m" else "m"
+    ratio = r[kept] / r.held[held] if kept == "c" else r.held[held] / r[kept]
+    assert ratio == pytest.approx(0.1, abs=0.003)  # c/m
+    assert r.combinations == {} and "the structural analysis is off" in r.text()

@@ -683,15 +683,25 @@ def _fit(equations, data, params, guess, bounds, initial, noise, inputs, interva
                               f"{_fmt(dict(zip(setup.names, P0[list(setup.fitted)])))}): the state or its "
                               "sensitivities are not finite; give a better guess= or bounds=")
     free = np.ones(nth, bool)
+    # as many held as the structural rank leaves undetermined, then any direction the data leave open
+    need = len(setup.names) - int(structural.rank) if structural is not None and candidates else 0
     while True:
         Sp = _parameter_sensitivity(problem, J0)
         rel, Vt = _null_directions(Sp, P0[list(setup.fitted)][free])
-        if rel.size == 0 or rel[-1] > RANK_TOLERANCE:
+        deficient = rel.size > 0 and rel[-1] <= RANK_TOLERANCE
+        structural_left = sum(p in candidates for p in held) < need
+        if not deficient and not structural_left:
             break
-        v = np.abs(Vt[-1])
         names_free = [p for p, f in zip(setup.names, free) if f]
-        involved = [p for p, vi in zip(names_free, v) if vi > 0.1]
-        pick = next((p for p in candidates if p in involved), None) or names_free[int(np.argmax(v))]
+        if deficient:
+            v = np.abs(Vt[-1])
+            involved = [p for p, vi in zip(names_free, v) if vi > 0.1]
+            pick = next((p for p in candidates if p in involved and structural_left), None) or \
+                names_free[int(np.argmax(v))]
+        else:  # the structural analysis holds more than the rank at the guess shows
+            pick = next((p for p in candidates if p in names_free), None)
+            if pick is None:
+                break
         why = ("structurally" if pick in candidates else "numerically (by the data)")
         held[pick] = why
         free[setup.names.index(pick)] = False
