@@ -129,3 +129,19 @@ def test_a_derived_parameter_given_a_value_is_refused_with_what_it_is():
         lg.simulate(eqs, 1.0, params={"lA": 2.0})
     with pytest.raises(ModelError, match=re.escape(message)):
         lg.linearize(eqs, {"th": 0.0}, params={"lA": 2.0})
+
+
+@pytest.mark.parametrize("table, message", [
+    ('lA = "l**400*1e300"\n', "the parameter 'lA' = "),
+    ('lA = "lB + 1"\nlB = "2*lA"\n', "the parameters lA -> lB -> lA are defined by each other in a cycle"),
+    ('lA = "l**100000"\n', "exponent too large"),
+])
+def test_a_failed_derived_parameter_is_one_problem_not_one_per_use(table, message):
+    """The energy that uses a derived parameter whose expression failed is not reported as using an
+    unknown name: the one problem is at the parameter's own key."""
+    text = ('coordinates = ["th"]\n[parameters]\nl = 10.0\n' + table
+            + '[energy]\nT = "th_dot**2/2"\nV = "lA*th**2"\n')
+    with pytest.raises(ModelError) as exc:
+        loads_model(text)
+    assert message in str(exc.value)
+    assert "unknown name" not in str(exc.value) and "energy.V" not in str(exc.value), str(exc.value)

@@ -697,9 +697,15 @@ class _Reader:
             order = [n for n in derived_order({**known, **derived}) if n in derived]
         except ModelError as exc:
             self.model_error("parameters", exc)
-            return
+            order = []
         for name in order:
             self.declare(f"parameters.{name}", self.model.parameter, name, derived[name])
+        for name in derived:  # one that failed is declared without a value, so that the expressions
+            if name not in self.model.derived_parameters and not any(p.name == name for p in self.model.parameters):
+                try:  # using it still parse (one problem, at its own key, not one per use)
+                    self.model.parameter(name, None)
+                except ModelError:
+                    pass
 
     def name_list(self, value: object, key: str, example: str) -> list[str] | None:
         """A list of names (coordinates, inputs), or None after recording a problem."""
