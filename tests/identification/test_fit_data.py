@@ -151,3 +151,13 @@ def test_columns_selects_and_checks(tmp_path, pend):
         fit(pend, path, ["l"], columns=["thta"])
     with pytest.raises(ModelError, match=r"columns: expected a list of column names"):
         fit(pend, path, ["l"], columns=[1])
+
+
+def test_jacobian_size_is_bounded(pend, monkeypatch):
+    import lagrangian.identification._fit as fitmod
+
+    monkeypatch.setattr(fitmod, "MAX_JACOBIAN", 1000)
+    t = np.linspace(0, 1, 101)
+    with pytest.raises(ModelError, match=r"the fit's Jacobian would have 1\d\d x \d+ entries .* more than 1,000; use "
+                                         r"fewer samples \(every k-th row of the data\)"):
+        fit(pend, {"t": t, "theta": np.cos(t)}, ["l"])

@@ -54,6 +54,8 @@ SAMPLES_PER_INTERVAL = 10
 AUTO_INTERVALS = 40
 MAX_INTERVALS = 400
 MAX_SUBSTEPS = 256
+#: The most entries of the (dense) Jacobian of a fit: 2e7 doubles, 160 MB.
+MAX_JACOBIAN = 20_000_000
 
 
 # ---------------------------------------------------------------------------------------------- checks
@@ -657,8 +659,14 @@ def _fit(equations, data, params, guess, bounds, initial, noise, inputs, interva
     if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1:
         raise ModelError(f"max_iterations: {max_iterations!r} must be a whole number >= 1")
     setup = _Setup(equations, data, params, guess, bounds, initial, noise, inputs, intervals, columns)
-    sens = Sensitivities.build(equations, setup.fitted, setup.exprs)
     nth = len(setup.names)
+    rows = len(setup.obs_y) + sum(1 for r in setup.next_row if r >= 0) * 2 * setup.n
+    cols = len(setup.rows) * 2 * setup.n + nth
+    if rows * cols > MAX_JACOBIAN:
+        raise ModelError(f"the fit's Jacobian would have {rows:,} x {cols:,} entries "
+                         f"({rows * cols * 8 / 1e6:,.0f} MB), more than {MAX_JACOBIAN:,}; use fewer samples (every "
+                         "k-th row of the data), fewer columns (columns=) or fewer shooting intervals (intervals=)")
+    sens = Sensitivities.build(equations, setup.fitted, setup.exprs)
 
     # first guess of the node states
     Xg = _guess_states(setup, sens)
