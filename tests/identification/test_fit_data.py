@@ -161,3 +161,11 @@ def test_jacobian_size_is_bounded(pend, monkeypatch):
     with pytest.raises(ModelError, match=r"the fit's Jacobian would have 1\d\d x \d+ entries .* more than 1,000; use "
                                          r"fewer samples \(every k-th row of the data\)"):
         fit(pend, {"t": t, "theta": np.cos(t)}, ["l"])
+
+
+def test_equations_or_model(tmp_path, pend):
+    with pytest.raises(ModelError, match=r"fit: equations must be the Equations of a model "
+                                         r"\(lagrangian.derive\(model\)\) or a Model, not str"):
+        fit("pendulum", csv(tmp_path, GOOD), ["l"])
+    r = fit(pend.model, csv(tmp_path, GOOD), ["l"], max_iterations=3)
+    assert r.parameters == ("l",)

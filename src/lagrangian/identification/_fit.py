@@ -605,8 +605,8 @@ def fit(equations, data, params, *, guess: Mapping | None = None, bounds: Mappin
 
     Parameters
     ----------
-    equations : Equations
-        The model's equations (``lagrangian.derive``); constrained models too.
+    equations : Equations or Model
+        The model's equations (``lagrangian.derive``; a Model is derived first); constrained models too.
     data : str, path, mapping, Measurements, or a list of those
         One experiment per item: a CSV file (a header row, a time column ``t``), or a mapping of
         column name to array with the sample times under ``"t"``. Columns are named as coordinates
@@ -653,6 +653,14 @@ def _fit(equations, data, params, guess, bounds, initial, noise, inputs, interva
     from scipy.optimize import least_squares
     from scipy.stats import norm, t as student
 
+    from ..equations import Equations, derive
+    from ..model import Model
+
+    if isinstance(equations, Model):
+        equations = derive(equations)
+    if not isinstance(equations, Equations):
+        raise ModelError(f"fit: equations must be the Equations of a model (lagrangian.derive(model)) or a Model, "
+                         f"not {type(equations).__name__}")
     c = real_number(confidence)
     if c is None or not 0 < c < 1:
         raise ModelError(f"confidence: {confidence!r} must be a level between 0 and 1, e.g. 0.95")
