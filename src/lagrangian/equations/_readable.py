@@ -105,10 +105,24 @@ def _rewritten(expr, max_terms: int, bounds: dict | None = None):
     except (TypeError, ValueError, RuntimeError):
         return sympy.sympify(expr)
     if expanded_terms_bound(e, max_terms, bounds) > max_terms:
-        return e._sympy_()
+        return _as_derived(e)
     terms = _terms(se.expand(e))
     _apply_identities(terms)
     return terms
+
+
+#: The expressions left as derived (over the budget): {id of the SymPy object: (it, the SymEngine
+#: original)}, so that :func:`text` prints them with SymEngine's printer (C++, a hundred times
+#: faster than SymPy's on the bicycle's entries: megabytes). Bounded; entries are replaced.
+_DERIVED: dict = {}
+
+
+def _as_derived(e) -> sympy.Expr:
+    out = e._sympy_()
+    if len(_DERIVED) >= 4096:
+        _DERIVED.clear()
+    _DERIVED[id(out)] = (out, e)
+    return out
 
 
 def expanded_terms_bound(expr, limit: int | None = None, memo: dict | None = None) -> int:
@@ -635,5 +649,10 @@ _PRINTER = _Printer()
 
 
 def text(expr) -> str:
-    """`expr` as ``sympy.sstr`` prints it (the same string), faster for many entries."""
+    """`expr` as ``sympy.sstr`` prints it (the same string), faster for many entries; an expression
+    left as derived by :func:`readable` (over its budget) as SymEngine prints it (SymPy syntax too:
+    the same expression, its terms in SymEngine's order)."""
+    derived = _DERIVED.get(id(expr))
+    if derived is not None and derived[0] is expr:
+        return str(derived[1])
     return _PRINTER.doprint(expr)
