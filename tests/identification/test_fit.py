@@ -67,6 +67,34 @@ def test_sensitivities_match_finite_differences(pend, pend_run):
     assert np.max(np.abs(J - fd)) <= 1e-6 * np.max(np.abs(J))
 
 
+def test_sensitivities_of_a_constrained_model_match_finite_differences():
+    """The four-bar: the saddle-point solve with the loop constraints G, the derivatives of G, c and
+    of the constraint residuals at the nodes in b (a length inside the constraints) and mb, and the
+    coordinates th2, th3 (not measured) found from th1 through the constraints."""
+    eqs = lg.derive(lg.load("four-bar"))
+    tr = lg.simulate(eqs, 0.3, initial={"th1": 1.2, "th1_dot": 4.0}, dt=0.01, rtol=1e-11, atol=1e-11,
+                     inputs={"tau": 0.0})
+    data = noisy(tr, ["th1"], 0.002, 12)
+    s = _Setup(eqs, data, ["mb", "b"], {"mb": 1.5, "b": 0.62}, None, None, 0.002, {"tau": 0.3}, 3)
+    sens = Sensitivities.build(eqs, s.fitted, s.exprs)
+    X = _guess_states(s, sens)
+    assert abs(X[0][0, 1] - tr["th2"][0]) < 0.05  # th2 from th1 and the loop
+    nodes = np.array([X[e][a] for e, a, _ in s.rows])
+    pr = _Problem(s, sens, np.ones(2, bool), substeps=2)
+    pr.set_nodes(nodes)
+    pr.defect_weight = 10.0
+    z = pr.pack(nodes, s.values)
+    _, J, _ = pr.evaluate(z)
+    fd = np.empty_like(J)
+    for i in range(len(z)):
+        h = 1e-6 * max(1.0, abs(z[i]))
+        zp, zm = z.copy(), z.copy()
+        zp[i] += h
+        zm[i] -= h
+        fd[:, i] = (pr.evaluate(zp, False)[0] - pr.evaluate(zm, False)[0]) / (2 * h)
+    assert np.max(np.abs(J - fd)) <= 1e-6 * np.max(np.abs(J))
+
+
 def test_damped_pendulum(pend, pend_run):
     r = fit(pend, noisy(pend_run, ["theta"], 0.01, 1), ["l", "c"], guess={"l": 0.8, "c": 0.3})
     assert isinstance(r, FitResult) and r.success
