@@ -146,13 +146,15 @@ def test_not_identifiable_named_not_fitted(pend, pend_run):
 @pytest.mark.slow
 def test_coverage_across_seeds(pend, pend_run):
     """The 95 % intervals cover the true values at about the stated rate: over 10 seeds and two
-    parameters (20 chances), at least 16 (a binomial(20, 0.95) is below 16 with probability 0.3 %)."""
-    covered = 0
-    for seed in range(10):
-        r = fit(pend, noisy(pend_run, ["theta"], 0.02, 100 + seed), ["l", "c"], guess={"l": 0.6, "c": 0.2},
-                noise=0.02)
-        covered += sum(r.intervals[p][0] <= true <= r.intervals[p][1] for p, true in (("l", 0.5), ("c", 0.1)))
-    assert covered >= 16
+    parameters (20 chances), at least 16 (a binomial(20, 0.95) is below 16 with probability 0.3 %),
+    with the noise level given and estimated."""
+    for noise in (0.02, None):  # given (normal quantile), estimated (Student's t)
+        covered = 0
+        for seed in range(10):
+            r = fit(pend, noisy(pend_run, ["theta"], 0.02, 100 + seed), ["l", "c"], guess={"l": 0.6, "c": 0.2},
+                    noise=noise)
+            covered += sum(r.intervals[p][0] <= true <= r.intervals[p][1] for p, true in (("l", 0.5), ("c", 0.1)))
+        assert covered >= 16, (noise, covered)
 
 
 def mass_spring_damper(F=True):
