@@ -161,3 +161,79 @@ def test_expanded_is_in_the_help(capsys):
     with pytest.raises(SystemExit):
         main(["derive", "--help"])
     assert "--expanded" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------------- quasi-velocities
+def _quasi_rhs(eqs):
+    """(rhs(t, y) of y = [q, u], W(q) as a function, n) of the quasi-velocity form, numerically."""
+    form = eqs.quasi_velocities()
+    values: dict = {}
+    for name, expr, _ in form.quantities:
+        values[se.Symbol(name)] = se.DenseMatrix([expr]).xreplace(values)[0] if values else expr
+    n = eqs.n
+    Mu = [se.DenseMatrix([x]).xreplace(values)[0] for row in form.M for x in row]
+    fu = [se.DenseMatrix([x]).xreplace(values)[0] for x in form.f]
+    params = {se.Symbol(p.name): v for p, v in eqs.parameters.items()}
+    q = [se.Symbol(c.name) for c in eqs.coordinates]
+    u = [se.Symbol(s) for s in form.speeds]
+    W = [x for row in form.W for x in row]
+    args = q + u
+    sub = [se.sympify(e).xreplace(params) for e in Mu + fu + W]
+    fn = se.Lambdify(args, sub, cse=True)
+    Wfn = se.Lambdify(q, [se.sympify(x).xreplace(params) for x in W], cse=True)
+
+    def rhs(_t, y):
+        out = np.asarray(fn(np.array(y, float)), float).ravel()
+        M = out[:n * n].reshape(n, n)
+        f = out[n * n:n * n + n]
+        Wq = out[n * n + n:].reshape(n, n)
+        return np.concatenate((Wq @ y[n:], np.linalg.solve(M, f)))
+
+    return rhs, (lambda qv: np.asarray(Wfn(np.array(qv, float)), float).reshape(n, n)), n, form
+
+
+@pytest.mark.parametrize("name, initial, t_end", [
+    ("heavy-top", {"theta": 1.0, "phi_dot": 2.0, "psi_dot": 20.0}, 0.5),
+    pytest.param(str(CHAIN3), None, 0.3, marks=pytest.mark.slow),  # minutes on 2 shared cores
+])
+def test_the_quasi_velocity_form_gives_the_same_motion_as_the_equations_in_q_dot(name, initial, t_end):
+    from scipy.integrate import solve_ivp
+
+    eqs = lg.derive(lg.load(name))
+    reference = lg.simulate(eqs, t_end=t_end, initial=initial, rtol=1e-11, atol=1e-11)
+    rhs, W, n, form = _quasi_rhs(eqs)
+    x0 = np.array(reference.x[0], float)  # shape (N, 2n): the model's initial state (a writable copy)
+    q0, qd0 = x0[:n], x0[n:]
+    u0 = np.linalg.solve(W(q0), qd0)  # q_dot = W u
+    sol = solve_ivp(rhs, (0.0, t_end), np.concatenate((q0, u0)), method="DOP853", rtol=1e-11, atol=1e-11)
+    assert sol.success
+    q_end, u_end = sol.y[:n, -1], sol.y[n:, -1]
+    ref_end = np.asarray(reference.x[-1], float)
+    assert np.allclose(q_end, ref_end[:n], rtol=0, atol=1e-7)
+    assert np.allclose(W(q_end) @ u_end, ref_end[n:], rtol=0, atol=1e-6)
+    # the kinematic equations are stated, one per coordinate, in the speeds
+    assert [k for k, _ in form.kinematic] == [f"{c.name}_dot" for c in eqs.coordinates]
+
+
+def test_the_kinematic_equations_of_a_spherical_joint_read_as_the_textbook_s(chain3):
+    form = chain3.quasi_velocities()
+    assert form.speeds[:3] == ("u_rod1_x", "u_rod1_y", "u_rod1_z")
+    kin = dict(form.kinematic)
+    qy, qz, ux, uy = sympy.symbols("qy1 qz1 u_rod1_x u_rod1_y")
+    # body-fixed x, y, z angles: qy_dot = sin(qz) u_x + cos(qz) u_y
+    assert sympy.simplify(sympy.sympify(str(kin["qy1_dot"])) - (sympy.sin(qz) * ux + sympy.cos(qz) * uy)) == 0
+    assert "cos(qy1)" in str(kin["qx1_dot"])  # singular at qy1 = pi/2, as every Euler angle set is somewhere
+
+
+def test_derive_prints_the_quasi_velocities_on_request_and_says_when_there_are_none(capsys):
+    assert main(["derive", "heavy-top", "--quasi-velocities"]) == 0
+    out = capsys.readouterr().out
+    assert "in quasi-velocities" in out and "Kinematic equations (q_dot = W(q) u):" in out
+    assert "  theta_dot = -sin(psi)*u_body_y + cos(psi)*u_body_x" in out
+    assert main(["derive", "cart-pendulum", "--quasi-velocities"]) == 2
+    err = capsys.readouterr().err
+    assert ("quasi-velocities: no frame of model 'cart-pendulum' is turned by three coordinates of its own (a "
+            "spherical joint: three angles), so its speeds are its velocities; derive it without "
+            "--quasi-velocities") in err
+    assert main(["derive", "rolling-disk", "--quasi-velocities"]) == 2
+    assert "the quasi-velocity form is for unconstrained models" in capsys.readouterr().err

@@ -30,6 +30,10 @@ def register(sub, fmt) -> None:
                    help="text: print every entry of M and f in full even when it could expand to more than 5,000 "
                         "terms (by default such equations, a chain of bodies in space, are written with named "
                         "quantities); JSON and LaTeX always give every entry in full")
+    d.add_argument("--quasi-velocities", action="store_true",
+                   help="text: also print the equations in quasi-velocities (Boltzmann-Hamel / Kane): the speeds "
+                        "of a frame turned by three angles of its own (a spherical joint) are its angular velocity "
+                        "relative to its parent in its axes, with the kinematic equations q_dot = W(q) u")
     d.set_defaults(handler=_cmd_derive)
 
     s = sub.add_parser("simulate", help="simulate a model and write its trajectory as CSV",
@@ -84,6 +88,9 @@ def _cmd_derive(args: argparse.Namespace) -> int:
         print(eqs.latex())
     else:
         print(eqs.text(expanded=args.expanded))
+        if args.quasi_velocities:
+            print()
+            print(eqs.quasi_velocity_text())
     return 0
 
 

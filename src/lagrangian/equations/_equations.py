@@ -192,6 +192,24 @@ class Equations:
 
         return named_form(self)
 
+    def quasi_velocities(self):
+        """Lagrange's equations in quasi-velocities (Boltzmann-Hamel / Poincare; Kane's method):
+        each frame turned by three coordinates of its own (a spherical joint) has as speeds its
+        angular velocity relative to its parent in its own axes, u_<frame>_x, _y, _z, with the
+        kinematic equations q_dot = W(q) u; M_u u_dot = f_u with M_u = W^T M W (a
+        :class:`~lagrangian.equations._named.QuasiVelocityForm`, named quantities). A ModelError
+        for a model with constraints or without such a frame."""
+        from ._named import quasi_velocity_form
+
+        return quasi_velocity_form(self)
+
+    def quasi_velocity_text(self) -> str:
+        """:meth:`quasi_velocities` as text (``lagrangian derive MODEL --quasi-velocities``)."""
+        form = self.quasi_velocities()
+        return "\n".join([f"Lagrange's equations of {self.model.name} in quasi-velocities (Boltzmann-Hamel; "
+                          "Kane's form): each frame turned by three coordinates of its own has as speeds its "
+                          "angular velocity relative to its parent, in its own axes", ""] + form.lines())
+
     @cached_property
     def _varying(self) -> frozenset[str]:
         """Names of the symbols that vary: coordinates, velocities, accelerations, t, inputs."""

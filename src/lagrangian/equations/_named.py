@@ -31,7 +31,7 @@ import symengine as se
 from ..model._elements import Particle, RigidBody, RigidBody3D
 from ..model._frames import WORLD
 
-__all__ = ["NamedForm", "named_form"]
+__all__ = ["NamedForm", "named_form", "QuasiVelocityForm", "quasi_velocity_form"]
 
 _AXES = "xyz"
 
@@ -390,22 +390,39 @@ def _particle_frame(element, motion: _FrameMotion, frames, kin, rng):
 
 def named_form(equations) -> NamedForm:
     """The :class:`NamedForm` of `equations` (an :class:`~lagrangian.equations.Equations`)."""
-    from ..model._elements import Particle as _P, RigidBody as _R, RigidBody3D as _R3
-    from ..model._kinematics import Kinematics
-
     model, core = equations.model, equations.core
-    massive = [e for e in model.elements if isinstance(e, (_P, _R, _R3))]
-    kin = Kinematics(model.q, massive)
-    M, f, quantities = kane_form(model, kin)
+    M, f, quantities = kane_form(model, _kinematics(model))
     n = len(f)
     G = core.G
     m = 0 if G is None else G.rows
     upper = [M[i][j] for i in range(n) for j in range(i, n)]
     rows = [G[k, j] for k in range(m) for j in range(n)]
+    listed, (upper, fn, rows, cn, gn) = _name_all(model, quantities, [upper, list(f), rows, list(core.c),
+                                                                      list(core.g)])
+    Mn = [[None] * n for _ in range(n)]
+    pos = 0
+    for i in range(n):
+        for j in range(i, n):
+            Mn[i][j] = Mn[j][i] = upper[pos]
+            pos += 1
+    Gn = [rows[k * n: (k + 1) * n] for k in range(m)]
+    return NamedForm(quantities=tuple(listed), M=tuple(tuple(r) for r in Mn), f=tuple(fn),
+                     G=tuple(tuple(r) for r in Gn), c=tuple(cn), g=tuple(gn))
+
+
+def _kinematics(model):
+    from ..model._kinematics import Kinematics
+
+    return Kinematics(model.q, [e for e in model.elements if isinstance(e, (Particle, RigidBody, RigidBody3D))])
+
+
+def _name_all(model, quantities: list, groups: list[list], extra_taken=()) -> tuple[list, list[list]]:
+    """Common subexpressions of the `quantities` ([(name, components, note)]) and of the expressions
+    in `groups`, named: ([(name, expression, note)] in order of definition, the groups rewritten)."""
     defined = [x for _, vec, _ in quantities for x in vec]
-    exprs = defined + upper + list(f) + rows + list(core.c) + list(core.g)
+    exprs = defined + [e for group in groups for e in group]
     taken = {s.name for s in (*model.q, *model.q_dot, *model.q_ddot, *model.parameters, *model.inputs)}
-    taken |= {"t"} | {name for name, _, _ in quantities}
+    taken |= {"t"} | {name for name, _, _ in quantities} | set(extra_taken)
     replacements, reduced = se.cse(exprs)
     temporaries = {lhs for lhs, _ in replacements}
     keep = {r for r in reduced[:len(defined)] if type(r) is se.Symbol and r in temporaries}
@@ -436,20 +453,142 @@ def named_form(equations) -> NamedForm:
     listed = [(names[lhs].name, rhs, notes.get(names[lhs].name, ""))
               for (lhs, _), rhs in zip(replacements, renamed)]
     rest = renamed[len(replacements):]
+    out, pos = [], 0
+    for group in groups:
+        out.append(rest[pos:pos + len(group)])
+        pos += len(group)
+    return listed, out
+
+
+# ------------------------------------------------------------------------ quasi-velocities
+@dataclass(frozen=True)
+class QuasiVelocityForm:
+    """Lagrange's equations in quasi-velocities (the Boltzmann-Hamel / Poincare form, which Kane's
+    method amounts to): each frame turned by three coordinates of its own (a spherical joint: three
+    angles) has as speeds u its angular velocity relative to its parent, in its own axes,
+    ``u_<frame>_x, _y, _z`` (for a frame on the world, its angular velocity); every other
+    coordinate keeps its velocity. With q_dot = W(q) u (the kinematic equations, stated),
+
+        M_u(q) u_dot = f_u(q, u, t),    M_u = W^T M W,    f_u = W^T (f - M (dW/dt) u),
+
+    the equations of the same motion (the tests simulate both). SymEngine expressions, with the
+    named quantities of :class:`NamedForm`.
+
+    Attributes
+    ----------
+    speeds : tuple of str, shape (n,)
+    kinematic : tuple of (velocity name, expression in q and u), shape (n,)
+    quantities, M (n x n), f (n,)
+    """
+
+    speeds: tuple
+    kinematic: tuple
+    quantities: tuple
+    M: tuple
+    f: tuple
+    W: tuple = ()
+
+    def lines(self) -> list[str]:
+        out = ["Speeds u: " + ", ".join(self.speeds), "", "Kinematic equations (q_dot = W(q) u):"]
+        out += [f"  {name} = {expr}" for name, expr in self.kinematic]
+        out += ["", f"Named quantities ({len(self.quantities)}, each in terms of those before it):"]
+        out += [f"  {name} = {expr}" + (f"    # {note}" if note else "") for name, expr, note in self.quantities]
+        out += ["", "M_u(q) u_dot = f_u(q, u, t):", "  M_u ="]
+        out += ["    [" + ", ".join(str(x) for x in row) + "]" for row in self.M]
+        out += ["  f_u ="] + [f"    {x}" for x in self.f]
+        return out
+
+
+def _inverse3(E):
+    """The inverse of a 3x3 SymEngine matrix as adjugate / determinant, each in readable form (for
+    Euler angles about x, y, z: det = cos(y)), or None when the determinant is identically 0."""
+    from ._readable import readable
+
+    def r(e):
+        return se.sympify(readable(e))
+
+    det = r(E.det())
+    if det == 0:
+        return None
+    cof = [[r(E[(i + 1) % 3, (j + 1) % 3] * E[(i + 2) % 3, (j + 2) % 3]
+              - E[(i + 1) % 3, (j + 2) % 3] * E[(i + 2) % 3, (j + 1) % 3]) for j in range(3)] for i in range(3)]
+    return [[cof[j][i] / det for j in range(3)] for i in range(3)]
+
+
+def quasi_velocity_form(equations) -> QuasiVelocityForm:
+    """The :class:`QuasiVelocityForm` of `equations` (unconstrained; at least one frame turned by three
+    coordinates of its own, else a ModelError says why)."""
+    from ..errors import ModelError
+    from ..model._frames import angular_velocity
+
+    model = equations.model
+    if equations.is_constrained:
+        raise ModelError(f"quasi-velocities: model '{model.name}' has constraints; the quasi-velocity form is for "
+                         "unconstrained models (derive it without --quasi-velocities)")
+    kin = _kinematics(model)
+    q, qd, n = kin.q, kin.qd, len(kin.q)
+    names = [c.name for c in model.q]
+    owner: dict = {}
+    for fname, frame in model.frames.items():
+        for fac in frame.factors:
+            parts = [fac.angle] if fac.matrix is None else [x for row in fac.matrix for x in row]
+            for x in parts:
+                for s in kin.se(x).free_symbols:
+                    if s in q:
+                        owner.setdefault(s, set()).add(fname)
+    W = [[se.Integer(0)] * n for _ in range(n)]
+    speeds = [f"{c}_dot" for c in names]
+    done = set()
+    found = []
+    for fname, frame in model.frames.items():
+        mine = [s for s, frames in owner.items() if frames == {fname}]
+        if len(mine) != 3 or any(m in done for m in mine):
+            continue
+        wr = angular_velocity(frame.factors, kin)
+        idx = [q.index(s) for s in sorted(mine, key=q.index)]
+        E = se.DenseMatrix(3, 3, [wr[r].diff(qd[j]) for r in range(3) for j in idx])
+        if any(set(wr[r].free_symbols) & (set(qd) - {qd[j] for j in idx}) for r in range(3)):
+            continue
+        Einv = _inverse3(E)
+        if Einv is None:
+            continue
+        for a, j in enumerate(idx):
+            speeds[j] = f"u_{fname}_{_AXES[a]}"
+            for b, k in enumerate(idx):
+                W[j][k] = Einv[a][b]
+        done |= set(mine)
+        found.append(fname)
+    if not found:
+        raise ModelError(f"quasi-velocities: no frame of model '{model.name}' is turned by three coordinates of its "
+                         "own (a spherical joint: three angles), so its speeds are its velocities; "
+                         "derive it without --quasi-velocities")
+    for j in range(n):
+        if qd[j] not in {qd[i] for i in range(n) if q[i] in done}:
+            W[j][j] = se.Integer(1)
+    u = [se.Symbol(s) for s in speeds]
+    qdot_u = [sum((W[j][k] * u[k] for k in range(n)), se.Integer(0)) for j in range(n)]
+    to_u = dict(zip(qd, qdot_u))
+    M, f, quantities = kane_form(model, kin)
+    # f at q_dot = W u, minus M (dW/dt) u; then W^T (...), W^T M W
+    fu_q = list(se.DenseMatrix(list(f)).xreplace(to_u))
+    Wdot_u = [sum((sum((W[j][k].diff(q[i]) * qdot_u[i] for i in range(n)), se.Integer(0)) * u[k]
+                   for k in range(n)), se.Integer(0)) for j in range(n)]
+    rhs = [fu_q[i] - sum((M[i][j] * Wdot_u[j] for j in range(n)), se.Integer(0)) for i in range(n)]
+    Mu = [[sum((W[a][i] * M[a][b] * W[b][j] for a in range(n) for b in range(n) if W[a][i] != 0 and W[b][j] != 0),
+               se.Integer(0)) for j in range(n)] for i in range(n)]
+    fu = [sum((W[a][i] * rhs[a] for a in range(n) if W[a][i] != 0), se.Integer(0)) for i in range(n)]
+    quantities = [(name, list(se.DenseMatrix(vec).xreplace(to_u)), note) for name, vec, note in quantities]
+    upper = [Mu[i][j] for i in range(n) for j in range(i, n)]
+    listed, (upper, fn) = _name_all(model, quantities, [upper, fu], extra_taken=speeds)
     Mn = [[None] * n for _ in range(n)]
     pos = 0
     for i in range(n):
         for j in range(i, n):
-            Mn[i][j] = Mn[j][i] = rest[pos]
+            Mn[i][j] = Mn[j][i] = upper[pos]
             pos += 1
-    fn = rest[pos:pos + n]
-    pos += n
-    Gn = [rest[pos + k * n: pos + (k + 1) * n] for k in range(m)]
-    pos += m * n
-    cn = rest[pos:pos + m]
-    gn = rest[pos + m:pos + 2 * m]
-    return NamedForm(quantities=tuple(listed), M=tuple(tuple(r) for r in Mn), f=tuple(fn),
-                     G=tuple(tuple(r) for r in Gn), c=tuple(cn), g=tuple(gn))
+    kinematic = tuple((f"{names[j]}_dot", qdot_u[j]) for j in range(n))
+    return QuasiVelocityForm(speeds=tuple(speeds), kinematic=kinematic, quantities=tuple(listed),
+                             M=tuple(tuple(r) for r in Mn), f=tuple(fn), W=tuple(tuple(r) for r in W))
 
 
 def _inlined(replacements: list, reduced: list, keep: set) -> tuple[list, list]:
