@@ -10,6 +10,15 @@ LDL^T of M alone), and the costs per step and per evaluation of the right-hand s
 The two runs do not take the same steps (the unconstrained mechanism falls apart), which is why
 the cost is compared per step. The issue's target: at most 1.5x per step.
 
+With --parts MODEL [MODEL ...] it says instead where a constrained model's step cost goes: the
+compiled rhs cut after each step of the saddle-point solve (the numba module's source with
+``return r`` written into lg_saddle before the next step: expression evaluation of M, f, G, c
+alone, then + LDL^T and the test of f, G, c, + Z = L^-1 G^T, + the QR, + step 3, the whole rhs),
+the unconstrained rhs, and the projection's parts (lg_position, lg_velocity, the whole project from
+a state 1e-7 off the constraints), each timed in a numba loop (thread CPU time per call, median and
+quartiles over the repeats, all alternating in one process). A step costs about 12 evaluations of
+the rhs and one projection.
+
 The machine this runs on is often a loaded, shared one: the two runs alternate within each repeat
 (the same moment's load for both), and the ratio quoted is the median of the repeats' ratios.
 """
@@ -17,8 +26,11 @@ The machine this runs on is often a loaded, shared one: the two runs alternate w
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import statistics
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import sympy
@@ -40,10 +52,115 @@ def per_step(cm, x0, times, p, prog, **kw):
     return dt / max(raw.nstep, 1), dt / max(raw.nfev, 1), raw.nstep
 
 
+def _cut_modules(eqs, folder: Path) -> dict:
+    """{label: module}: the numba module of `eqs` and its copies with lg_saddle cut after each step
+    (the written-out form, n and m <= UNROLL_MAX; the markers are the first line of each step)."""
+    from lagrangian.numeric._codegen import numba_source
+    from lagrangian.numeric._codegen_constrained import layout
+
+    source = numba_source(eqs)
+    at = layout(eqs.n, len(eqs.multipliers))
+    head, saddle = source.split("def lg_saddle(work):", 1)
+    saddle = "def lg_saddle(work):" + saddle
+    rhs_call = "    r = lg_saddle(work)\n"
+    cuts = {"M f G c only": None, "+ LDL, finite": f"    work[{at['Q0']}] = work[{at['G0']}]\n",
+            "+ Z = L^-1 G^T": "    r = min(r, lg_qr(work))\n", "+ QR": f"    work[{at['A0']}] = work[{at['F0']}]\n"}
+    texts = {}
+    for label, marker in cuts.items():
+        if marker is None:
+            if rhs_call not in saddle:
+                return {}
+            texts[label] = head + saddle.replace(rhs_call, "    r = 1.0\n")
+        elif marker in saddle:
+            texts[label] = head + saddle.replace(marker, "    return r\n" + marker, 1)
+        else:
+            return {}  # the loop form: no cut points
+    texts["whole rhs (+ step 3)"] = source
+    modules = {}
+    for k, (label, text) in enumerate(texts.items()):
+        path = folder / f"lg_cut_{k}.py"
+        path.write_text(text, encoding="utf-8")
+        spec = importlib.util.spec_from_file_location(f"lg_cut_{k}", path)
+        modules[label] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(modules[label])
+    return modules
+
+
+def parts(names: list[str], repeat: int) -> None:
+    """Where the constrained step cost goes (see the module)."""
+    from numba import njit
+
+    from lagrangian.numeric._kernels_numba import _ptr, _rc, _vf
+
+    @njit
+    def rhs_loop(addr, x, u, p, dx, work, count):
+        for _ in range(count):
+            _rc(addr, 0.1, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(dx, 0), _ptr(work, 0))
+
+    @njit
+    def project_loop(addr, x0, x, u, p, work, drift, count):
+        for _ in range(count):
+            x[:] = x0
+            _vf(addr, 0.1, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
+
+    def part_loop(f):
+        @njit
+        def loop(x, u, p, work, count):
+            for _ in range(count):
+                f(0.1, x, u, p, work)
+        return loop
+
+    count = 4000
+    for name in names:
+        eqs = lg.derive(lg.load(name))
+        free = eqs.model.copy()
+        free._constraints, free._wheels = [], []
+        n, m = eqs.n, len(eqs.multipliers)
+        p = np.array([float(v) for v in eqs.parameters.values()])
+        start = lg.simulate(eqs, t_end=0.01)
+        x0 = np.array([start[s][0] for s in eqs.state_names])
+        u = np.zeros(max(1, len(eqs.inputs)))
+        off = x0 + 1e-7 * np.random.default_rng(0).standard_normal(2 * n)
+        work, dx, xs, drift = np.zeros(work_size(n, m)), np.zeros(2 * n), off.copy(), np.zeros(2)
+        with tempfile.TemporaryDirectory() as folder:
+            modules = _cut_modules(eqs, Path(folder))
+            if not modules:
+                print(f"{name}: the solve is not written out (n or m > 12): no cut points")
+                continue
+            whole = modules["whole rhs (+ step 3)"]
+            plain = compile_numba(lg.derive(free))
+            timed = {"unconstrained rhs": lambda c: rhs_loop(_address(plain.rhs_c), x0, u, p, dx, work, c)}
+            for label, module in modules.items():
+                timed[f"rhs: {label}"] = (lambda a: lambda c: rhs_loop(a, x0, u, p, dx, work, c))(module.rhs.address)
+            for helper in ("lg_position", "lg_velocity"):
+                if hasattr(whole, helper):
+                    timed[f"project: {helper}"] = (lambda f: lambda c: f(x0, u, p, work, c))(
+                        part_loop(getattr(whole, helper)))
+            timed["project (whole)"] = lambda c: project_loop(whole.project.address, off, xs, u, p, work, drift, c)
+            for run in timed.values():
+                run(2)  # compile
+            times: dict[str, list[float]] = {label: [] for label in timed}
+            for _ in range(repeat):
+                for label, run in timed.items():
+                    t0 = time.thread_time()
+                    run(count)
+                    times[label].append((time.thread_time() - t0) / count * 1e9)
+        print(f"{name} (n = {n}, m = {m}): ns per call, median [quartiles] of {repeat} repeats of {count} calls")
+        base = times["unconstrained rhs"]
+        for label, v in times.items():
+            q1, q3 = np.percentile(v, [25, 75])
+            ratio = statistics.median(a / b for a, b in zip(v, base))
+            print(f"  {label:<28} {statistics.median(v):8.1f} [{q1:7.1f}, {q3:7.1f}]  {ratio:5.2f}x unconstrained rhs")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=15)
+    parser.add_argument("--parts", nargs="+", metavar="MODEL", help="where the step cost goes (see the module)")
     args = parser.parse_args()
+    if args.parts:
+        parts(args.parts, args.repeat)
+        return
     print(f"{'model':<20} {'constrained':>14} {'unconstrained':>14} {'per step':>9} {'per f':>7}")
     for name, t_end in CASES:
         model = lg.load(name)
