@@ -237,3 +237,19 @@ def test_derive_prints_the_quasi_velocities_on_request_and_says_when_there_are_n
             "--quasi-velocities") in err
     assert main(["derive", "rolling-disk", "--quasi-velocities"]) == 2
     assert "the quasi-velocity form is for unconstrained models" in capsys.readouterr().err
+
+
+def test_a_kinetic_energy_too_large_to_expand_is_differentiated_in_kane_s_form_equal_to_lagrange_s(chain3):
+    from lagrangian.equations import _derive
+    from lagrangian.equations._readable import expanded_terms_bound
+
+    core = chain3.core
+    assert expanded_terms_bound(core.T, _derive.KANE_ABOVE) > _derive.KANE_ABOVE
+    kin = lg.model._kinematics.Kinematics(chain3.model.q, [])
+    M, f = _derive._lagrange_core(core.L, core.D, core.Q, core.p, kin)
+    n = chain3.n
+    pairs = [(core.M[i, j], M[i, j]) for i in range(n) for j in range(n)] + [(core.f[i], f[i]) for i in range(n)]
+    assert_same(pairs, points=2)
+    # the small models keep Lagrange's operator (their printed forms are pinned)
+    small = lg.derive(lg.load("heavy-top"))
+    assert expanded_terms_bound(small.core.T, _derive.KANE_ABOVE) <= _derive.KANE_ABOVE

@@ -24,6 +24,7 @@ from ..model._constraints import HOLONOMIC
 from ..model._elements import Gravity, Particle, RigidBody, RigidBody3D
 from ..model._kinematics import Kinematics
 from ._equations import Equations, SymbolicCore
+from ._readable import expanded_terms_bound
 
 __all__ = ["derive"]
 
@@ -52,7 +53,6 @@ def derive(model: Model) -> Equations:
     snapshot = model.copy()._freeze()
     massive = [e for e in snapshot.elements if isinstance(e, (Particle, RigidBody, RigidBody3D))]
     kin = Kinematics(snapshot.q, massive)
-    n = len(kin.q)
 
     T = kin.se(snapshot.T)
     V = kin.se(snapshot.V)
@@ -71,6 +71,27 @@ def derive(model: Model) -> Equations:
     L = T - V
     q, qd, t = kin.q, kin.qd, kin.t
     p = [L.diff(v) for v in qd]
+    if expanded_terms_bound(T, KANE_ABOVE) > KANE_ABOVE:
+        M, f = _kane_core(snapshot, kin)
+    else:
+        M, f = _lagrange_core(L, D, Q, p, kin)
+    g, G, w, c = _constraint_parts(snapshot, kin)
+    core = SymbolicCore(q=tuple(q), qd=tuple(qd), t=t, T=T, V=V, D=D, Q=tuple(Q), L=L,
+                        p=tuple(p), M=M, f=tuple(f), g=g, G=G, w=w, c=c)
+    return Equations(model=snapshot, core=core)
+
+
+#: T* (assembled from the bodies) whose expansion could have more terms than this is differentiated
+#: in Kane's form (``_named.kane_form``: each frame's velocities from its parent's) instead of by
+#: differentiating T* twice: a chain of rods in space (T* of three rods: millions of terms; six rods:
+#: 21 s by Lagrange's operator). Equal to Lagrange's (tested); below it, Lagrange's operator as ever.
+KANE_ABOVE = 100_000
+
+
+def _lagrange_core(L, D, Q, p, kin: Kinematics):
+    """(M, f) by Lagrange's operator on L, D and Q (p = dL/dq_dot)."""
+    q, qd, t = kin.q, kin.qd, kin.t
+    n = len(q)
     M = se.zeros(n, n)
     for i in range(n):
         for j in range(i, n):
@@ -83,10 +104,16 @@ def derive(model: Model) -> Equations:
         for j in range(n):
             fi = fi - p[i].diff(q[j]) * qd[j]
         f.append(fi)
-    g, G, w, c = _constraint_parts(snapshot, kin)
-    core = SymbolicCore(q=tuple(q), qd=tuple(qd), t=t, T=T, V=V, D=D, Q=tuple(Q), L=L,
-                        p=tuple(p), M=M, f=tuple(f), g=g, G=G, w=w, c=c)
-    return Equations(model=snapshot, core=core)
+    return M, f
+
+
+def _kane_core(model: Model, kin: Kinematics):
+    """(M, f) in Kane's form (see KANE_ABOVE)."""
+    from ._named import kane_form
+
+    rows, f, _ = kane_form(model, kin)
+    n = len(f)
+    return se.DenseMatrix(n, n, [x for row in rows for x in row]), list(f)
 
 
 def _check_sizes(model: Model, V, D, Q, kin: Kinematics) -> None:
