@@ -125,3 +125,26 @@ def test_columns_of_a_simulation(files, capsys, tmp_path):
     d = json.loads(capsys.readouterr().out)
     assert d["parameters"]["l"]["estimate"] == pytest.approx(0.5, abs=1e-5)
     assert d["parameters"]["c"]["estimate"] == pytest.approx(0.1, abs=1e-4)
+
+
+def test_simulates_own_csv_fits_as_it_is_and_a_measured_input_stays_an_input(capsys, tmp_path):
+    """The CSV `lagrangian simulate` writes (with its energy column, and a forced model's input column)
+    fits without --columns; with --columns naming only some coordinates, the input column still
+    drives the model (it is not a fitted column)."""
+    out = tmp_path / "mck.csv"
+    assert main(["simulate", "mck", "--t-end", "4", "--input", "f=sin(2*t)", "-o", str(out)]) == 0
+    capsys.readouterr()
+    for columns in ([], ["--columns", "x1,x2"]):
+        assert main(["fit", "mck", str(out), *columns, "--params", "c1,k1", "--guess", "c1=0.2,k1=80",
+                     "--json"]) == 0, capsys.readouterr().err
+        d = json.loads(capsys.readouterr().out)
+        assert d["parameters"]["k1"]["estimate"] == pytest.approx(100.0, rel=1e-4)
+        assert d["parameters"]["c1"]["estimate"] == pytest.approx(0.4, rel=1e-3)
+    lines = out.read_text().splitlines()
+    header = lines[0].split(",")
+    (tmp_path / "noinput.csv").write_text("\n".join(",".join(r.split(",")[:3]) for r in lines) + "\n")
+    assert header[:3] == ["t", "x1", "x2"]
+    assert main(["fit", "mck", str(tmp_path / "noinput.csv"), "--params", "k1"]) == 2
+    assert ("the input 'f' is neither a column of the data nor given; add a column 'f' (the measured signal) or "
+            "give it: inputs={'f': 0.0} (a number, a function of t or a lagrangian.Signal; --input f=0 on the "
+            "command line)") in capsys.readouterr().err

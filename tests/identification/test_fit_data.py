@@ -138,12 +138,17 @@ def test_missing_input_and_parameter_without_value(tmp_path):
 
 
 def test_columns_selects_and_checks(tmp_path, pend):
-    """columns= keeps only the named columns (a simulation's CSV has theta_dot and energy too)."""
+    """columns= keeps only the named columns (a simulation's CSV has theta_dot and energy too); without
+    it, every measurable column: the energy a simulation writes is left out, not refused."""
     run = lg.simulate(pend, 2.0, initial={"theta": 1.0}, dt=0.02)
     path = str(tmp_path / "sim.csv")
     run.to_csv(path)
-    with pytest.raises(ModelError, match=r"the column 'energy' is not a coordinate, velocity, input, output or point"):
-        fit(pend, path, ["l"])
+    every = fit(pend, path, ["l"], guess={"l": 0.6})
+    assert list(every.fitted[0]) == ["theta", "theta_dot"] and every["l"] == pytest.approx(0.5, abs=1e-5)
+    bad = tmp_path / "other.csv"
+    bad.write_text(open(path).read().replace("energy", "power"))
+    with pytest.raises(ModelError, match=r"the column 'power' is not a coordinate, velocity, input, output or point"):
+        fit(pend, str(bad), ["l"])
     r = fit(pend, path, ["l"], columns=["theta"], guess={"l": 0.6})
     assert list(r.fitted[0]) == ["theta"] and r["l"] == pytest.approx(0.5, abs=1e-5)
     with pytest.raises(ModelError, match=r"columns: .*sim\.csv has no column 'thta' \(did you mean 'theta'\?\); its "

@@ -28,8 +28,8 @@ def register(sub, fmt) -> None:
     f.add_argument("--bounds", action="append", default=[], metavar="NAME=LOW:HIGH",
                    help="bounds of a fitted parameter, e.g. c=0:10 (an empty side is open: m=0:)")
     f.add_argument("--columns", default=None, metavar="NAME,...",
-                   help="the columns of the data to use (default: all), e.g. theta to leave out a simulation's "
-                        "theta_dot and energy columns")
+                   help="the columns of the data to fit (default: all but a simulation's energy and multipliers), "
+                        "e.g. theta to leave out a simulation's theta_dot; an input's column drives the model anyway")
     f.add_argument("--initial", action="append", default=[], metavar="NAME=VALUE",
                    help="known initial states, held for every experiment (the others are estimated)")
     f.add_argument("--noise", action="append", default=[], metavar="[NAME=]SIGMA",

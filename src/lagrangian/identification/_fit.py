@@ -150,10 +150,19 @@ def _input_function(value, name: str) -> Callable:
                      f"{type(value).__name__}")
 
 
-def _select(experiments: list[Measurements], columns) -> list[Measurements]:
-    """Only the columns named in `columns` (None: all of them)."""
+#: Columns that lagrangian's own simulation CSV carries beside the measurable ones: left out unless named.
+COMPUTED_COLUMNS = ("energy", "jacobi_integral")
+
+
+def _select(experiments: list[Measurements], columns, inputs=(), multipliers=()) -> list[Measurements]:
+    """Only the columns named in `columns` and the model's inputs (a measured input drives the model
+    whether or not it is named); None: all of them but those a simulation computes (the energy or
+    Jacobi integral, the multipliers lambda_*), so that simulate's own CSV fits as it is."""
     if columns is None:
-        return experiments
+        skip = set(COMPUTED_COLUMNS) | set(multipliers)
+        return [ex if not skip & set(ex.columns) else
+                Measurements(ex.t, {c: v for c, v in ex.columns.items() if c not in skip}, ex.source)
+                for ex in experiments]
     if isinstance(columns, str):
         columns = [c.strip() for c in columns.split(",") if c.strip()]
     if not isinstance(columns, Sequence) or not columns or not all(isinstance(c, str) for c in columns):
@@ -164,7 +173,8 @@ def _select(experiments: list[Measurements], columns) -> list[Measurements]:
             if c not in ex.columns:
                 raise ModelError(f"columns: {ex.source} has no column '{c}'{did_you_mean(c, ex.columns)}; its "
                                  f"columns are {', '.join(ex.columns)}")
-        out.append(Measurements(ex.t, {c: ex.columns[c] for c in columns}, ex.source))
+        kept = [*columns, *(u for u in inputs if u in ex.columns and u not in columns)]
+        out.append(Measurements(ex.t, {c: ex.columns[c] for c in kept}, ex.source))
     return out
 
 
@@ -178,7 +188,9 @@ class _Setup:
         model = equations.model
         self.names = _names(params)
         self.values, self.fitted, self.lo, self.hi = _check_params(equations, self.names, guess, bounds)
-        self.experiments: list[Measurements] = _select(measurements(data), columns)
+        self.experiments: list[Measurements] = _select(measurements(data), columns,
+                                                       [u.name for u in equations.inputs],
+                                                       [lam.name for lam in equations.multipliers])
         n = equations.n
         self.n = n
         state = list(equations.state_names)
@@ -230,8 +242,9 @@ class _Setup:
                 if name not in funcs:
                     if name not in given_inputs:
                         raise ModelError(f"{ex.source}: the input '{name}' is neither a column of the data nor given; "
-                                         f"add a column '{name}' (the measured signal) or pass inputs={{'{name}': "
-                                         "0.0}} (a number, a function of t or a lagrangian.Signal)")
+                                         f"add a column '{name}' (the measured signal) or give it: inputs={{'{name}': "
+                                         f"0.0}} (a number, a function of t or a lagrangian.Signal; --input {name}=0 "
+                                         "on the command line)")
                     value = given_inputs[name]
                     funcs[name] = value if isinstance(value, Signal) else _input_function(value, name)
             self.columns.append(cols)
@@ -630,8 +643,8 @@ def fit(equations, data, params, *, guess: Mapping | None = None, bounds: Mappin
     intervals : int, optional
         Shooting intervals per experiment (1: single shooting); default one per 10 samples, at most 40.
     columns : sequence of str, optional
-        The columns of the data to use (default: all; the others, such as a simulation's energy
-        column, are then left out).
+        The columns of the data to use (default: all but those a simulation computes: the energy or
+        Jacobi integral and the multipliers); an input's column drives the model whether named or not.
     confidence : float
         The level of the confidence intervals (default 0.95).
     max_iterations : int
@@ -739,9 +752,12 @@ def _fit(equations, data, params, guess, bounds, initial, noise, inputs, interva
         problem._cache = (None, None)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            # without bounds, MINPACK's Levenberg-Marquardt (a QR of J per step, several times cheaper
+            # than the SVD of 'trf' on these tall Jacobians); with bounds, the trust-region reflective
+            bounded = bool(np.isfinite(lo).any() or np.isfinite(hi).any())
             sol = least_squares(lambda z: problem.evaluate(z)[0], z0, jac=lambda z: problem.evaluate(z)[1],
-                                bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=budget,
-                                xtol=tol, ftol=tol, gtol=tol)
+                                bounds=(lo, hi) if bounded else (-np.inf, np.inf), method="trf" if bounded else "lm",
+                                x_scale="jac", max_nfev=budget, xtol=tol, ftol=tol, gtol=tol)
         total_iterations += int(sol.nfev)
         return sol
 
