@@ -162,6 +162,43 @@ def test_one_template_gives_the_numba_and_the_c_text_of_the_same_steps(models):
     assert "np.linalg" not in py and "cond(" not in py
 
 
+def test_a_small_models_numba_rhs_calls_lg_saddle_after_all_its_parts(models):
+    """f and c of the four-bar need a few statements of their own: nothing to overlap with the
+    factorization, so M, f, G, c, then lg_saddle (numeric._codegen_constrained.SPLIT_MIN)."""
+    py = "\n".join(constrained_main(models["four-bar"][0]))
+    rhs = py.split("def rhs(")[1].split("\ndef ")[0]
+    assert "r = lg_saddle(work)" in rhs and "lg_range" not in py and "lg_solve" not in py
+
+
+@pytest.mark.slow
+def test_the_bicycles_numba_rhs_factors_m_and_g_before_f_and_c_with_the_same_numbers():
+    """The Whipple bicycle's f and c need hundreds of statements: numba's rhs factors M and G
+    (lg_ldl, lg_range) before it evaluates them, then lg_solve; q_ddot, lambda and the measure are
+    NumPy's (ConstrainedModel) and the C backend's (which calls lg_saddle after all the parts)."""
+    eq = lg.derive(lg.load("whipple-bicycle"))
+    py = "\n".join(constrained_main(eq))
+    rhs = py.split("def rhs(")[1].split("\ndef ")[0]
+    late = rhs.split("rho = lg_range(work)")[1]
+    assert rhs.index("r = lg_ldl(work)") < rhs.index("rho = lg_range(work)")
+    assert "r = lg_solve(work, min(r, rho))" in late and "lg_saddle" not in rhs
+    assert sum(line.lstrip().startswith("c") for line in late.splitlines()) >= 64  # f and c's own statements
+    assert " lg_saddle(work)" in constrained_c(eq) and "lg_range" not in constrained_c(eq)
+    nm = compile_equations(eq, "scipy")
+    cm = constrained_model(eq, nm)
+    p = np.array(list(eq.parameters.values()), float)
+    fast = {b: compile_equations(eq, b) for b in BACKENDS}
+    x0 = np.array([lg.simulate(eq, t_end=0.01)[s][0] for s in eq.state_names])
+    rng = np.random.default_rng(20)
+    for _ in range(3):
+        x = x0 + np.r_[1e-3 * rng.standard_normal(eq.n), rng.standard_normal(eq.n)]
+        qdd, lam = cm.solve(0.2, x, np.zeros(0), p)
+        for backend, model in fast.items():
+            qdd_b, lam_b, measure = compiled_solve(model, 0.2, x, np.zeros(0), p)
+            assert measure == pytest.approx(min(cm.measures(0.2, x, np.zeros(0), p)), rel=1e-12)
+            np.testing.assert_allclose(qdd_b, qdd, rtol=1e-12, atol=1e-12 * np.max(np.abs(qdd)), err_msg=backend)
+            np.testing.assert_allclose(lam_b, lam, rtol=1e-12, atol=1e-12 * np.max(np.abs(lam)), err_msg=backend)
+
+
 @needs_c
 @pytest.mark.parametrize("name", ["four-bar", "slider-crank"])
 def test_the_c_backend_integrates_constrained_models_as_numba(name):

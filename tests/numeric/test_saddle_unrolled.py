@@ -12,13 +12,13 @@ import pytest
 from lagrangian.numeric import _codegen_constrained as cc
 
 
-def _helpers(n: int, m: int, unroll: bool) -> tuple[dict, str]:
+def _helpers(n: int, m: int, unroll: bool, split: bool = False) -> tuple[dict, str]:
     consts = {"N": n, "M": m, "MH": 0, **{k: v for k, v in cc.layout(n, m).items() if k != "size"},
               "SINGULAR_RATIO": cc.SINGULAR_RATIO, "PROJECTION_STEPS": cc.PROJECTION_STEPS,
               "PROJECTION_TOL": cc.PROJECTION_TOL, "NEWTON_EXIT": cc.NEWTON_EXIT, "MET": cc.MET,
               "SINGULAR": cc.SINGULAR, "NOT_FINITE": cc.NOT_FINITE}
     e = cc._Emit("py", consts, unroll=unroll)
-    cc._algorithm(e, 0)
+    cc._algorithm(e, 0, split=split)
     text = "\n".join(e.lines)
     space = {"math": math, "njit": lambda **kw: (lambda f: f)}
     exec(compile(text, "<template>", "exec"), space)  # noqa: S102 (the template's own text)
@@ -82,3 +82,50 @@ def test_a_helper_is_written_once_per_size_it_is_called_with():
     _, text = _helpers(8, 5, True)
     assert text.count("def lg_qr(") == 1 and "def lg_qr_" not in text  # MH = 0: no projection of q
     assert "work[b + 3]" in text and "range(" not in text.split("def lg_qr(")[1].split("\ndef ")[0]
+
+
+def _split_solve(space: dict, work: np.ndarray) -> float:
+    """What numba's rhs does where f and c need many statements (constrained_main): lg_ldl and
+    lg_range after M and G, lg_solve after f and c."""
+    r = space["lg_ldl"](work)
+    if r <= cc.SINGULAR_RATIO:
+        return r
+    rho = space["lg_range"](work)
+    return space["lg_solve"](work, min(r, rho))
+
+
+@pytest.mark.parametrize("unroll", [False, True])
+def test_the_split_solve_gives_lg_saddles_numbers_and_decisions_bit_for_bit(unroll):
+    n, m = 8, 5
+    rng = np.random.default_rng(20)
+    space, text = _helpers(n, m, unroll, split=True)
+    assert "def lg_range(" in text and "def lg_solve(" in text
+    A = rng.normal(size=(n, n))
+    M, f, G, c = A @ A.T + n * np.eye(n), rng.normal(size=n), rng.normal(size=(m, n)), rng.normal(size=m)
+    dependent = G.copy()
+    dependent[4] = 2.0 * G[0] - G[3]  # a dead point: the QR's measure falls
+    singular = M.copy()
+    singular[5, :] = singular[:, 5] = 0.0  # M not positive definite: the LDL^T's measure is 0
+    cases = {"regular": (M, f, G, c), "dependent": (M, f, dependent, c), "singular M": (singular, f, G, c),
+             "f not finite": (M, np.r_[f[:7], np.inf], G, c), "G not finite": (M, f, np.where(G > 1.5, np.nan, G), c),
+             "c not finite": (M, f, G, np.r_[c[:4], np.nan]), "dependent, f not finite": (M, np.r_[np.inf, f[1:]],
+                                                                                           dependent, c)}
+    expected = {"regular": "r", "dependent": "S", "singular M": 0.0, "f not finite": -1.0, "G not finite": -1.0,
+                "c not finite": -1.0, "dependent, f not finite": -1.0}
+    for name, parts in cases.items():
+        at = cc.layout(n, m)
+        with np.errstate(invalid="ignore", over="ignore"):
+            one, _ = _work(n, m, *parts)
+            r_one = space["lg_saddle"](one)
+            two, _ = _work(n, m, *parts)
+            r_two = _split_solve(space, two)
+        assert r_two == r_one, name
+        if expected[name] == "r":
+            assert 0.0 < r_one <= 1.0
+            for part in ("A0", "L0"):  # q_ddot and lambda: the same operations in the same order
+                size = n if part == "A0" else m
+                assert np.array_equal(two[at[part]:at[part] + size], one[at[part]:at[part] + size]), name
+        elif expected[name] == "S":
+            assert 0.0 <= r_one <= cc.SINGULAR_RATIO, name
+        else:
+            assert r_one == expected[name], name

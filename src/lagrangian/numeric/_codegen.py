@@ -30,7 +30,7 @@ __all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "28"
+GENERATOR_VERSION = "29"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",
@@ -151,10 +151,12 @@ class _Printer:
             raise Unsupported(f"'{name}' in a generated expression")
         return _TOKEN.sub(sub, text)
 
-    def trig_block(self, exprs: list, indent: str = "    ", lanes: bool = False) -> tuple[list[str], list[str], int]:
+    def trig_block(self, exprs: list, indent: str = "    ", lanes: bool = False, first=None) -> tuple:
         """:meth:`block` of `exprs` with their sin and cos computed first, a pair at a time by
         `sn{k}, cs{k} = _sincos(base k)` (see _split_trig); returns (statements, outputs, the
-        number of bases). `lanes`: by the polynomial alone, each argument named b{k}."""
+        number of bases). `lanes`: by the polynomial alone, each argument named b{k}. With `first`
+        (see :meth:`block`): (the sin and cos and the statements the `first` outputs need, the other
+        statements, the outputs, the number of bases)."""
         bases, exprs = _split_trig(self._hide(exprs))
         lines, names = [], {}
         for k, b in enumerate(bases):
@@ -164,13 +166,17 @@ class _Printer:
             else:
                 lines.append(f"{indent}sn{k}, cs{k} = _sincos({text})")
             names.update({f"__lg_sn{k}": f"sn{k}", f"__lg_cs{k}": f"cs{k}"})
+        if first is not None:
+            early, late, outputs = self.block(exprs, indent, first=first, names=names, hidden=True)
+            return lines + early, late, outputs, len(bases)
         more, outputs = self.block(exprs, indent, names=names, hidden=True)
         return lines + more, outputs, len(bases)
 
-    def block(self, exprs: list, indent: str = "    ", first: int | None = None, names: dict | None = None,
+    def block(self, exprs: list, indent: str = "    ", first=None, names: dict | None = None,
               hidden: bool = False):
         """(statements defining the common subexpressions, the output expressions); with `first`,
-        (the statements the first `first` outputs need, the other statements, the outputs).
+        (the statements the first `first` outputs need (or the outputs whose indices `first` lists),
+        the other statements, the outputs).
         `names`: more symbols' names (those of :meth:`trig_block`); `hidden`: `exprs` hold
         placeholders already."""
         reps, reduced = se.cse(exprs if hidden else self._hide(exprs))
@@ -187,7 +193,7 @@ class _Printer:
             return lines, outputs
         # the common subexpressions the first `first` outputs need, and the others
         needed: set = set()
-        for e in reduced[:first]:
+        for e in (reduced[:first] if isinstance(first, int) else [reduced[k] for k in first]):
             needed |= set(e.free_symbols)
         for sym, expr in reversed(reps):
             if sym in needed:

@@ -71,6 +71,9 @@ PROJECTION_TOL = 1e-14
 NEWTON_EXIT = 1e-8
 #: The projection's result codes (export_c's <ID>_MET, <ID>_SINGULAR, <ID>_NOT_FINITE).
 MET, SINGULAR, NOT_FINITE = 0, 3, 4
+#: numba's rhs factors M and G before it evaluates f and c (see constrained_main) where f and c
+#: need at least this many common subexpressions of their own (the bicycle 393, the four-bar 4).
+SPLIT_MIN = 64
 
 
 def layout(n: int, m: int) -> dict[str, int]:
@@ -327,18 +330,16 @@ def _factor(e: _Emit) -> None:
     e.ret("fmin(r, rho)")
 
 
-def _saddle(e: _Emit) -> None:
-    M = e.consts["M"]
-    e.do(f"r = {e.call('lg_ldl')}")
-    with e.when("r <= SINGULAR_RATIO"):
-        e.ret("r")
+def _finite(e: _Emit) -> None:
+    """Return -1.0 where f, G or c is not finite."""
     for i in e.loop("i", 0, "N + M * N + M", unroll=False):
         with e.when(f"!isfinite(work[F0 + {i}])"):
             e.ret("-1.0")
-    _to_q(e)
-    e.do(f"r = fmin(r, {e.call('lg_qr', m=M)})")
-    with e.when("r <= SINGULAR_RATIO"):
-        e.ret("r")
+
+
+def _step3(e: _Emit) -> None:
+    """Step 3 (M factored, Z = Q R): q_ddot into A0, lambda into L0."""
+    M = e.consts["M"]
     for i in e.loop("i", 0, "N"):
         e.do(f"work[A0 + {i}] = work[F0 + {i}]")
     e.do(e.call("lg_lower", "A0"))
@@ -355,6 +356,31 @@ def _saddle(e: _Emit) -> None:
     e.do(e.call("lg_upper", "V0"))
     for i in e.loop("i", 0, "N"):
         e.do(f"work[A0 + {i}] += work[V0 + {i}]")
+
+
+def _saddle(e: _Emit) -> None:
+    e.do(f"r = {e.call('lg_ldl')}")
+    with e.when("r <= SINGULAR_RATIO"):
+        e.ret("r")
+    _finite(e)
+    _to_q(e)
+    e.do(f"r = fmin(r, {e.call('lg_qr', m=e.consts['M'])})")
+    with e.when("r <= SINGULAR_RATIO"):
+        e.ret("r")
+    _step3(e)
+    e.ret("r")
+
+
+def _range(e: _Emit) -> None:
+    _to_q(e)
+    e.ret(e.call("lg_qr", m=e.consts["M"]))
+
+
+def _solve(e: _Emit) -> None:
+    _finite(e)
+    with e.when("r <= SINGULAR_RATIO"):
+        e.ret("r")
+    _step3(e)
     e.ret("r")
 
 
@@ -441,6 +467,11 @@ _HELPERS = {
     "lg_saddle": ("double", [("work", _W)], "r, s", "i, k",
                   "q_ddot into work[A0:A0+N] and lambda into work[L0:L0+M] from M, f, G, c in work; the "
                   "measure (-1.0 where f, G or c is not finite)", _saddle),
+    "lg_range": ("double", [("work", _W)], "", "i, k",
+                 "Step 2 (M factored, G in work): Z = L^-1 G^T = Q R; the rank measure", _range),
+    "lg_solve": ("double", [("work", _W), ("r", "double")], "s", "i, k",
+                 "After lg_ldl and lg_range (r: the smaller measure): lg_saddle's test of f, G, c and step 3; "
+                 "returns r (-1.0 where f, G or c is not finite)", _solve),
     "lg_projection": ("int", [("t", "double"), ("x", _W), ("u", _W), ("p", _W), ("work", _W), ("drift", _W)],
                       "nq, wmax, gmax", "i, k, it",
                       "x onto the constraints (see the module); drift[0], drift[1]: the largest |g|, |w| met "
@@ -448,10 +479,14 @@ _HELPERS = {
 }
 
 
-def _algorithm(e: _Emit, mh: int) -> None:
+def _algorithm(e: _Emit, mh: int, split: bool = False) -> None:
     """The helpers of the saddle-point solve and of the projection (see the module), into e.defs;
-    N, M, MH and the offsets are e's constants."""
+    N, M, MH and the offsets are e's constants. `split`: also lg_saddle's two halves, lg_range and
+    lg_solve (numba's rhs calls lg_ldl and lg_range after M and G, before f and c, then lg_solve)."""
     e.call("lg_saddle")
+    if split:
+        e.call("lg_range")
+        e.call("lg_solve", "r")
     e.call("lg_projection", "t", "x", "u", "p", "work", "drift")
     e.lines = e.defs
 
@@ -522,24 +557,47 @@ def constrained_main(equations: Equations) -> list[str]:
     if mh:
         out += parts("lg_position", *position, "g of the holonomic constraints, then their rows of G.")
     out += parts("lg_velocity", *velocity, "w = G q_dot + b, G and M's lower triangle.")
+    body, split = _rhs_body(pr, rhs, consts)
     e = _Emit("py", consts, unroll=_unrolled(eq))
-    _algorithm(e, mh)
+    _algorithm(e, mh, split=split)
     out += e.lines
     out += ["", "", "@njit(cache=True)", "def _u(u_):", f"    return carray(u_, ({max(nu, 1)},))",
             "", "", "@njit(cache=True)", "def _p(p_):", f"    return carray(p_, ({max(npar, 1)},))"]
     out += _cfunc_head("rhs", "_SIG_RHS", (("dx", 2 * n), ("work", size)), n, nu, npar,
                        "dx = [q_dot, q_ddot] of the saddle-point system; returns the measure (see "
                        "lagrangian.numeric._codegen_constrained).")
-    out += pr.unpack()
-    lines, exprs, _ = pr.trig_block(rhs[0])
-    out += lines + [f"    work[{k}] = {v}" for k, v in zip(rhs[1], exprs)]
-    out += ["    r = lg_saddle(work)", f"    if r <= {SINGULAR_RATIO!r}:", "        return r",
+    out += pr.unpack() + body
+    out += [f"    if r <= {SINGULAR_RATIO!r}:", "        return r",
             f"    for i in range({n}):", "        dx[i] = x[i + N]", f"        dx[i + N] = work[{consts['A0']} + i]",
             "    return r"]
     out += _cfunc_head("project", "_SIG_VOID", (("work", size), ("drift", 2)), n, nu, npar,
                        "x moved onto the constraints (see lagrangian.numeric._codegen_constrained).")
     out.append("    lg_projection(t, x, _u(u_), _p(p_), work, drift)")
     return out
+
+
+def _rhs_body(pr: _Printer, rhs, consts: dict) -> tuple[list[str], bool]:
+    """(numba's rhs from the evaluation of M, f, G, c to r = the measure, whether it calls the split
+    helpers lg_range and lg_solve).
+
+    M and G (and what they need) first, factored (lg_ldl, lg_range: the solve's long chain of
+    dependent operations) before f and c are evaluated, whose independent work the processor then
+    overlaps with that chain's tail; then lg_solve: lg_saddle's operations in its order, the same
+    numbers and measures. Where f and c need few statements of their own (fewer than SPLIT_MIN)
+    there is nothing to overlap and the split costs (measured in one process with
+    benchmarks/constrained.py: the bicycle's rhs 4% faster, the four-bar's and the slider-crank's
+    4-7% slower): then M, f, G, c and lg_saddle, as before."""
+    exprs, places = rhs
+    first = [k for k, at in enumerate(places) if at < consts["F0"] or consts["G0"] <= at < consts["C0"]]
+    early, late, values, _ = pr.trig_block(exprs, first=first)
+    if len(late) < SPLIT_MIN:
+        lines, values, _ = pr.trig_block(exprs)
+        return lines + [f"    work[{k}] = {v}" for k, v in zip(places, values)] + ["    r = lg_saddle(work)"], False
+    stores = [f"    work[{k}] = {v}" for k, v in zip(places, values)]
+    out = early + [stores[k] for k in first]
+    out += ["    r = lg_ldl(work)", f"    if r <= {SINGULAR_RATIO!r}:", "        return r", "    rho = lg_range(work)"]
+    out += late + [line for k, line in enumerate(stores) if k not in set(first)]
+    return out + ["    r = lg_solve(work, min(r, rho))"], True
 
 
 def _used(lines: list[str], values: list[str]) -> list[str]:
