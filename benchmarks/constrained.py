@@ -1,6 +1,7 @@
 """Cost per step of the compiled constrained integration against the compiled unconstrained one.
 
-Run:  python benchmarks/constrained.py [--repeat N]      (default 15)
+Run:  python benchmarks/constrained.py [--repeat N] [--split-ab]      (default 15)
+      python benchmarks/constrained.py --parts MODEL [MODEL ...] [--repeat N]
 
 For each constrained example, the compiled DOP853 kernel is timed (CPU time, median over the
 repeats, kernel call only: no Python post-processing) on the constrained model (saddle-point
@@ -13,7 +14,8 @@ the cost is compared per step. The issue's target: at most 1.5x per step.
 With --parts MODEL [MODEL ...] it says instead where a constrained model's step cost goes: the
 compiled rhs cut after each step of the saddle-point solve (the numba module's source with
 ``return r`` written into lg_saddle before the next step: expression evaluation of M, f, G, c
-alone, then + LDL^T and the test of f, G, c, + Z = L^-1 G^T, + the QR, + step 3, the whole rhs),
+alone, then + LDL^T and the test of f, G, c, + Z = L^-1 G^T, + the QR, + step 3, the whole rhs;
+and the rhs as generated where it factors M and G before evaluating f and c, SPLIT_MIN),
 the unconstrained rhs, and the projection's parts (lg_position, lg_velocity, the whole project from
 a state 1e-7 off the constraints), each timed in a numba loop (thread CPU time per call, median and
 quartiles over the repeats, all alternating in one process). A step costs about 12 evaluations of
@@ -55,10 +57,16 @@ def per_step(cm, x0, times, p, prog, **kw):
 def _cut_modules(eqs, folder: Path) -> dict:
     """{label: module}: the numba module of `eqs` and its copies with lg_saddle cut after each step
     (the written-out form, n and m <= UNROLL_MAX; the markers are the first line of each step)."""
+    from lagrangian.numeric import _codegen_constrained
     from lagrangian.numeric._codegen import numba_source
     from lagrangian.numeric._codegen_constrained import layout
 
-    source = numba_source(eqs)
+    generated = numba_source(eqs)
+    saved, _codegen_constrained.SPLIT_MIN = _codegen_constrained.SPLIT_MIN, 10**9
+    try:  # the rhs that calls lg_saddle after M, f, G, c (the cut points are lg_saddle's)
+        source = numba_source(eqs)
+    finally:
+        _codegen_constrained.SPLIT_MIN = saved
     at = layout(eqs.n, len(eqs.multipliers))
     head, saddle = source.split("def lg_saddle(work):", 1)
     saddle = "def lg_saddle(work):" + saddle
@@ -76,6 +84,8 @@ def _cut_modules(eqs, folder: Path) -> dict:
         else:
             return {}  # the loop form: no cut points
     texts["whole rhs (+ step 3)"] = source
+    if generated != source:
+        texts["as generated (split)"] = generated
     modules = {}
     for k, (label, text) in enumerate(texts.items()):
         path = folder / f"lg_cut_{k}.py"
@@ -84,6 +94,30 @@ def _cut_modules(eqs, folder: Path) -> dict:
         modules[label] = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(modules[label])
     return modules
+
+
+def _unsplit(eqs, fast, folder: Path):
+    """`fast` with the numba rhs that evaluates M, f, G, c and then calls lg_saddle (SPLIT_MIN
+    raised), or None where the generated rhs is not split."""
+    import dataclasses
+
+    from lagrangian.numeric import _codegen_constrained
+    from lagrangian.numeric._codegen import numba_source
+
+    generated = numba_source(eqs)
+    saved, _codegen_constrained.SPLIT_MIN = _codegen_constrained.SPLIT_MIN, 10**9
+    try:
+        source = numba_source(eqs)
+    finally:
+        _codegen_constrained.SPLIT_MIN = saved
+    if source == generated:
+        return None
+    path = folder / "lg_unsplit.py"
+    path.write_text(source, encoding="utf-8")
+    spec = importlib.util.spec_from_file_location("lg_unsplit", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return dataclasses.replace(fast, rhs_c=module.rhs, project_c=module.project)
 
 
 def parts(names: list[str], repeat: int) -> None:
@@ -157,6 +191,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=15)
     parser.add_argument("--parts", nargs="+", metavar="MODEL", help="where the step cost goes (see the module)")
+    parser.add_argument("--split-ab", action="store_true",
+                        help="also time the rhs not split (M, f, G, c, then lg_saddle) where it is split")
     args = parser.parse_args()
     if args.parts:
         parts(args.parts, args.repeat)
@@ -177,14 +213,29 @@ def main() -> None:
         kw = dict(project=_address(fast.project_c), nwork=work_size(eqs.n, len(eqs.multipliers)))
         per_step(fast, x0, times, p, prog, **kw)  # compile the kernels first
         per_step(plain, x0, times, p, prog)
-        rounds = [(per_step(fast, x0, times, p, prog, **kw), per_step(plain, x0, times, p, prog))
-                  for _ in range(args.repeat)]
+        with tempfile.TemporaryDirectory() as folder:
+            unsplit = _unsplit(eqs, fast, Path(folder)) if args.split_ab else None
+            if unsplit is not None:
+                ukw = dict(kw, project=_address(unsplit.project_c))
+                per_step(unsplit, x0, times, p, prog, **ukw)
+            rounds, others = [], []
+            for _ in range(args.repeat):
+                rounds.append((per_step(fast, x0, times, p, prog, **kw), per_step(plain, x0, times, p, prog)))
+                if unsplit is not None:
+                    others.append(per_step(unsplit, x0, times, p, prog, **ukw)[0] / rounds[-1][1][0])
         (_, _, c_n), (_, _, u_n) = rounds[0]
         c_step, c_eval, u_step, u_eval = (statistics.median(r[a][b] for r in rounds) for a in (0, 1) for b in (0, 1))
-        ratio = statistics.median(c[0] / u[0] for c, u in rounds)
+        ratios = [c[0] / u[0] for c, u in rounds]
+        ratio = statistics.median(ratios)
         ratio_f = statistics.median(c[1] / u[1] for c, u in rounds)
+        q1, q3 = np.percentile(ratios, [25, 75])
         print(f"{name:<20} {c_step * 1e6:>10.2f} us {u_step * 1e6:>10.2f} us {ratio:>8.2f}x {ratio_f:>6.2f}x"
-              f"  ({c_n} and {u_n} steps) {'holds' if ratio <= TARGET else 'missed'} (target {TARGET}x)")
+              f"  ({c_n} and {u_n} steps) {'holds' if ratio <= TARGET else 'missed'} (target {TARGET}x);"
+              f" per-step ratio quartiles [{q1:.2f}, {q3:.2f}]")
+        if others:
+            o1, o3 = np.percentile(others, [25, 75])
+            print(f"{'':<20} the same rhs not split (SPLIT_MIN): {statistics.median(others):.2f}x per step"
+                  f" [{o1:.2f}, {o3:.2f}], alternating with the runs above")
 
 
 if __name__ == "__main__":
