@@ -52,7 +52,7 @@ import numpy as np
 from ..equations import Equations
 from ..errors import ModelError
 from ..model._constraints import VELOCITY
-from ..numeric._compiled import compile_equations
+from ..numeric._compiled import SINGULAR_RATIO, compile_equations
 from ._setting import Setting
 from ._stationary import StationaryProblem, periodic_in
 
@@ -209,6 +209,69 @@ class SteadyState:
                         np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan))
         return x, qdd, lam, np.concatenate((qdd[self.held], g, w))
 
+    def _rows_batch(self, setting: Setting, Q: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(rows, X, W, M, f, c): the residual rows of `values` at each configuration of Q (shape
+        (k, n)), evaluated together (one call of each compiled function, stacked LAPACK: the same
+        arithmetic point by point), with the states, constraint Jacobians, M, f and c there; a row of
+        NaN where a point is singular or not finite (the caller asks `values` for those)."""
+        cm, t, p = self.cm, setting.t, setting.p
+        n, m, k = cm.n, cm.m, len(Q)
+        nm = compile_equations(self.equations)
+        X = np.zeros((k, 2 * n))
+        X[:, :n] = Q
+        for i, v in self.given.items():
+            X[:, n + i] = v
+        u = np.asarray(setting.u, float).ravel()
+        pv = np.asarray(p, float).ravel()
+
+        def args(X):
+            return np.hstack((np.full((k, 1), t), X, np.broadcast_to(u, (k, len(u))),
+                              np.broadcast_to(pv, (k, len(pv)))))
+
+        out = np.asarray(nm._group("constraints").fun(args(X)), float).reshape(k, -1)
+        W, g, w = out[:, :m * n].reshape(k, m, n), out[:, m * n:m * n + m], out[:, m * n + m:m * n + 2 * m]
+        bad = ~(np.all(np.isfinite(out), axis=1))
+        if self.free:
+            Wf = W[:, :, self.free]
+            try:
+                U, sv, Vt = np.linalg.svd(np.where(bad[:, None, None], 0.0, Wf), full_matrices=False)
+            except np.linalg.LinAlgError:
+                return (np.full((k, len(self.held) + m + len(cm.holonomic)), np.nan),)
+            big = np.maximum(np.max(np.abs(W), axis=(1, 2), initial=0.0), 1e-300)
+            keep = sv > 1e-10 * big[:, None]
+            coef = np.where(keep, np.einsum("kij,ki->kj", U, -w) / np.where(keep, sv, 1.0), 0.0)
+            rates = np.einsum("kji,kj->ki", Vt, coef)
+            X[:, n + np.array(self.free)] = rates
+            w = w + np.einsum("kij,kj->ki", Wf, rates)
+        parts = np.asarray(cm._parts(args(X)), float).reshape(k, -1)
+        M = parts[:, :n * n].reshape(k, n, n)
+        f = parts[:, n * n:n * n + n]
+        G = parts[:, n * n + n:n * n + n + m * n].reshape(k, m, n)
+        c = parts[:, n * n + n + m * n:]
+        d = np.diagonal(M, axis1=1, axis2=2)
+        bad |= ~(np.all(np.isfinite(parts), axis=1) & np.all(d > 0, axis=1))
+        M = np.where(bad[:, None, None], np.eye(n), M)
+        G = np.where(bad[:, None, None], np.eye(m, n), G)
+        f, c = np.where(bad[:, None], 0.0, f), np.where(bad[:, None], 0.0, c)
+        try:
+            Lc = np.linalg.cholesky(M)
+        except np.linalg.LinAlgError:
+            return (np.full((k, len(self.held) + m + len(cm.holonomic)), np.nan),)
+        ratio = np.min(np.diagonal(Lc, axis1=1, axis2=2) ** 2 / np.where(bad[:, None], 1.0, d), axis=1)
+        B = np.linalg.solve(Lc, np.swapaxes(G, 1, 2))
+        Qr, Rr = np.linalg.qr(B)
+        big = np.max(np.sum(B * B, axis=1), axis=1)
+        rho = np.min(np.abs(np.diagonal(Rr, axis1=1, axis2=2)), axis=1) / np.sqrt(big)
+        bad |= ~((ratio > SINGULAR_RATIO) & (rho > SINGULAR_RATIO) & np.isfinite(rho))
+        Rr = np.where(bad[:, None, None], np.eye(m), Rr)
+        LcT, RrT = np.swapaxes(Lc, 1, 2), np.swapaxes(Rr, 1, 2)
+        a = np.linalg.solve(LcT, np.linalg.solve(Lc, f[..., None]))
+        wr = np.linalg.solve(RrT, c[..., None] - G @ a)
+        qdd = (a + np.linalg.solve(LcT, Qr @ wr))[..., 0]
+        rows = np.hstack((qdd[:, self.held], g[:, cm.holonomic], w))
+        rows[bad] = np.nan
+        return rows, X, W, M, f, c
+
     def meets_constraints(self, setting: Setting, q: np.ndarray) -> bool:
         """Whether q meets the holonomic constraints, g(q) = 0 to round-off of the coordinates (a
         root must: next to a singular configuration, the bicycle lying flat, the residual's
@@ -225,6 +288,10 @@ class SteadyState:
             nm = compile_equations(self.equations)
             M, f = nm.mass_matrix(setting.t, x, setting.u, setting.p), nm.forcing(setting.t, x, setting.u, setting.p)
             c = nm.constraint_parts(setting.t, x, setting.u, setting.p)[1]
+        return self._scale(x, M, f, c)
+
+    def _scale(self, x, M, f, c) -> float:
+        """term_scale from the state and M, f, c there."""
         n = self.cm.n
         mass = float(np.max(np.abs(np.diag(M)), initial=0.0))
         forces = float(np.max(np.abs(f), initial=0.0)) / mass if mass > 0 else 0.0
@@ -233,7 +300,17 @@ class SteadyState:
     def __call__(self, setting: Setting, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(r, dr/dz) in the shape coordinates z."""
         q = np.asarray(q, float)
-        r = self.values(setting, q)[3]
+        z = q[self.shape]
+        with np.errstate(all="ignore"):
+            # q and the 2k points of the central differences in one batched evaluation
+            h = 1e-5 * (1.0 + np.abs(z))
+            points = np.repeat(q[None, :], 2 * len(z) + 1, axis=0)
+            for j in range(len(z)):
+                points[2 * j + 1, self.shape[j]] = z[j] + h[j]
+                points[2 * j + 2, self.shape[j]] = z[j] - h[j]
+            batch = self._rows_batch(setting, points)
+        R = batch[0]
+        r = R[0] if np.all(np.isfinite(R[0])) else self.values(setting, q)[3]
         if not np.all(np.isfinite(r)):
             return r, np.full((len(r), len(self.shape)), np.nan)
 
@@ -242,20 +319,25 @@ class SteadyState:
             moved[self.shape] = z
             return self.values(setting, moved)[3]
 
-        z = q[self.shape]
         J = np.zeros((len(r), len(z)))
         with np.errstate(all="ignore"):
-            for j in range(len(z)):  # central differences: error O(h^2) + round-off/h, about 1e-10 relative
-                h = 1e-5 * (1.0 + abs(z[j]))
-                e = np.zeros_like(z)
-                e[j] = h
-                J[:, j] = (rows(z + e) - rows(z - e)) / (2 * h)
+            # central differences: error O(h^2) + round-off/h, about 1e-10 relative
+            for j in range(len(z)):
+                for i in (2 * j + 1, 2 * j + 2):
+                    if not np.all(np.isfinite(R[i])):  # a singular or not finite point: as `values` decides it
+                        R[i] = rows(points[i, self.shape])
+                J[:, j] = (R[2 * j + 1] - R[2 * j + 2]) / (2 * h[j])
             # round-off of the differences (about 1e-11 of the terms) as exact zeros, so that a set of
             # steady motions (a knife edge sliding at any heading) shows as a singular Jacobian
             a, k = len(self.held), len(self.cm.holonomic)
-            x, _, W = self._state(setting, q)
             n = self.cm.n
-            floor = np.concatenate((np.full(a, self.term_scale(setting, q)), np.full(k, 1.0 + np.max(np.abs(q))),
+            if np.all(np.isfinite(R[0])) and len(batch) > 1:
+                x, W = batch[1][0], batch[2][0]
+                scale = self._scale(x, batch[3][0], batch[4][0], batch[5][0])
+            else:
+                x, _, W = self._state(setting, q)
+                scale = self.term_scale(setting, q)
+            floor = np.concatenate((np.full(a, scale), np.full(k, 1.0 + np.max(np.abs(q))),
                                     np.full(len(r) - a - k, (1.0 + np.max(np.abs(x[n:])))
                                             * (1.0 + np.max(np.abs(W), initial=0.0)))))
             J[np.abs(J) <= 1e-8 * floor[:, None]] = 0.0
