@@ -523,14 +523,21 @@ class Equations:
         """The first integrals that Lagrange's equations give: ``energy`` (T* + V, when T* = T2 and the
         system is conservative) or ``jacobi_integral`` (h = q_dot . dL/dq_dot - L, when L has no
         explicit t, D = 0 and Q = 0), and ``p_<q>`` = dL/dq_dot for each cyclic coordinate."""
-        out: dict[str, sympy.Expr] = {}
+        readable = {"h": lambda: self._readable_jacobi_integral(), "p": self.readable}
+        return {k: readable[kind](e) if kind == "p" else readable[kind]()
+                for k, (kind, e) in self._conserved_se().items()}
+
+    def _conserved_se(self) -> dict[str, tuple[str, se.Basic]]:
+        """{name: (kind, the SymEngine expression)} of :attr:`conserved_quantities` (kind "h": the
+        energy or Jacobi integral, "p": a cyclic momentum), as derived."""
+        out: dict[str, tuple[str, se.Basic]] = {}
         if self.is_conservative:
             h = self._jacobi_se
             is_energy = self._natural if self._jacobi_too_large else se.expand(h - self.core.T - self.core.V) == 0
-            out["energy" if is_energy else "jacobi_integral"] = self._readable_jacobi_integral()
+            out["energy" if is_energy else "jacobi_integral"] = ("h", h)
         names = [c.name for c in self.coordinates]
         for c in self.cyclic_coordinates:
-            out[f"p_{c.name}"] = self.readable(self.core.p[names.index(c.name)])
+            out[f"p_{c.name}"] = ("p", self.core.p[names.index(c.name)])
         return out
 
     def _readable_jacobi_integral(self) -> sympy.Expr:
@@ -661,8 +668,15 @@ class Equations:
         """The JSON contract: coordinates, velocities, accelerations, parameters, inputs,
         mass_matrix, forcing, equations (SymPy syntax), linear (M, C, K, f) or null, constraints
         (name, kind, expression, multiplier, jacobian row, acceleration c) and multipliers, and
-        conserved_quantities ({name: expression}); T*, V, D and Q in readable form too."""
+        conserved_quantities ({name: expression}); T*, V, D and Q in readable form too.
+
+        For a model too large to expand (:attr:`too_large_to_expand`: the bicycle), the entries of M, f,
+        the equations, the constraints and the conserved quantities are printed as derived (SymEngine's
+        printer, SymPy syntax; equal to the readable forms), not expanded entry by entry: megabytes
+        that no one reads, in a tenth of the time; the named form is ``lagrangian derive``'s text."""
         s = _text
+        if self.too_large_to_expand:
+            return self._to_dict_as_derived()
         out = {
             "name": self.model.name,
             "coordinates": [c.name for c in self.coordinates],
@@ -693,6 +707,41 @@ class Equations:
             out["linear"] = {k: [[s(x) for x in getattr(lin, k).row(r)] for r in range(self.n)]
                              for k in ("M", "C", "K")}
             out["linear"]["f"] = [s(x) for x in lin.f]
+        return out
+
+    def _to_dict_as_derived(self) -> dict:
+        """:meth:`to_dict` of a model too large to expand (see there): the same keys, in the same order."""
+        core, n, m = self.core, self.n, len(self.core.g)
+        d = str  # SymEngine's printer
+        out = {
+            "name": self.model.name,
+            "coordinates": [c.name for c in self.coordinates],
+            "velocities": [v.name for v in self.velocities],
+            "accelerations": [a.name for a in self.accelerations],
+            "parameters": {p.name: v for p, v in self.parameters.items()},
+            "inputs": [u.name for u in self.inputs],
+            "mass_matrix": [[d(core.M[r, j]) for j in range(n)] for r in range(n)],
+            "forcing": [d(x) for x in core.f],
+            "equations": [d(e) for e in self._residuals_se],
+            "kinetic_coenergy": _text(self.readable(core.T, self.velocities)),
+            "potential_energy": _text(self.readable(core.V)),
+            "dissipation": _text(self.readable(core.D, self.velocities)),
+            "generalized_forces": [_text(self.readable(x)) for x in core.Q],
+            "linear": None,
+            "conserved_quantities": {k: d(e) for k, (_, e) in self._conserved_se().items()},
+            "constraints": [{"name": c.name, "kind": c.kind, "expression": d(core.g[k]),
+                             "multiplier": c.multiplier.name, "jacobian": [d(core.G[k, j]) for j in range(n)],
+                             "acceleration": d(core.c[k])}
+                            for k, c in enumerate(self.model.constraints)] if m else [],
+            "multipliers": [mu.name for mu in self.multipliers],
+        }
+        derived = getattr(self.model, "derived_parameters", {})
+        if derived:
+            out["derived_parameters"] = {k: _text(v) for k, v in derived.items()}
+        if self.linear is not None:
+            lin = self.linear
+            out["linear"] = {k: [[_text(x) for x in getattr(lin, k).row(r)] for r in range(n)] for k in ("M", "C", "K")}
+            out["linear"]["f"] = [_text(x) for x in lin.f]
         return out
 
     def to_json(self, **kwargs) -> str:
