@@ -283,7 +283,7 @@ def _null_direction(M: sympy.Matrix, M_values: sympy.Matrix, where: dict,
             nz = [x for x in v if x != 0]
             return (v / nz[-1]).applyfunc(sympy.simplify) if nz else v
     # numerical fallback
-    A = np.array(M_values.subs(where).evalf(), dtype=float)
+    A = M_values if isinstance(M_values, np.ndarray) else np.array(M_values.subs(where).evalf(), dtype=float)
     w, V = np.linalg.eigh(A)
     v = V[:, 0]
     v = v / v[np.argmax(np.abs(v))]
@@ -380,14 +380,17 @@ def singularities(equations: Equations, parameters: Mapping | None = None) -> Si
                     zeros.extend(z)
         else:
             zeros = _numeric_det_search(eqs, numeric_M)
-        M_values = M.subs(values) if zeros else None
+        # the numeric search's zeros are diagnosed with the compiled M (SymPy's subs of the parameter
+        # values into the bicycle's M took 30 s)
+        M_values = M.subs(values) if zeros and symbolic_ok else None
         seen = set()
         for z in zeros:
             key = tuple(sorted((k.name, sympy.sstr(v)) for k, v in z.items()))
             if key in seen:
                 continue
             seen.add(key)
-            configurations.append(_configuration(eqs, M, M_values, z, values, numeric=not symbolic_ok))
+            configurations.append(_configuration(eqs, M, M_values, z, values, numeric=not symbolic_ok,
+                                                 numeric_M=numeric_M))
     singular = bool(configurations)
     cause = fix = ""
     if singular:
@@ -396,7 +399,10 @@ def singularities(equations: Equations, parameters: Mapping | None = None) -> Si
                              cause, fix, tuple(q.name for q in eqs.coordinates))
 
 
-def _configuration(eqs, M, M_values, where, values, numeric: bool = False) -> SingularConfiguration:
+def _configuration(eqs, M, M_values, where, values, numeric: bool = False,
+                   numeric_M=None) -> SingularConfiguration:
+    if numeric and numeric_M is not None:  # M at `where` from the compiled M(q)
+        M_values = numeric_M([float(where[q]) for q in eqs.coordinates])
     direction = _null_direction(M, M_values, where, numeric)
     cond = " and ".join(f"{q.name} = {sympy.sstr(v)}" for q, v in where.items())
     still, massless = _element_motion(eqs, where, direction, values) if direction is not None else ((), ())
