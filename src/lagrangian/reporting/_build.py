@@ -383,15 +383,18 @@ class _Builder:
             f"{m} constraint{'s' if m != 1 else ''}, each with its Lagrange multiplier lambda_<name>: a holonomic "
             "constraint g(q, t) = 0 restricts the configurations, a velocity (nonholonomic) constraint "
             "a(q, t) q_dot + b(q, t) = 0 the velocities only.")]
+        # the constraints' g, G, c are readable already: made readable again only for a model small
+        # enough to expand (the bicycle: 1 s for the same text)
+        again = (lambda e: e) if eqs.too_large_to_expand else self.readable
         for c, g in zip(cons, eqs.constraints.values()):
             kind = "holonomic" if c.kind == "holonomic" else "velocity (nonholonomic)"
             blocks.append(Paragraph.of(f"Constraint {c.name}, {kind}, multiplier ", c.multiplier, ":"))
-            blocks.append(Math(_ZERO, self.readable(g), key=f"constraint[{c.name}]"))
+            blocks.append(Math(_ZERO, again(g), key=f"constraint[{c.name}]"))
         independent = [str(q) for q in model.simulation.get("independent", ())]
         if independent:
             blocks.append(Paragraph.of(f"The independent coordinates ([simulation] independent): "
                                        f"{', '.join(independent)}; the constraints fix the others."))
-        G = eqs.constraint_jacobian.applyfunc(self.readable)
+        G = eqs.constraint_jacobian.applyfunc(again)
         blocks.append(Paragraph.of(
             "Their Jacobian G, one row per constraint: dg/dq for a holonomic constraint, the velocities' "
             "coefficients a for a velocity constraint; at velocity level the constraints read ",
@@ -403,7 +406,7 @@ class _Builder:
                                    " (with g written as a length, a distance minus a length, dg/dq is a unit vector "
                                    "and lambda the force along it):"))
         blocks.append(Math(lam, S("lambda"), key="multipliers"))
-        blocks.append(Math(eqs.constraint_forces.applyfunc(self.readable),
+        blocks.append(Math(eqs.constraint_forces.applyfunc(again),
                            sympy.Mul(S("G^T"), S("lambda"), evaluate=False), key="constraint-forces"))
         blocks.append(Paragraph.of(
             "Differentiated to acceleration level (a holonomic constraint twice, a velocity constraint once), "
@@ -411,7 +414,7 @@ class _Builder:
             Math(S("c"), S("G") * S("q_ddot")), ", with ",
             Math((-sympy.Mul(Partial(S("w"), S("q")), _ORDERED_QDOT, evaluate=False), -Partial(S("w"), S("t"))),
                  S("c")), ":"))
-        blocks.append(Math(eqs.constraint_acceleration.applyfunc(self.readable), S("c"), key="c"))
+        blocks.append(Math(eqs.constraint_acceleration.applyfunc(again), S("c"), key="c"))
         return Section("constraints", "Constraints", tuple(blocks))
 
     # ----------------------------------------------------- 7. Lagrangian
@@ -419,7 +422,12 @@ class _Builder:
         eqs = self.eqs
         blocks = [Math((S("T^*"), -S("V")), S("L"), key="L-definition"),
                   Math(self.readable(eqs.L), S("L"), key="L")]
-        h = self.readable(eqs.jacobi_integral)
+        if eqs.too_large_to_expand and eqs._mass_matrix_free_of_velocities:
+            # h = q_dot^T M q_dot / 2 - L0 with the readable M (not h expanded and made readable again:
+            # the bicycle's h is over the budget, and its conversion and bound took 4 s)
+            h = eqs._readable_jacobi_integral()
+        else:
+            h = self.readable(eqs.jacobi_integral)
         constrained = eqs.is_constrained
         if eqs.is_conservative:
             velocity = any(c.kind != "holonomic" for c in self.model.constraints)
