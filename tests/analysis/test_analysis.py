@@ -499,6 +499,7 @@ def test_analysis_doc_examples_run_and_print_what_the_doc_says(capsys, tmp_path,
     printed = blocks[[b for _, b in blocks].index(code[0]) + 1][1]
     namespace = {}
     out = io.StringIO()
+    monkeypatch.chdir(tmp_path)  # the blocks write files (torques.csv): in a temporary folder
     with contextlib.redirect_stdout(out):
         for body in code:
             exec(compile(body, "docs/analysis.md", "exec"), namespace)  # our own docs, not user input
