@@ -210,3 +210,36 @@ def test_the_c_backend_integrates_constrained_models_as_numba(name):
     np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-10)
     np.testing.assert_allclose(b.multipliers, a.multipliers, rtol=1e-10, atol=1e-10 * np.max(np.abs(a.multipliers)))
     assert b.stats["constraint_drift"]["position"] < 1e-10 and b.stats["constraint_drift"]["velocity"] < 1e-12
+
+
+@pytest.mark.slow
+def test_the_projection_reads_only_the_work_it_wrote():
+    """A model with holonomic and velocity constraints (the rattleback: its contact, then two no-slip
+    conditions) keeps g_h at P0 and G_h at H0 = P0 + m: the projection's finite test read
+    P0 .. P0 + m_h (n + 1) instead, entries nobody wrote, so a work array's old contents decided
+    whether it projected (a simulation's drift changed with the tests run before it). The same state
+    projected with a work array of zeros and of NaN gives the same state, to the bit."""
+    import sys
+    from pathlib import Path
+
+    from lagrangian.numeric._codegen_constrained import _calls, _pointer, work_size
+    from lagrangian.numeric._fast import _address
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "model"))
+    from test_rattleback import rattleback
+
+    eqs = lg.derive(rattleback(-0.1))
+    fast = compile_equations(eqs, "numba")
+    start = lg.simulate(fast, 0.01, initial={"z": 0.02, "psi_dot": 2.0, "phi_dot": 0.05})
+    x0 = np.array([start[s][0] for s in eqs.state_names]) + 1e-6  # off the constraints
+    _, project_t, D = _calls()
+    out = []
+    for fill in (0.0, np.nan):
+        x = x0.copy()
+        u, p = np.zeros(1), np.array([float(v) for v in eqs.parameters.values()])
+        work, drift = np.full(work_size(eqs.n, len(eqs.multipliers)), fill), np.zeros(2)
+        project_t(_address(fast.project_c))(0.0, *(_pointer(a, D) for a in (x, u, p, work, drift)))
+        out.append(x)
+    assert np.array_equal(out[0], out[1]) and not np.array_equal(out[0], x0)
+    _, _, g, w = compile_equations(eqs, "scipy").constraint_parts(0.0, out[1], np.zeros(0), p)
+    assert np.max(np.abs(g)) < 1e-12 and np.max(np.abs(w)) < 1e-12  # projected onto both kinds

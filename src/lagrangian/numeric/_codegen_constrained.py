@@ -394,8 +394,11 @@ def _projection(e: _Emit) -> None:
         for _ in e.loop("it", 0, "PROJECTION_STEPS", unroll=False):
             e.do("lg_position(t, x, u, p, work)")
             e.do("gmax = 0.0")
-            for k in e.loop("k", 0, "MH + MH * N", unroll=False):
+            for k in e.loop("k", 0, "MH", unroll=False):  # g_h at P0, G_h at H0 = P0 + M (not P0 + MH)
                 with e.when(f"!isfinite(work[P0 + {k}])"):
+                    e.ret("NOT_FINITE")
+            for k in e.loop("k", 0, "MH * N", unroll=False):
+                with e.when(f"!isfinite(work[H0 + {k}])"):
                     e.ret("NOT_FINITE")
             for k in e.loop("k", 0, "MH"):
                 e.do(f"gmax = fmax(gmax, fabs(work[P0 + {k}]))")
