@@ -853,15 +853,7 @@ class Model:
         if not isinstance(lateral, bool):
             raise ModelError(f"wheel '{name}'.lateral: expected true or false (whether the wheel cannot slide along "
                              f"its axle), got {lateral!r}")
-        if name is None:
-            k = len(self._wheels) + 1
-            while f"wheel{k}" in {w.name for w in self._wheels}:
-                k += 1
-            name = f"wheel{k}"
-        where = f"wheel '{name}'"
-        why = check_name(name, "wheel")
-        if why is None and name in {w.name for w in self._wheels}:
-            why = f"two wheels are named '{name}': give each wheel its own name"
+        name, where, why = self._wheel_name(name)
         if why is not None:
             raise ModelError([Problem(why, key=where)])
         frame = self._frame_name(frame, f"{where}.frame")
@@ -878,38 +870,52 @@ class Model:
         c = self._vector(center, f"{where}.center")
         if len(c) != 3:
             raise ModelError(f"{where}.center: expected 3 components (in the frame's axes), got {len(c)}")
+        cond = rolling_conditions(self._frames, frame, r, axis, c, self._coordinates, t, self._wheel_values())
+        return self._attach_wheel(Wheel(name, frame, r, axis, c, cond.contact is not None, lateral), cond, where)
+
+    def _wheel_name(self, name) -> tuple[str, str, str | None]:
+        """(the wheel's name, wheel 'name' for messages, what is wrong with the name or None): a
+        name not given is wheel<k>, the first free one."""
+        taken = {w.name for w in self._wheels}
+        if name is None:
+            k = len(self._wheels) + 1
+            while f"wheel{k}" in taken:
+                k += 1
+            name = f"wheel{k}"
+        why = check_name(name, "wheel")
+        if why is None and name in taken:
+            why = f"two wheels are named '{name}': give each wheel its own name"
+        return name, f"wheel '{name}'", why
+
+    def _wheel_values(self) -> dict:
+        """The values a wheel's contact is found at: the parameters', the coordinates 0 or the model
+        file's initial values (which branch of the contact condition is the one on the ground)."""
         values = {p: v for p, v in self._parameters.items() if v is not None}
         values.update({q: 0 for q in self._coordinates})
         values.update({self.symbol(k): v for k, v in (self.simulation.get("initial") or {}).items()
                        if k in {q.name for q in self._coordinates}})
-        cond = rolling_conditions(self._frames, frame, r, axis, c, self._coordinates, t, values)
-        contact = cond.contact is not None
-        wheel = Wheel(name, frame, r, axis, c, contact, lateral)
+        return values
+
+    def _attach_wheel(self, wheel: Wheel, cond, where: str) -> Wheel:
+        """The wheel's constraints (contact, then no-slip: both, or the longitudinal one alone) added
+        under its constraint names, refused where one is taken; the wheel recorded."""
         for cname in wheel.constraint_names:
             if cname in {k.name for k in self._constraints}:
                 raise ModelError([Problem(f"{where}: its constraint '{cname}' is already the name of a constraint; "
                                           "rename the wheel or the constraint", key=where)])
-        if contact:
-            self._add_constraint(cond.contact, f"{name}_contact", HOLONOMIC)
-        if lateral:
-            self._add_constraint(cond.no_slip_x, f"{name}_x", VELOCITY)
-            self._add_constraint(cond.no_slip_y, f"{name}_y", VELOCITY)
+        if cond.contact is not None:
+            self._add_constraint(cond.contact, f"{wheel.name}_contact", HOLONOMIC)
+        if wheel.lateral:
+            self._add_constraint(cond.no_slip_x, f"{wheel.name}_x", VELOCITY)
+            self._add_constraint(cond.no_slip_y, f"{wheel.name}_y", VELOCITY)
         else:
-            self._add_constraint(cond.longitudinal, f"{name}_longitudinal", VELOCITY)
+            self._add_constraint(cond.longitudinal, f"{wheel.name}_longitudinal", VELOCITY)
         self._wheels.append(wheel)
         return wheel
 
     def _add_ellipsoid(self, frame, radius, semi_axes, center, lateral, name) -> Wheel:
         """add_wheel(shape="ellipsoid"): the contact and both no-slip conditions of an ellipsoid."""
-        if name is None:
-            k = len(self._wheels) + 1
-            while f"wheel{k}" in {w.name for w in self._wheels}:
-                k += 1
-            name = f"wheel{k}"
-        where = f"wheel '{name}'"
-        why = check_name(name, "wheel")
-        if why is None and name in {w.name for w in self._wheels}:
-            why = f"two wheels are named '{name}': give each wheel its own name"
+        name, where, why = self._wheel_name(name)
         if why is None and radius is not None:
             why = (f"{where}.radius: an ellipsoid has semi_axes = [a, b, c], not a radius (a ball of radius r: "
                    "semi_axes = [r, r, r]); remove radius")
@@ -926,7 +932,7 @@ class Model:
                              f"y and z axes (numbers or expressions of parameters), got {semi_axes!r}")
         axes = tuple(self.expr(a, f"{where}.semi_axes[{i}]") for i, a in enumerate(semi_axes))
         variables = set(self.names(accelerations=True).values()) - set(self._parameters)
-        values = {p: v for p, v in self._parameters.items() if v is not None}
+        values = self._wheel_values()
         for i, a in enumerate(axes):
             if a.free_symbols & variables:
                 raise ModelError(f"{where}.semi_axes[{i}]: a semi-axis is a number or an expression of parameters, "
@@ -937,21 +943,9 @@ class Model:
         c = self._vector(center, f"{where}.center")
         if len(c) != 3:
             raise ModelError(f"{where}.center: expected 3 components (in the frame's axes), got {len(c)}")
-        values.update({q: 0 for q in self._coordinates})
-        values.update({self.symbol(k): v for k, v in (self.simulation.get("initial") or {}).items()
-                       if k in {q.name for q in self._coordinates}})
         cond = ellipsoid_conditions(self._frames, frame, axes, c, self._coordinates, t, values)
         wheel = Wheel(name, frame, None, "z", c, cond.contact is not None, True, "ellipsoid", axes)
-        for cname in wheel.constraint_names:
-            if cname in {k.name for k in self._constraints}:
-                raise ModelError([Problem(f"{where}: its constraint '{cname}' is already the name of a constraint; "
-                                          "rename the wheel or the constraint", key=where)])
-        if cond.contact is not None:
-            self._add_constraint(cond.contact, f"{name}_contact", HOLONOMIC)
-        self._add_constraint(cond.no_slip_x, f"{name}_x", VELOCITY)
-        self._add_constraint(cond.no_slip_y, f"{name}_y", VELOCITY)
-        self._wheels.append(wheel)
-        return wheel
+        return self._attach_wheel(wheel, cond, where)
 
     def _add_constraint(self, expression, name, kind) -> Constraint:
         self._check_mutable()
