@@ -6,7 +6,7 @@
     name = "shoulder"                # required: an identifier
     type = "revolute"                # required: revolute, prismatic, cylindrical, universal, spherical,
                                      # planar, fixed or floating
-    parent = "world"                 # optional: "world" (default), a [[frames]] table or an earlier joint's child
+    parent = "world"                 # optional: "world" (default), a [[frames]] table or another joint's child
     child = "upper_arm"              # optional: the frame the joint creates (default: the joint's name)
     origin = ["0", "0", "h"]         # optional: the joint frame's origin in the parent's axes
     rotation = [["x", "pi/2"]]       # optional: its constant rotation (as in [[frames]]; or matrix = ...,
@@ -21,8 +21,9 @@
 
 A joint's coordinates are declared by the joint (``coordinates = [...]`` at the top of the file may
 list them too, to fix their order; it may be left out when joints declare them all). Joints are
-built after the ``[[frames]]`` tables and before the elements, in the order of the file: a joint's
-parent is ``world``, a ``[[frames]]`` table or an earlier joint's child; bodies, points and loads
+built with the ``[[frames]]`` tables, parents first, before the elements: a joint's parent is
+``world``, a ``[[frames]]`` table or another joint's child, and a ``[[frames]]`` table may hang
+from a joint's child frame (a tool frame), in any order of the tables; bodies, points and loads
 may be placed in a joint's child frame.
 """
 
@@ -72,86 +73,102 @@ def declare_joint_coordinates(reader, value: object) -> None:
 
 
 def read_joints(reader, value: object) -> None:
-    """Build the [[joints]] tables, each problem recorded under its key (``joints[0].axis``)."""
-    entries = reader.element_tables("joints", value)
-    for entry in entries:
-        key, table = entry.key, entry.table
-        for name in table:
-            if name not in JOINT_KEYS:
-                reader.unknown_key(f"{key}.{name}", name, JOINT_KEYS, "[[joints]]")
-        missing = [k for k in ("name", "type") if k not in table]
-        for k in missing:
-            example = 'name = "shoulder"' if k == "name" else 'type = "revolute"'
-            reader.problem(f"{key}.{k}", f"missing required key '{k}': write {example}")
-        if missing:
-            continue
-        name = table["name"]
-        if not isinstance(name, str):
-            reader.problem(f"{key}.name", f"expected a joint's name, an identifier in quotes such as "
-                                          f"\"shoulder\", got {name!r}")
-            continue
-        kwargs: dict[str, Any] = {}
-        before = len(reader.problems)
-        for k in ("parent", "child", "axis", "coordinates", "sequence"):
-            if k in table:
-                kwargs[k] = table[k]
-        if "origin" in table:
-            origin = reader.vector(table["origin"], f"{key}.origin")
-            if origin is not None and len(origin) != 3:
-                reader.problem(f"{key}.origin", f"a joint's origin has 3 components (x, y, z), got {len(origin)}")
-                origin = None
-            kwargs["origin"] = origin
-        given = [k for k in ("rotation", "matrix", "rpy") if k in table]
-        if len(given) > 1:
-            reader.problem(f"{key}.{given[1]}", f"give the joint frame's rotation one way: {' or '.join(given)}, "
-                                                "not both: remove one of them")
-        elif given == ["rotation"]:
-            kwargs["rotation"] = reader.rotation_steps(table["rotation"], f"{key}.rotation")
-        elif given == ["matrix"]:
-            kwargs["rotation"] = reader.matrix3(table["matrix"], f"{key}.matrix", "rotation matrix")
-        elif given == ["rpy"]:
-            rpy = table["rpy"]
-            if not isinstance(rpy, list) or len(rpy) != 3:
-                reader.problem(f"{key}.rpy", f"expected [roll, pitch, yaw] (3 angles, radians), got {rpy!r}")
+    """Build the [[joints]] tables in the file's order, each problem recorded under its key
+    (``joints[0].axis``). The model file's reader builds them with the [[frames]] tables instead,
+    parents first (:func:`joint_child`, :func:`build_joint`), so that the order of the tables does not matter."""
+    for entry in reader.element_tables("joints", value):
+        build_joint(reader, entry)
+
+
+def joint_child(table: Mapping[str, Any]) -> str | None:
+    """The name of the frame a [[joints]] table creates (its child, default its name), or None."""
+    child = table.get("child", table.get("name"))
+    return child if isinstance(child, str) else None
+
+
+def build_joint(reader, entry, parent: str | None = None) -> bool:
+    """Build one [[joints]] table (under `parent` in place of its own, when given: a stand-in for a parent
+    that cannot be built, whose problem is reported elsewhere); whether the joint was added."""
+    key, table = entry.key, entry.table
+    for name in table:
+        if name not in JOINT_KEYS:
+            reader.unknown_key(f"{key}.{name}", name, JOINT_KEYS, "[[joints]]")
+    missing = [k for k in ("name", "type") if k not in table]
+    for k in missing:
+        example = 'name = "shoulder"' if k == "name" else 'type = "revolute"'
+        reader.problem(f"{key}.{k}", f"missing required key '{k}': write {example}")
+    if missing:
+        return False
+    name = table["name"]
+    if not isinstance(name, str):
+        reader.problem(f"{key}.name", f"expected a joint's name, an identifier in quotes such as "
+                                      f"\"shoulder\", got {name!r}")
+        return False
+    kwargs: dict[str, Any] = {}
+    before = len(reader.problems)
+    for k in ("parent", "child", "axis", "coordinates", "sequence"):
+        if k in table:
+            kwargs[k] = table[k]
+    if parent is not None:
+        kwargs["parent"] = parent
+    if "origin" in table:
+        origin = reader.vector(table["origin"], f"{key}.origin")
+        if origin is not None and len(origin) != 3:
+            reader.problem(f"{key}.origin", f"a joint's origin has 3 components (x, y, z), got {len(origin)}")
+            origin = None
+        kwargs["origin"] = origin
+    given = [k for k in ("rotation", "matrix", "rpy") if k in table]
+    if len(given) > 1:
+        reader.problem(f"{key}.{given[1]}", f"give the joint frame's rotation one way: {' or '.join(given)}, "
+                                            "not both: remove one of them")
+    elif given == ["rotation"]:
+        kwargs["rotation"] = reader.rotation_steps(table["rotation"], f"{key}.rotation")
+    elif given == ["matrix"]:
+        kwargs["rotation"] = reader.matrix3(table["matrix"], f"{key}.matrix", "rotation matrix")
+    elif given == ["rpy"]:
+        rpy = table["rpy"]
+        if not isinstance(rpy, list) or len(rpy) != 3:
+            reader.problem(f"{key}.rpy", f"expected [roll, pitch, yaw] (3 angles, radians), got {rpy!r}")
+        else:
+            angles = [reader.expr(a, f"{key}.rpy[{i}]") for i, a in enumerate(rpy)]
+            if all(a is not None for a in angles):
+                kwargs["rotation"] = [(axis, a) for axis, a in zip("zyx", angles[::-1]) if a != 0] or None
+    if "limit_stiffness" in table:
+        kwargs["limit_stiffness"] = reader.expr(table["limit_stiffness"], f"{key}.limit_stiffness")
+    for k in ("damping", "friction"):
+        if k in table:
+            v = table[k]
+            if isinstance(v, list):
+                kwargs[k] = [reader.expr(x, f"{key}.{k}[{i}]") for i, x in enumerate(v)]
             else:
-                angles = [reader.expr(a, f"{key}.rpy[{i}]") for i, a in enumerate(rpy)]
-                if all(a is not None for a in angles):
-                    kwargs["rotation"] = [(axis, a) for axis, a in zip("zyx", angles[::-1]) if a != 0] or None
-        if "limit_stiffness" in table:
-            kwargs["limit_stiffness"] = reader.expr(table["limit_stiffness"], f"{key}.limit_stiffness")
-        for k in ("damping", "friction"):
-            if k in table:
-                v = table[k]
-                if isinstance(v, list):
-                    kwargs[k] = [reader.expr(x, f"{key}.{k}[{i}]") for i, x in enumerate(v)]
-                else:
-                    kwargs[k] = reader.expr(v, f"{key}.{k}")
-        if "limits" in table:
-            kwargs["limits"] = _limits(reader, table["limits"], f"{key}.limits")
-        if len(reader.problems) > before or any(v is None for k, v in kwargs.items() if k != "sequence"):
-            entry.ok = False
-            if isinstance(table.get("child", name), str):
-                reader.frame_names.setdefault(table.get("child", name), None)
-            continue
-        try:
-            reader.model.add_joint(name, table["type"], **kwargs)
-        except ModelError as exc:
-            prefix = f"joint '{name}'"
-            for p in exc.problems:
-                k, message = p.key or prefix, p.message
-                if p.key is None and message.startswith(prefix + "."):  # "joint 'j'.axis: ..." from a Model method
-                    field, _, message = message[len(prefix) + 1:].partition(": ")
-                    k = f"{prefix}.{field}"
-                k = key + k[len(prefix):] if k.startswith(prefix) else k
-                reader.problem(k, message)
-            entry.ok = False
-            if isinstance(table.get("child", name), str):
-                reader.frame_names.setdefault(table.get("child", name), None)
-            continue
-        child = table.get("child", name)
-        reader.frame_keys[child] = key
-        reader.key_map[f"frame '{child}'"] = (key, {"rotation": given[0] if given else "rotation"})
-        reader.frame_names.setdefault(child, None)
+                kwargs[k] = reader.expr(v, f"{key}.{k}")
+    if "limits" in table:
+        kwargs["limits"] = _limits(reader, table["limits"], f"{key}.limits")
+    if len(reader.problems) > before or any(v is None for k, v in kwargs.items() if k != "sequence"):
+        entry.ok = False
+        if isinstance(table.get("child", name), str):
+            reader.frame_names.setdefault(table.get("child", name), None)
+        return False
+    try:
+        reader.model.add_joint(name, table["type"], **kwargs)
+    except ModelError as exc:
+        prefix = f"joint '{name}'"
+        for p in exc.problems:
+            k, message = p.key or prefix, p.message
+            if p.key is None and message.startswith(prefix + "."):  # "joint 'j'.axis: ..." from a Model method
+                field, _, message = message[len(prefix) + 1:].partition(": ")
+                k = f"{prefix}.{field}"
+            k = key + k[len(prefix):] if k.startswith(prefix) else k
+            reader.problem(k, message)
+        entry.ok = False
+        if isinstance(table.get("child", name), str):
+            reader.frame_names.setdefault(table.get("child", name), None)
+        return False
+    child = table.get("child", name)
+    reader.frame_keys[child] = key
+    reader.key_map[f"frame '{child}'"] = (key, {"rotation": given[0] if given else "rotation"})
+    reader.frame_names.setdefault(child, None)
+    return True
 
 
 def _limits(reader, value, key):

@@ -137,7 +137,7 @@ from ..errors import ExpressionError, ModelError, ModelFileError, Problem, Unkno
 from ..model._elements import Element, shape_problems
 from ..model._model import Model, derived_order
 from ._expr import parse_expression
-from ._jointtable import declare_joint_coordinates, read_joints
+from ._jointtable import build_joint, declare_joint_coordinates, joint_child
 
 __all__ = ["load_model_file", "loads_model"]
 
@@ -573,8 +573,7 @@ class _Reader:
         declare_joint_coordinates(self, data.get("joints"))
         self.names = {**self.model.names(accelerations=True), **self.model.derived_parameters}
         self.frame_keys: dict[str, str] = {}  # frame name -> its file key ("frames[0]")
-        self.read_frames(data.get("frames"))
-        read_joints(self, data.get("joints"))
+        self.read_frames(data.get("frames"), data.get("joints"))  # and the [[joints]] tables, parents first
         self.read_elements(data)
         # [energy] and [forces] after the elements: they may use "<point>.x" (a point's position component)
         self.names = {**self.names, **self.model._point_components()}
@@ -887,13 +886,16 @@ class _Reader:
                     self.model_error(key, exc)
 
     # -- frames ---------------------------------------------------------------------------------
-    def read_frames(self, value: object) -> None:
-        """[[frames]] tables: checked, then built parents first (a cycle of parents is reported)."""
+    def read_frames(self, value: object, joints: object = None) -> None:
+        """[[frames]] and [[joints]] tables: checked, then built parents first, whatever their order in the file
+        (a frame may hang from a joint's child frame, a joint from a frame); a cycle of parents is reported."""
         from ..model._frames import WORLD
 
         tables = self.element_tables("frames", value)
+        joint_entries = self.element_tables("joints", joints)
         named: dict[str, _Entry] = {}
         self.frame_names = dict.fromkeys(t.table.get("name") for t in tables if isinstance(t.table.get("name"), str))
+        children = {joint_child(j.table): j for j in joint_entries if joint_child(j.table) is not None}
         for entry in tables:
             key = entry.key
             for name in entry.table:
@@ -911,18 +913,36 @@ class _Reader:
                 continue
             entry.name = name
             named[name] = entry
-        # parents first; a parent that is unknown or in a cycle stops its children
+        # parents first; a parent that is unknown or in a cycle stops its children. A joint waits only for a
+        # parent that another table creates (an unknown parent is reported by Model.add_joint).
         built: set[str] = {WORLD}
         pending = list(named.values())
-        while pending:
+        waiting = list(joint_entries)
+        failed: set[str] = set()  # the child frames of joints that could not be built
+        while pending or waiting:
             progress = [e for e in pending if _parent_name(e.table) in built]
             for entry in progress:
                 self.build_frame(entry)
                 built.add(entry.name)
             pending = [e for e in pending if e not in progress]
-            if progress:
+            ready = [j for j in waiting if not (isinstance(j.table.get("parent"), str)
+                                                and j.table["parent"] not in built
+                                                and (j.table["parent"] in named or j.table["parent"] in children))]
+            for entry in ready:
+                child = joint_child(entry.table)
+                if build_joint(self, entry):
+                    built.add(child)
+                elif child is not None:
+                    failed.add(child)
+            waiting = [j for j in waiting if j not in ready]
+            if progress or ready:
                 continue
-            self.report_parents(named, pending)
+            stuck = [e for e in pending if _parent_name(e.table) not in failed]
+            self.report_parents(named, stuck, children)
+            reported: set[str] = set()
+            for entry in waiting:  # in a cycle, or below one, or below a joint with problems
+                self.report_joint_parent(entry, named, children, reported)
+                build_joint(self, entry, parent=WORLD)  # a stand-in parent: its own keys are checked in this run
             break
         # the frames below an unknown parent or in a cycle: built under "world" as well, so that their own keys
         # and the elements placed in them are checked in this same run (the problems above keep the model out)
@@ -930,26 +950,42 @@ class _Reader:
             parent = _parent_name(entry.table)
             self.build_frame(entry, parent=parent if parent in self.frame_keys else WORLD)
 
-    def report_parents(self, named: Mapping[str, _Entry], pending: list[_Entry]) -> None:
-        """The problem of each frame whose parent is not a built frame: unknown, not a name, or a cycle."""
+    def report_parents(self, named: Mapping[str, _Entry], pending: list[_Entry],
+                       children: Mapping[str, _Entry] | None = None) -> None:
+        """The problem of each frame whose parent is not a built frame: unknown, not a name, or a cycle (through
+        frames and the child frames of joints, `children`)."""
         from ..model._frames import WORLD
 
+        children = children or {}
         in_reported_cycle: set[str] = set()
         for entry in pending:
             parent = entry.table.get("parent", WORLD)
             if not isinstance(parent, str):
                 self.problem(f"{entry.key}.parent", f"expected a frame's name, got {_describe(parent)}; "
                                                     "write parent = \"world\" or the name of a [[frames]] table")
-            elif parent not in named:
+            elif parent not in named and parent not in children:
                 self.problem(f"{entry.key}.parent", f"no frame is named '{parent}'"
-                             f"{did_you_mean(parent, [WORLD, *named])}; use \"world\" (the inertial frame) "
-                             "or the name of a [[frames]] table")
-            elif _cycle(named, entry.name) and entry.name not in in_reported_cycle:
-                loop = _cycle(named, entry.name)
+                             f"{did_you_mean(parent, [WORLD, *named, *children])}; use \"world\" (the inertial "
+                             "frame), the name of a [[frames]] table or a joint's child frame")
+            elif _cycle(named, entry.name, children) and entry.name not in in_reported_cycle:
+                loop = _cycle(named, entry.name, children)
                 in_reported_cycle.update(loop)
                 self.problem(f"{entry.key}.parent", f"the frames {', '.join(loop[:-1])} form a cycle of "
                              f"parents ({' -> '.join(loop)}): every frame must hang, through its parents, "
                              "from \"world\"")
+
+    def report_joint_parent(self, entry: _Entry, named: Mapping[str, _Entry], children: Mapping[str, _Entry],
+                            reported: set[str]) -> None:
+        """The problem of a joint whose parent frame is never built, when it is in a cycle of joints' frames only
+        (once per cycle; a cycle through a [[frames]] table is reported under that table, and a joint below a
+        cycle or below a table with problems has nothing to add)."""
+        child = joint_child(entry.table)
+        loop = _cycle(named, child, children) if child is not None else None
+        if loop is None or child in reported or any(n in named for n in loop):
+            return
+        reported.update(loop)
+        self.problem(f"{entry.key}.parent", f"the frames {', '.join(loop[:-1])} form a cycle of parents "
+                     f"({' -> '.join(loop)}): every frame must hang, through its parents, from \"world\"")
 
     def build_frame(self, entry: _Entry, parent: str | None = None) -> None:
         """Add the frame of `entry` (under `parent`, default its own). A frame with problems in its origin or
@@ -1890,17 +1926,19 @@ class _Reader:
             self.problem(key, p.message)
 
 
-def _cycle(frames: Mapping[str, _Entry], start: str) -> list[str] | None:
-    """The cycle of parents that `start` belongs to, as [start, ..., start], or None."""
+def _cycle(frames: Mapping[str, _Entry], start: str, joints: Mapping[str, _Entry] | None = None) -> list[str] | None:
+    """The cycle of parents that `start` belongs to, as [start, ..., start], or None; through the [[frames]]
+    tables (`frames`, by name) and the child frames of the [[joints]] tables (`joints`, by child name)."""
+    tables = {**(joints or {}), **frames}
     seen = [start]
-    name = frames[start].table.get("parent", "world")
-    while isinstance(name, str) and name in frames:
+    name = tables[start].table.get("parent", "world")
+    while isinstance(name, str) and name in tables:
         if name == start:
             return seen + [start]
         if name in seen:
             return None  # a cycle above start, reported for its own members
         seen.append(name)
-        name = frames[name].table.get("parent", "world")
+        name = tables[name].table.get("parent", "world")
     return None
 
 
