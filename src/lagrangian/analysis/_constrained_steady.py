@@ -29,7 +29,10 @@ independent speeds depends on a coordinate's value, so that is what is tested:
   search of ``_roots`` (least squares where rows outnumber unknowns: the rows the symmetry makes
   dependent, as energy conservation makes a bicycle's wheel acceleration vanish once roll and steer
   are steady). The Jacobian is a central difference (about 1e-10 relative: the roots are
-  polished by the residual, which is exact, and the Jacobian only steers).
+  polished by the residual, which is exact, and the Jacobian only steers). The residual at q and
+  the 2k points of the differences is one batch: one call of each compiled function of the model,
+  then the saddle-point solve of each point in compiled loops (``_steady_kernel``: the search of the
+  bicycle's equilibria makes 7000 such calls, 0.4 ms each in NumPy, now a tenth of that).
   Everything is numerical: no symbolic solve of the constraints, so no exact solutions.
 * **Stability** comes from the linearization about the steady motion in the independent speeds
   (``_constrained_linear.linearize_steady``) with the ignorable coordinates left out. Its
@@ -48,6 +51,7 @@ from __future__ import annotations
 from types import MappingProxyType
 
 import numpy as np
+import symengine as se
 
 from ..equations import Equations
 from ..errors import ModelError
@@ -170,6 +174,13 @@ class SteadyState:
         self.cm = _model(equations)
         self.shape, self.given, self.free = shape, dict(given), free
         self.held = sorted(set(shape) | set(given))   # their accelerations must vanish
+        # the index arrays of the compiled residual (_steady_kernel)
+        self._shape, self._free, self._held = (np.array(v, dtype=np.int64) for v in (shape, free, self.held))
+        self._hol = np.asarray(self.cm.holonomic, dtype=np.int64)
+        self._given = np.array(list(self.given), dtype=np.int64)
+        self._given_values = np.array(list(self.given.values()), dtype=float)
+        self._constraints_fun = compile_equations(equations)._group("constraints").fun
+        self._last = None
 
     def state(self, setting: Setting, q: np.ndarray) -> np.ndarray:
         """(q, q_dot): given rates, the free ignorable ones from the constraints, the shape at rest."""
@@ -209,68 +220,25 @@ class SteadyState:
                         np.full(len(self.held) + cm.m + len(cm.holonomic), np.nan))
         return x, qdd, lam, np.concatenate((qdd[self.held], g, w))
 
-    def _rows_batch(self, setting: Setting, Q: np.ndarray) -> tuple[np.ndarray, ...]:
-        """(rows, X, W, M, f, c): the residual rows of `values` at each configuration of Q (shape
-        (k, n)), evaluated together (one call of each compiled function, stacked LAPACK: the same
-        arithmetic point by point), with the states, constraint Jacobians, M, f and c there; a row of
+    def _rows_batch(self, setting: Setting, A: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(rows, W, scale): the residual rows of `values` at the points whose arguments (t, q, q_dot,
+        u, p) are the rows of A (the given rates set, the others 0; the free ones are written into A
+        here), evaluated together: one call of each compiled function, then the saddle-point solve of
+        each point in compiled loops (``_steady_kernel``); with the constraint Jacobians and the size of
+        the terms of the accelerations at each point (``term_scale`` without the squared rates). A row of
         NaN where a point is singular or not finite (the caller asks `values` for those)."""
-        cm, t, p = self.cm, setting.t, setting.p
-        n, m, k = cm.n, cm.m, len(Q)
-        nm = compile_equations(self.equations)
-        X = np.zeros((k, 2 * n))
-        X[:, :n] = Q
-        for i, v in self.given.items():
-            X[:, n + i] = v
-        u = np.asarray(setting.u, float).ravel()
-        pv = np.asarray(p, float).ravel()
+        from ._steady_kernel import free_rates, steady_rows
 
-        def args(X):
-            return np.hstack((np.full((k, 1), t), X, np.broadcast_to(u, (k, len(u))),
-                              np.broadcast_to(pv, (k, len(pv)))))
-
-        out = np.asarray(nm._group("constraints").fun(args(X)), float).reshape(k, -1)
-        W, g, w = out[:, :m * n].reshape(k, m, n), out[:, m * n:m * n + m], out[:, m * n + m:m * n + 2 * m]
-        bad = ~(np.all(np.isfinite(out), axis=1))
-        if self.free:
-            Wf = W[:, :, self.free]
-            try:
-                U, sv, Vt = np.linalg.svd(np.where(bad[:, None, None], 0.0, Wf), full_matrices=False)
-            except np.linalg.LinAlgError:
-                return (np.full((k, len(self.held) + m + len(cm.holonomic)), np.nan),)
-            big = np.maximum(np.max(np.abs(W), axis=(1, 2), initial=0.0), 1e-300)
-            keep = sv > 1e-10 * big[:, None]
-            coef = np.where(keep, np.einsum("kij,ki->kj", U, -w) / np.where(keep, sv, 1.0), 0.0)
-            rates = np.einsum("kji,kj->ki", Vt, coef)
-            X[:, n + np.array(self.free)] = rates
-            w = w + np.einsum("kij,kj->ki", Wf, rates)
-        parts = np.asarray(cm._parts(args(X)), float).reshape(k, -1)
-        M = parts[:, :n * n].reshape(k, n, n)
-        f = parts[:, n * n:n * n + n]
-        G = parts[:, n * n + n:n * n + n + m * n].reshape(k, m, n)
-        c = parts[:, n * n + n + m * n:]
-        d = np.diagonal(M, axis1=1, axis2=2)
-        bad |= ~(np.all(np.isfinite(parts), axis=1) & np.all(d > 0, axis=1))
-        M = np.where(bad[:, None, None], np.eye(n), M)
-        G = np.where(bad[:, None, None], np.eye(m, n), G)
-        f, c = np.where(bad[:, None], 0.0, f), np.where(bad[:, None], 0.0, c)
-        try:
-            Lc = np.linalg.cholesky(M)
-        except np.linalg.LinAlgError:
-            return (np.full((k, len(self.held) + m + len(cm.holonomic)), np.nan),)
-        ratio = np.min(np.diagonal(Lc, axis1=1, axis2=2) ** 2 / np.where(bad[:, None], 1.0, d), axis=1)
-        B = np.linalg.solve(Lc, np.swapaxes(G, 1, 2))
-        Qr, Rr = np.linalg.qr(B)
-        big = np.max(np.sum(B * B, axis=1), axis=1)
-        rho = np.min(np.abs(np.diagonal(Rr, axis1=1, axis2=2)), axis=1) / np.sqrt(big)
-        bad |= ~((ratio > SINGULAR_RATIO) & (rho > SINGULAR_RATIO) & np.isfinite(rho))
-        Rr = np.where(bad[:, None, None], np.eye(m), Rr)
-        LcT, RrT = np.swapaxes(Lc, 1, 2), np.swapaxes(Rr, 1, 2)
-        a = np.linalg.solve(LcT, np.linalg.solve(Lc, f[..., None]))
-        wr = np.linalg.solve(RrT, c[..., None] - G @ a)
-        qdd = (a + np.linalg.solve(LcT, Qr @ wr))[..., 0]
-        rows = np.hstack((qdd[:, self.held], g[:, cm.holonomic], w))
-        rows[bad] = np.nan
-        return rows, X, W, M, f, c
+        cm = self.cm
+        n, m, k = cm.n, cm.m, len(A)
+        C = np.asarray(self._constraints_fun(A), float).reshape(k, -1)
+        bad = np.zeros(k, dtype=np.bool_)
+        w = free_rates(C, A, self._free, n, m, bad)
+        P = np.asarray(cm._parts(A), float).reshape(k, -1)
+        rows = np.empty((k, len(self.held) + len(cm.holonomic) + m))
+        scale = np.empty(k)
+        steady_rows(P, w, C[:, m * n:m * n + m], self._held, self._hol, n, m, SINGULAR_RATIO, bad, rows, scale)
+        return rows, C[:, :m * n].reshape(k, m, n), scale
 
     def meets_constraints(self, setting: Setting, q: np.ndarray) -> bool:
         """Whether q meets the holonomic constraints, g(q) = 0 to round-off of the coordinates (a
@@ -285,9 +253,9 @@ class SteadyState:
         the constraints' c, the squared rates): the scale against which a residual is round-off."""
         with np.errstate(all="ignore"):
             x = self.state(setting, np.asarray(q, float))
-            nm = compile_equations(self.equations)
-            M, f = nm.mass_matrix(setting.t, x, setting.u, setting.p), nm.forcing(setting.t, x, setting.u, setting.p)
-            c = nm.constraint_parts(setting.t, x, setting.u, setting.p)[1]
+            # M, f and c by the saddle-point solve's one compiled evaluation (the search's), not the
+            # numeric model's groups of M and f and of c, which would be compiled for this alone
+            M, f, _, c = self.cm.parts(setting.t, x, np.asarray(setting.u, float), np.asarray(setting.p, float))
         return self._scale(x, M, f, c)
 
     def _scale(self, x, M, f, c) -> float:
@@ -299,49 +267,51 @@ class SteadyState:
 
     def __call__(self, setting: Setting, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(r, dr/dz) in the shape coordinates z."""
+        from ._steady_kernel import central_jacobian, differences, points
+
         q = np.asarray(q, float)
-        z = q[self.shape]
+        n, k = self.cm.n, len(self.shape)
+        a, kh = len(self.held), len(self.cm.holonomic)
         with np.errstate(all="ignore"):
             # q and the 2k points of the central differences in one batched evaluation
-            h = 1e-5 * (1.0 + np.abs(z))
-            points = np.repeat(q[None, :], 2 * len(z) + 1, axis=0)
-            for j in range(len(z)):
-                points[2 * j + 1, self.shape[j]] = z[j] + h[j]
-                points[2 * j + 2, self.shape[j]] = z[j] - h[j]
-            batch = self._rows_batch(setting, points)
-        R = batch[0]
-        r = R[0] if np.all(np.isfinite(R[0])) else self.values(setting, q)[3]
+            h = 1e-5 * (1.0 + np.abs(q[self._shape]))
+            u, p = self._arguments(setting)
+            A = np.empty((2 * k + 1, 1 + 2 * n + len(u) + len(p)))
+            points(A, float(setting.t), u, p, q, self._shape, h, self._given, self._given_values)
+            R, Ws, scales = self._rows_batch(setting, A)
+            J = np.empty((R.shape[1], k))
+            # central differences: error O(h^2) + round-off/h, about 1e-10 relative; their round-off
+            # (about 1e-11 of the terms) as exact zeros, so that a set of steady motions (a knife edge
+            # sliding at any heading) shows as a singular Jacobian
+            if central_jacobian(R, A, Ws, scales, q, h, n, a, kh, J):
+                return R[0].copy(), J
+        finite = np.isfinite(R).all(axis=1)
+        r = R[0] if finite[0] else self.values(setting, q)[3]
         if not np.all(np.isfinite(r)):
-            return r, np.full((len(r), len(self.shape)), np.nan)
-
-        def rows(z):
-            moved = q.copy()
-            moved[self.shape] = z
-            return self.values(setting, moved)[3]
-
-        J = np.zeros((len(r), len(z)))
+            return r, np.full((len(r), k), np.nan)
         with np.errstate(all="ignore"):
-            # central differences: error O(h^2) + round-off/h, about 1e-10 relative
-            for j in range(len(z)):
-                for i in (2 * j + 1, 2 * j + 2):
-                    if not np.all(np.isfinite(R[i])):  # a singular or not finite point: as `values` decides it
-                        R[i] = rows(points[i, self.shape])
-                J[:, j] = (R[2 * j + 1] - R[2 * j + 2]) / (2 * h[j])
-            # round-off of the differences (about 1e-11 of the terms) as exact zeros, so that a set of
-            # steady motions (a knife edge sliding at any heading) shows as a singular Jacobian
-            a, k = len(self.held), len(self.cm.holonomic)
-            n = self.cm.n
-            if np.all(np.isfinite(R[0])) and len(batch) > 1:
-                x, W = batch[1][0], batch[2][0]
-                scale = self._scale(x, batch[3][0], batch[4][0], batch[5][0])
+            for i in np.flatnonzero(~finite[1:]) + 1:  # a singular or not finite point: as `values` decides it
+                R[i] = self.values(setting, A[i, 1:1 + n])[3]
+            if finite[0]:
+                x, W = A[0, 1:1 + 2 * n], Ws[0]
+                scale = float(scales[0]) + float(np.max(x[n:] ** 2, initial=0.0))
             else:
                 x, _, W = self._state(setting, q)
                 scale = self.term_scale(setting, q)
-            floor = np.concatenate((np.full(a, scale), np.full(k, 1.0 + np.max(np.abs(q))),
-                                    np.full(len(r) - a - k, (1.0 + np.max(np.abs(x[n:])))
-                                            * (1.0 + np.max(np.abs(W), initial=0.0)))))
-            J[np.abs(J) <= 1e-8 * floor[:, None]] = 0.0
+            floor = np.empty(len(r))
+            floor[:a] = scale
+            floor[a:a + kh] = 1.0 + np.max(np.abs(q))
+            floor[a + kh:] = (1.0 + np.max(np.abs(x[n:]))) * (1.0 + np.max(np.abs(W), initial=0.0))
+            differences(R, h, floor, J)
         return r, J
+
+    def _arguments(self, setting: Setting) -> tuple[np.ndarray, np.ndarray]:
+        """(u, p) of the setting as float arrays (kept for the last setting: the search asks thousands
+        of times at one)."""
+        last = self._last
+        if last is None or last[0] is not setting:
+            last = self._last = (setting, np.asarray(setting.u, float).ravel(), np.asarray(setting.p, float).ravel())
+        return last[1], last[2]
 
 
 def _angles(evaluator: SteadyState, setting: Setting, n: int) -> tuple[bool, ...]:
@@ -426,13 +396,18 @@ def _heights(equations: Equations):
     import sympy
 
     from ..model._elements import Particle, RigidBody3D
-    from ..model._frames import frame_pose
+    from ..model._frames import chain
 
     model = equations.model
     wheels = []
     for wheel in model.wheels:
-        origin, R = frame_pose(model.frames, wheel.frame)
-        wheels.append((sympy.Matrix(origin) + R * sympy.Matrix(wheel.center))[2])
+        # model._frames.frame_pose's origin + R center, in SymEngine (SymPy's matrix products took a third
+        # of a second for the bicycle)
+        origin, R = se.zeros(3, 1), se.eye(3)
+        for frame in chain(model.frames, wheel.frame):
+            origin = origin + R * se.DenseMatrix(3, 1, [se.sympify(x) for x in frame.origin])
+            R = R * se.DenseMatrix(3, 3, [se.sympify(x) for x in frame.rotation])
+        wheels.append((origin + R * se.DenseMatrix(3, 1, [se.sympify(x) for x in wheel.center]))[2])
     masses = [e for e in model.elements if isinstance(e, (RigidBody3D, Particle)) and len(e.position) == 3]
     names = tuple(e.name for e in masses)
     if not wheels:
