@@ -194,6 +194,14 @@ class Status(enum.IntEnum):
                    "sample the law (sample_time=...)"))
     SINGULAR_CONSTRAINTS = (6, "The constraints are singular (their Jacobian G has lost rank: a dead point).",
                             "see the error's message: where G loses rank, and which coordinates to drive instead")
+    PROJECTION_SINGULAR = (7, ("The projection onto the constraints met a singular system (the Jacobian of the "
+                               "constraints lost rank, or M is singular, where a step ended or at an output)."),
+                           ("see the error's message: where G loses rank (a dead point: drive other coordinates "
+                            "or start away from it), or try a smaller rtol/atol"))
+    PROJECTION_NOT_FINITE = (8, ("The projection onto the constraints met values that are not finite (NaN or "
+                                 "infinity in the constraints g, their Jacobian G, M or the projected state)."),
+                             ("check the model's parameters, its constraints' expressions (a division by zero, a "
+                              "log or sqrt of a negative number) and the initial state"))
 
     @property
     def ok(self) -> bool:

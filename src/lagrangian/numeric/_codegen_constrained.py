@@ -55,11 +55,11 @@ import numpy as np
 from ..equations import Equations
 from ..model._constraints import HOLONOMIC
 from ._codegen import _cfunc_head, _Printer
-from ._kernels import EVENT_RATIO, SINGULAR_RATIO
+from ._kernels import EVENT_RATIO, PROJECTION_MET, PROJECTION_NOT_FINITE, PROJECTION_SINGULAR, SINGULAR_RATIO
 
 __all__ = ["C_DECLARATIONS", "EVENT_RATIO", "MET", "NEWTON_EXIT", "NOT_FINITE", "PROJECTION_STEPS", "PROJECTION_TOL",
-           "SINGULAR", "SINGULAR_RATIO", "compiled_multipliers", "compiled_project", "compiled_solve",
-           "constrained_c", "constrained_main", "layout", "work_size"]
+           "SINGULAR", "SINGULAR_RATIO", "compiled_multipliers", "compiled_project", "compiled_projection",
+           "compiled_solve", "constrained_c", "constrained_main", "layout", "work_size"]
 
 #: Gauss-Newton steps of one projection of the coordinates (each converges quadratically from a
 #: step's error).
@@ -69,8 +69,10 @@ PROJECTION_TOL = 1e-14
 #: A Gauss-Newton step from max|g| <= NEWTON_EXIT * (1 + max|q|) is the last: the residual after
 #: it is of the order of the square.
 NEWTON_EXIT = 1e-8
-#: The projection's result codes (export_c's <ID>_MET, <ID>_SINGULAR, <ID>_NOT_FINITE).
-MET, SINGULAR, NOT_FINITE = 0, 3, 4
+#: The projection's result codes (export_c's <ID>_MET, <ID>_SINGULAR, <ID>_NOT_FINITE), returned by
+#: the numba module's and the C backend's project (as a double) to the compiled DOP853, which stops
+#: with Status.PROJECTION_SINGULAR or PROJECTION_NOT_FINITE where one is not MET.
+MET, SINGULAR, NOT_FINITE = PROJECTION_MET, PROJECTION_SINGULAR, PROJECTION_NOT_FINITE
 #: numba's rhs factors M and G before it evaluates f and c (see constrained_main) where f and c
 #: need at least this many common subexpressions of their own (the bicycle 393, the four-bar 4).
 SPLIT_MIN = 64
@@ -94,7 +96,7 @@ def work_size(n: int, m: int) -> int:
 #: The declarations (cffi cdef) of constrained_c's two functions, with the default prefix.
 C_DECLARATIONS = """
 double lg_constrained_rhs(double t, double *x, double *u, double *p, double *dx, double *work);
-void lg_project(double t, double *x, double *u, double *p, double *work, double *drift);
+double lg_project(double t, double *x, double *u, double *p, double *work, double *drift);
 """
 
 
@@ -573,9 +575,10 @@ def constrained_main(equations: Equations) -> list[str]:
     out += [f"    if r <= {SINGULAR_RATIO!r}:", "        return r",
             f"    for i in range({n}):", "        dx[i] = x[i + N]", f"        dx[i + N] = work[{consts['A0']} + i]",
             "    return r"]
-    out += _cfunc_head("project", "_SIG_VOID", (("work", size), ("drift", 2)), n, nu, npar,
-                       "x moved onto the constraints (see lagrangian.numeric._codegen_constrained).")
-    out.append("    lg_projection(t, x, _u(u_), _p(p_), work, drift)")
+    out += _cfunc_head("project", "_SIG_RHS", (("work", size), ("drift", 2)), n, nu, npar,
+                       "x moved onto the constraints (see lagrangian.numeric._codegen_constrained); returns "
+                       "MET, SINGULAR or NOT_FINITE (as a double).")
+    out.append("    return float(lg_projection(t, x, _u(u_), _p(p_), work, drift))")
     return out
 
 
@@ -619,7 +622,7 @@ def _used(lines: list[str], values: list[str]) -> list[str]:
 def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "", project: bool = True) -> str:
     """The C of the saddle-point solve and the projection: ``<prefix>constrained_rhs(t, x, u, p,
     dx, work)`` (the numba rhs's signature and value) and ``<prefix>project(t, x, u, p, work,
-    drift)`` (numba's project: void; left out without `project`), after the static helpers, for
+    drift)`` (numba's project: its result code as a double; left out without `project`), after the static helpers, for
     the C backend and export_c. The work arrays hold work_size(n, m) values."""
     eq = equations
     n = eq.n
@@ -651,8 +654,8 @@ def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "", 
             f"    for (i = 0; i < {n}; i++) {{", f"        dx[i] = x[{n} + i];",
             f"        dx[{n} + i] = work[{consts['A0']} + i];", "    }", "    return r;", "}", ""]
     if project:  # (export_c calls lg_projection for its result code)
-        out += [f"{storage}void {prefix}project(double t, double *x, double *u, double *p, double *work, "
-                "double *drift) {", "    (void)lg_projection(t, x, u, p, work, drift);", "}", ""]
+        out += [f"{storage}double {prefix}project(double t, double *x, double *u, double *p, double *work, "
+                "double *drift) {", "    return (double)lg_projection(t, x, u, p, work, drift);", "}", ""]
     return "\n".join(out)
 
 
@@ -662,7 +665,7 @@ def _calls():
 
     D = ctypes.POINTER(ctypes.c_double)
     return (ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double, D, D, D, D, D),
-            ctypes.CFUNCTYPE(None, ctypes.c_double, D, D, D, D, D), D)
+            ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_double, D, D, D, D, D), D)
 
 
 def _pointer(a, D):
@@ -715,6 +718,13 @@ def compiled_multipliers(fast, times, X, U, p) -> np.ndarray:
 
 def compiled_project(fast, t, x, p):
     """(x projected, drift [max |g|, max |w|] met) by a compiled constrained model's projection."""
+    x, drift, _ = compiled_projection(fast, t, x, p)
+    return x, drift
+
+
+def compiled_projection(fast, t, x, p):
+    """(x projected, drift [max |g|, max |w|] met, result code MET, SINGULAR or NOT_FINITE) by a
+    compiled constrained model's projection (where the code is not MET, x as the projection left it)."""
     from ._fast import _address
 
     _, project_t, D = _calls()
@@ -723,5 +733,5 @@ def compiled_project(fast, t, x, p):
     u = np.zeros(max(1, len(fast.input_names)))
     p = np.ascontiguousarray(p, float) if len(p) else np.zeros(1)
     work, drift = np.zeros(work_size(n, m)), np.zeros(2)
-    project_t(_address(fast.project_c))(float(t), *(_pointer(a, D) for a in (x, u, p, work, drift)))
-    return x, drift
+    code = project_t(_address(fast.project_c))(float(t), *(_pointer(a, D) for a in (x, u, p, work, drift)))
+    return x, drift, int(code)

@@ -32,9 +32,18 @@ from ..equations import Equations
 from ..equations._search import NUDGE, STEP_ROUND_OFF, gauss_newton
 from ..errors import ModelError, Problem, SimulationError
 from ..model._constraints import HOLONOMIC
-from ._codegen_constrained import EVENT_RATIO, NEWTON_EXIT, PROJECTION_STEPS, PROJECTION_TOL, SINGULAR_RATIO
+from ._codegen_constrained import (
+    EVENT_RATIO,
+    MET,
+    NEWTON_EXIT,
+    NOT_FINITE,
+    PROJECTION_STEPS,
+    PROJECTION_TOL,
+    SINGULAR,
+    SINGULAR_RATIO,
+)
 
-__all__ = ["ConstrainedModel", "constrained_model", "ConstraintSingular"]
+__all__ = ["ConstrainedModel", "constrained_model", "ConstraintSingular", "projection_failure"]
 
 class ConstraintSingular(Exception):
     """The saddle-point system is singular at (t, x): its measure `ratio` is at most
@@ -150,33 +159,52 @@ class ConstrainedModel:
         """The state moved onto the constraints: coordinates onto g = 0 (Gauss-Newton, the smallest
         change), then velocities onto G q_dot + b = 0 (the smallest change of kinetic energy); the
         steps, tolerances and singular decision of numeric._codegen_constrained. Where a step
-        cannot be taken (not finite, or singular) the state is returned as it is there."""
+        cannot be taken (not finite, or singular) the state is returned as it is there: see
+        :meth:`projection` for the result code that says so."""
+        return self.projection(t, x, p)[0]
+
+    def projection(self, t, x, p) -> tuple[np.ndarray, int]:
+        """(the state moved onto the constraints, as :meth:`project`; the result code of the compiled
+        lg_projection: MET, or SINGULAR or NOT_FINITE where a step could not be taken, the state then
+        as it was there)."""
         n = self.n
         x = np.array(x, float)
-        nq = 1.0 + np.max(np.abs(x[:n]))
+        with np.errstate(invalid="ignore"):
+            nq = 1.0 + np.max(np.abs(x[:n]))
         if len(self.holonomic):
             for _ in range(PROJECTION_STEPS):
                 g, Gh = self._holonomic(t, x, p)
                 if not (np.all(np.isfinite(g)) and np.all(np.isfinite(Gh))):
-                    return x
+                    return x, NOT_FINITE
                 gmax = np.max(np.abs(g))
                 if gmax <= PROJECTION_TOL * nq:
                     break
                 Q, R, rho = _qr(Gh.T)
                 if rho <= SINGULAR_RATIO:
-                    return x
+                    return x, SINGULAR
                 x[:n] -= Q @ _triangular(R, g, transpose=True)
                 if gmax <= NEWTON_EXIT * nq:
                     break
         w, G, M = self._velocity_parts(t, x, p)
         if not (np.all(np.isfinite(w)) and np.all(np.isfinite(G)) and np.all(np.isfinite(M))):
-            return x
+            return x, NOT_FINITE
         if np.max(np.abs(w), initial=0.0) > 0.0:
             r, rho, Lc, Q, R = _factor(M, G)
             if min(r, rho) <= SINGULAR_RATIO:
-                return x
+                return x, SINGULAR
             x[n:] -= _triangular(Lc, Q @ _triangular(R, w, transpose=True), transpose=True, lower=True)
-        return x
+        if not np.all(np.isfinite(x)):
+            return x, NOT_FINITE
+        return x, MET
+
+    def projected(self, t, x, p) -> np.ndarray:
+        """The state moved onto the constraints (:meth:`projection`); a SimulationError
+        (Status.PROJECTION_SINGULAR or PROJECTION_NOT_FINITE, see projection_failure) where the
+        projection fails: what the integrations call, as the compiled DOP853 stops there."""
+        y, code = self.projection(t, x, p)
+        if code != MET:
+            raise projection_failure(self, t, y, code, p)
+        return y
 
 
 _CACHE: "weakref.WeakKeyDictionary[Equations, ConstrainedModel]" = weakref.WeakKeyDictionary()
@@ -329,14 +357,17 @@ def integrate(cm: ConstrainedModel, x0, times, p, u_of, rtol, atol, max_step, me
                         else:
                             a = mid
                     while j < len(times) and times[j] <= b:
-                        X[j] = cm.project(times[j], dense(times[j]), p)
+                        X[j] = cm.projected(times[j], dense(times[j]), p)
                         j += 1
                     xb = dense(b)
                     r_M, rho = cm.measures(b, xb, u_of(b, xb), p)
                     raise ConstraintSingular(b, xb, min(r_M, rho), mass=r_M <= rho)
-                projected = cm.project(solver.t, solver.y, p)
+                while j < len(times) and times[j] < solver.t:  # the outputs, then the step's end, as compiled
+                    X[j] = cm.projected(times[j], dense(times[j]), p)
+                    j += 1
+                projected = cm.projected(solver.t, solver.y, p)
                 while j < len(times) and times[j] <= solver.t:
-                    X[j] = projected if times[j] == solver.t else cm.project(times[j], dense(times[j]), p)
+                    X[j] = projected
                     j += 1
                 solver.y = projected
                 if hasattr(solver, "f") and method != "DOP853":  # DOP853 keeps its last stage, as compiled
@@ -377,6 +408,47 @@ def singular_constraint_message(cm: ConstrainedModel, t, x, p) -> str:
             "the configuration (other initial values, a driving input), or write the mechanism with one "
             "constraint fewer")
 
+
+
+def projection_failure(cm: ConstrainedModel, t, x, code: int, p) -> SimulationError:
+    """The error of a run whose projection onto the constraints returned `code` (SINGULAR or
+    NOT_FINITE) at (t, x): Status.PROJECTION_SINGULAR with where the constraints' Jacobian lost rank
+    (or M its inertia), or Status.PROJECTION_NOT_FINITE with the constraints whose residuals are not
+    finite there. The numba, C and NumPy projections stop with it alike."""
+    from ..errors import Status
+
+    eq = cm.equations
+    t = float(t)
+    x = np.asarray(x, float)
+    state = ", ".join(f"{k} = {v:.6g}" for k, v in zip(eq.state_names, x))
+    head = f"the projection onto the constraints failed at t = {t:.6g}"
+    if code == SINGULAR:
+        status = Status.PROJECTION_SINGULAR
+        with np.errstate(all="ignore"):
+            r_M, rho = cm.measures(t, x, np.zeros(len(eq.inputs)), p)
+        if r_M < rho and r_M <= EVENT_RATIO:
+            why = (f"the mass matrix is singular there (inertia measure {r_M:.3g}, state {state}), so the "
+                   "velocities cannot be moved onto the constraints")
+        else:
+            why = singular_constraint_message(cm, t, x, p)
+        return SimulationError(f"{head}: it met a singular system, and the state was left off the constraints; "
+                               f"{why}. ({status.fix})", status=status, time=t)
+    status = Status.PROJECTION_NOT_FINITE
+    names = [c.name for c in eq.model.constraints]
+    with np.errstate(all="ignore"):
+        g, w = cm.residuals(t, x, p) if np.all(np.isfinite(x)) else (np.zeros(0), np.zeros(0))
+    bad = [names[k] for k, v in zip(cm.holonomic, g) if not np.isfinite(v)]
+    bad += [nm for nm, v in zip(names, w) if not np.isfinite(v) and nm not in bad]
+    if not np.all(np.isfinite(x)):
+        what = "the state is not finite (NaN or infinity)"
+    elif bad:
+        many = len(bad) > 1
+        what = (f"constraint{'s' if many else ''} {', '.join(repr(b) for b in bad)} {'are' if many else 'is'} "
+                "not finite (NaN or infinity) there")
+    else:
+        what = "the constraints' Jacobian G or the mass matrix M is not finite (NaN or infinity) there"
+    return SimulationError(f"{head} in the state {state}: {what}, so the state cannot be moved onto the "
+                           f"constraints; {status.fix}", status=status, time=t)
 
 
 # ------------------------------------------------------------------------------- elimination

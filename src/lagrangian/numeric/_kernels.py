@@ -10,7 +10,8 @@ tuples the integrators take their problem in (plain tuples, unpacked by name in 
 numba types a tuple as fast as its fields, a NamedTuple costs its dispatcher about 6 us a call),
 
     Model     (rhs, n, project, nwork, energy)    addresses of the model's functions (project: a
-                                                  constrained model's projection, 0: none; nwork:
+                                                  constrained model's projection, 0: none, which
+                                                  returns its result code as a double; nwork:
                                                   its rhs's work size, 0: n * n + 2 n; energy: 0
                                                   for no output stage) and the number n of
                                                   coordinates
@@ -29,7 +30,8 @@ from __future__ import annotations
 
 from ..errors import Status
 
-__all__ = ["EVENT_RATIO", "OPCODES", "SINGULAR_RATIO", "STATUS", "SWITCH_OPCODES", "kernel_source"]
+__all__ = ["EVENT_RATIO", "OPCODES", "PROJECTION_MET", "PROJECTION_NOT_FINITE", "PROJECTION_SINGULAR", "SINGULAR_RATIO",
+           "STATUS", "STATUS_PROJECTION_NOT_FINITE", "STATUS_PROJECTION_SINGULAR", "SWITCH_OPCODES", "kernel_source"]
 
 #: inertia measure of M at or below which the mass matrix counts as singular (stops at once).
 SINGULAR_RATIO = 1e-12
@@ -39,6 +41,13 @@ EVENT_RATIO = 1e-9
 #: Status codes returned by the compiled integrators: their messages, from the one enumeration
 #: (lagrangian.errors.Status, whose members also carry the fix).
 STATUS = {int(s): s.message for s in Status}
+#: The result codes of a constrained model's projection (the generated lg_projection: on the constraints,
+#: a singular system, values not finite; export_c's <ID>_MET, <ID>_SINGULAR, <ID>_NOT_FINITE), and the
+#: statuses the compiled DOP853 stops with when the projection returns one of the last two
+#: (Status.PROJECTION_SINGULAR, Status.PROJECTION_NOT_FINITE: written here as numbers, the kernels'
+#: cache key reads this file's text; tests/numeric/test_projection_failure.py checks them).
+PROJECTION_MET, PROJECTION_SINGULAR, PROJECTION_NOT_FINITE = 0, 3, 4
+STATUS_PROJECTION_SINGULAR, STATUS_PROJECTION_NOT_FINITE = 7, 8
 #: Consecutive steps, each ended by a switch and shorter than CHATTER_STEP of the time span, that
 #: stop the integration as chattering (status 5).
 CHATTER_STEPS = 100

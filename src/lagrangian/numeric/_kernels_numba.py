@@ -18,7 +18,8 @@ per call), with fixed signatures,
     mass_forcing(t, x*, u*, p*, M*, f*)      M row-major (n x n), f (n)
     lagrange_parts(t, x*, u*, p*, pm*, F*)   pm = dL/dq_dot, F = dL/dq - dD/dq_dot + Q
     rhs_lanes(t*, x*, u*, p*, dx*, work*, L) rhs of L states (lane-major arrays) at once
-    project(t, x*, u*, p*, work*, drift*)    a constrained model's projection onto its constraints
+    project(t, x*, u*, p*, work*, drift*) -> double   a constrained model's projection onto its
+                                              constraints; returns PROJECTION_MET, _SINGULAR or _NOT_FINITE
 
 so that a new model compiles only its own functions (a fraction of a second) and no integrator.
 
@@ -43,7 +44,11 @@ from lagrangian.numeric._kernels import (
     CHATTER_STEP,
     CHATTER_STEPS,
     EVENT_RATIO,
+    PROJECTION_MET,
+    PROJECTION_SINGULAR,
     SINGULAR_RATIO,
+    STATUS_PROJECTION_NOT_FINITE,
+    STATUS_PROJECTION_SINGULAR,
 )
 
 # ----------------------------------------------------------------------------- DOP853's tableau
@@ -136,7 +141,8 @@ _PD = types.CPointer(types.float64)
 
 @intrinsic
 def _rc(typingctx, addr, t, x, u, p, dx, work):
-    """rhs(t, x, u, p, dx, work) -> double, the model function at `addr`."""
+    """rhs(t, x, u, p, dx, work) -> double (or project(t, x, u, p, work, drift) -> double), the model
+    function at `addr`."""
     def codegen(context, builder, signature, args):
         return _call(builder, args[0], ir.DoubleType(), args[1:])
     return _D(types.intp, _D, _PD, _PD, _PD, _PD, _PD), codegen
@@ -152,7 +158,7 @@ def _en(typingctx, addr, t, x, u, p):
 
 @intrinsic
 def _vf(typingctx, addr, t, x, u, p, a, b):
-    """mass_forcing, lagrange_parts or project(t, x, u, p, a, b), the model function at `addr`."""
+    """mass_forcing or lagrange_parts(t, x, u, p, a, b), the model function at `addr`."""
     def codegen(context, builder, signature, args):
         _call(builder, args[0], ir.VoidType(), args[1:])
         return context.get_dummy_value()
@@ -488,6 +494,15 @@ def _fail(r, t, x, info, stats, nfev, nstep, nrej, j):
 
 
 @njit(cache=True)
+def _projection_failed(code, t, x, info, stats, nfev, nstep, nrej, j):
+    """The stop where a constrained model's projection returned `code` (SINGULAR or NOT_FINITE) at
+    (t, x), x as the projection left it: info = [t, code, x...]; STATUS_PROJECTION_SINGULAR or
+    STATUS_PROJECTION_NOT_FINITE."""
+    _fail(code, t, x, info, stats, nfev, nstep, nrej, j)
+    return STATUS_PROJECTION_SINGULAR if code == PROJECTION_SINGULAR else STATUS_PROJECTION_NOT_FINITE
+
+
+@njit(cache=True)
 def _dense_at(t, h, y, F, tq, out, k, L):
     """The order-7 interpolant of the step from (t, y) of size h, at tq: out[i] for the
     components y[i * L + k] (all of y for k = 0, L = 1; lane k in dop853_lanes),
@@ -588,7 +603,9 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
 
     A constrained model's projection project(t, x, u, p, work, drift) is called on the state after
     every accepted step and on the outputs of the step (the step's last derivative is kept: see
-    there).
+    there); where it fails (a singular system, or values not finite) the run stops there with status
+    STATUS_PROJECTION_SINGULAR or STATUS_PROJECTION_NOT_FINITE (info[1]: the projection's code), the
+    output rows before kept.
 
     The output stage: with an energy address, U_out[j] and E_out[j] receive the inputs and the
     Jacobi integral at each output (t_out[j], X_out[j]), evaluated in the loop as the outputs are
@@ -1075,13 +1092,17 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
             for jj in range(j0, j):
                 for i in range(nx):
                     xs[i] = X_out[jj, i]
-                _vf(proj, t_out[jj], _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
+                code = _rc(proj, t_out[jj], _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
+                if code != PROJECTION_MET:  # a failed projection stops the run (the rows before this one kept)
+                    return _projection_failed(code, t_out[jj], xs, info, stats, nfev, nstep, nrej, jj)
                 for i in range(nx):
                     X_out[jj, i] = xs[i]
             # the next step starts from the projected state with the derivative of the step's end (first
             # same as last): they differ by the projection's correction, of the size of the local error,
             # so the stale derivative adds an error h L |correction|, of higher order than the step's
-            _vf(proj, tnew, _ptr(ynew, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
+            code = _rc(proj, tnew, _ptr(ynew, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
+            if code != PROJECTION_MET:
+                return _projection_failed(code, tnew, ynew, info, stats, nfev, nstep, nrej, j)
         if en != 0:  # the output stage of this step's outputs, written out here (a call per step costs more)
             for jj in range(done[0], j):
                 if nin:

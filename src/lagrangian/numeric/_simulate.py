@@ -816,6 +816,10 @@ def _compiled_failure(fast: CompiledModel, cm, raw, p, x0):
     transcribed in NumPy, says whether G lost rank (a dead point) or M is singular."""
     if cm is None:
         return failure(fast, raw.status, raw.stop_t, raw.stop_x, raw.stop_measure, p, x0=x0)
+    if raw.status in (Status.PROJECTION_SINGULAR, Status.PROJECTION_NOT_FINITE):  # info[1]: the projection's code
+        from ._constrained import projection_failure
+
+        return projection_failure(cm, raw.stop_t, raw.stop_x, int(raw.stop_measure), p)
     if raw.status in (1, 2) or (raw.status not in (0, 3, 4) and raw.stop_measure < 1e-6):
         r_M, rho = cm.measures(raw.stop_t, raw.stop_x, np.zeros(len(fast.input_names)), p)
         if rho < r_M:
@@ -907,6 +911,9 @@ def failure(nm, status, t, x, measure, p, *, x0=None, kept: float | None = None,
     if status == Status.VARIATIONAL_NOT_CONVERGED:
         return SimulationError(f"the variational integrator stopped at t = {t:.6g}: its implicit midpoint step did "
                                f"not converge ({where}); {status.fix}", status=status, time=t)
+    if status in (Status.PROJECTION_SINGULAR, Status.PROJECTION_NOT_FINITE):  # (with its model: projection_failure)
+        return SimulationError(f"the projection onto the constraints failed at t = {t:.6g} in the {where}: "
+                               f"{status.message[:1].lower()}{status.message[1:]} {status.fix}", status=status, time=t)
     if status == Status.CHATTERING:
         return SimulationError(f"the inputs switch at every step near t = {t:.6g} (the last steps shorter than "
                                f"{measure:.2g} s, {where}): the motion slides on a switching surface of the law (a "
@@ -1032,12 +1039,12 @@ def _simulate_constrained(nm, run: _Run, opts: SimulationOptions, model_initial)
     except ConstraintSingular as s:
         error = _dead_point(cm, s.t, s.x, p)
         error.partial = _constrained_partial(nm, cm, method, times, getattr(s, "rows", None), u_of, p,
-                                             str(error), getattr(s, "inputs", None))
+                                             str(error), getattr(s, "inputs", None), error.status)
         raise error from None
     except (SimulationError, SingularMassMatrixError) as exc:
         if fast is None:  # (the compiled run's errors carry their rows already)
             exc.partial = _constrained_partial(nm, cm, method, times, getattr(exc, "rows", None), u_of, p,
-                                               str(exc), getattr(exc, "inputs", None))
+                                               str(exc), getattr(exc, "inputs", None), _status(exc))
         raise
     if not np.all(np.isfinite(X)):
         raise failure(nm, Status.SOLUTION_NOT_FINITE, None, None, None, p)
@@ -1107,18 +1114,19 @@ def _integrate_sampled(run, cm, x0, times, p, u_of, sampling):
     return X, U, Lam, stats
 
 
-def _constrained_trajectory(nm, method, times, X, U, Lam, stats, p, failure: str | None = None) -> Trajectory:
+def _constrained_trajectory(nm, method, times, X, U, Lam, stats, p, failure: str | None = None,
+                            status: Status | None = None) -> Trajectory:
     """The Trajectory of a constrained run on SciPy's integrators at `times` (all of them, or those
-    before a failure, whose message is `failure`)."""
+    before a failure, whose message is `failure` and whose status is `status`, where known)."""
     eq = nm.equations
     energy = None if eq.explicit_time else [nm.energy(t, x, u, p) for t, x, u in zip(times, X, U)]
     return run_trajectory(eq, times, X, U, p, energy=energy, stats={"backend": "scipy", "method": method, **stats},
-                          status=Status.SUCCESS if failure is None else None, failure=failure, multipliers=Lam,
+                          status=Status.SUCCESS if failure is None else status, failure=failure, multipliers=Lam,
                           message="stopped" if failure is not None else "constrained integration finished")
 
 
 def _constrained_partial(nm, cm, method, times, rows, u_of, p, failure: str,
-                         inputs=None) -> Trajectory | None:
+                         inputs=None, status: Status | None = None) -> Trajectory | None:
     """The rows a failed constrained run reached (`rows`: its states at the first output times, as
     the integrators attach them to their error; `inputs`: the inputs there, where they were held by a
     sampled controller), as a Trajectory marked partial; None without rows."""
@@ -1137,7 +1145,7 @@ def _constrained_partial(nm, cm, method, times, rows, u_of, p, failure: str,
     else:
         return None
     stats = {"nfev": 0, "projection": "coordinate projection after every step", "constraint_drift": drift}
-    return _constrained_trajectory(nm, method, t, X, U, Lam, stats, p, failure)
+    return _constrained_trajectory(nm, method, t, X, U, Lam, stats, p, failure, status)
 
 
 def _project_rows(cm, times, X, p, every: bool = False) -> None:
@@ -1145,7 +1153,7 @@ def _project_rows(cm, times, X, p, every: bool = False) -> None:
     back to the first that the projection no longer moves (those were projected by the kernel), or
     `every` row."""
     for j in range(len(X) - 1, -1, -1):
-        x = cm.project(float(times[j]), X[j], p)
+        x = cm.projected(float(times[j]), X[j], p)  # (a failed projection raises, as in the kernel)
         moved = np.max(np.abs(x - X[j]))
         X[j] = x
         if not every and moved <= 1e-14 * (1.0 + np.max(np.abs(x))):
