@@ -253,3 +253,49 @@ def test_text_is_sympys_text():
     eqs = lg.derive(lg.load("pendulum-chain-4"))
     for e in (*eqs.mass_matrix, *eqs.forcing, *eqs.equations, *eqs.conserved_quantities.values()):
         assert R.text(e) == sympy.sstr(e)
+
+
+@pytest.mark.parametrize("name", ["four-bar", "heavy-top", "rolling-disk", "robot-arm-3-joints", "mck", "kepler",
+                                  "spherical-pendulum-3d", "pendulum-chain-10"])
+def test_text_is_sympys_text_for_examples(name):
+    """The printer's own paths for sums and products (issue 22: printing was most of `derive`) give
+    sympy.sstr's string for every printed entry, JSON's included."""
+    eqs = lg.derive(lg.load(name))
+    exprs = [*eqs.mass_matrix, *eqs.forcing, *eqs.equations, *eqs.conserved_quantities.values()]
+    if eqs.is_constrained:
+        exprs += [*eqs.constraint_jacobian, *eqs.constraint_acceleration]
+    for e in exprs:
+        assert R.text(e) == sympy.sstr(e)
+
+
+def _random_expression(rng: random.Random, depth: int) -> sympy.Expr:
+    x, y, m, t1, t2 = sympy.symbols("x y m theta1 theta2")
+    F = sympy.Function("F")
+    atoms = [x, y, m, t1, t2, t1 - t2, sympy.pi, sympy.Integer(2), sympy.Rational(1, 3), sympy.Rational(-5, 7),
+             sympy.Float(1.5), sympy.I, sympy.E, sympy.Integer(-1)]
+    funcs = [sympy.sin, sympy.cos, sympy.exp, sympy.sqrt, lambda a: a ** 2, lambda a: 1 / a,
+             lambda a: a ** sympy.Rational(3, 2), sympy.Abs, F, lambda a: sympy.Mod(a, 3), lambda a: a ** x]
+
+    def build(d: int) -> sympy.Expr:
+        r = rng.random()
+        if d == 0 or r < 0.25:
+            return rng.choice(atoms)
+        if r < 0.45:
+            return rng.choice(funcs)(build(d - 1))
+        if r < 0.75:
+            return sympy.Add(*[build(d - 1) for _ in range(rng.randint(2, 4))])
+        return sympy.Mul(*[build(d - 1) for _ in range(rng.randint(2, 3))])
+
+    return build(depth)
+
+
+def test_text_is_sympys_text_for_any_expression():
+    """Numbers among the factors, denominators, I, floats, unevaluated and non-commutative products,
+    Mod (a function printed at a product's precedence), powers of sums: the same string as sstr."""
+    rng = random.Random(22)
+    A, B = sympy.symbols("A B", commutative=False)
+    x, m = sympy.symbols("x m")
+    special = [sympy.Mul(2, x, sympy.Integer(3), evaluate=False), sympy.Mul(1, x, evaluate=False) + m,
+               -m * (x + 1) / 3, x * A * B + m, sympy.Add(x, m, evaluate=False) * 2, -(x + m), x ** -2 * m / 7]
+    for e in special + [_random_expression(rng, 3) for _ in range(250)]:
+        assert R.text(e) == sympy.sstr(e), e

@@ -34,8 +34,11 @@ from collections.abc import Iterable
 
 import symengine as se
 import sympy
+from sympy.core.exprtools import decompose_power
 from sympy.core.mul import _args_sortkey
+from sympy.core.sorting import default_sort_key
 from sympy.sets.sets import FiniteSet
+from sympy.printing.precedence import PRECEDENCE, precedence
 from sympy.printing.str import StrPrinter
 
 __all__ = ["readable", "readable_many", "trigonometric_polynomial", "expanded_terms_bound", "text", "MAX_TERMS"]
@@ -628,13 +631,26 @@ def _plain_factor(f) -> bool:
 
 # ------------------------------------------------------------------------------ text
 class _Printer(StrPrinter):
-    """``sympy.sstr``, with the text of each function printed once: the same few hundred
-    sin(theta_i - theta_j) recur in every entry of a chain's equations, and printing their
-    arguments was half the time of printing the equations."""
+    """``sympy.sstr``, the same string, faster for the equations' many entries.
+
+    The text of each function is printed once: the same few hundred sin(theta_i - theta_j) recur
+    in every entry of a chain's equations. Sums and products whose terms are products of a rational
+    number and factors that are not numbers (symbols, functions of symbols, their positive powers,
+    sums: the readable forms) are printed here directly, each distinct factor's text, sort key and
+    power decomposition computed once: SymPy's ``_print_Add`` orders the terms by ``as_terms``
+    (``complex()`` of every coefficient, a power decomposition of every factor) and its
+    ``_print_Mul`` sorts the factors by ``sort_key`` and asks ``could_extract_minus_sign`` (which
+    negates the product) and ``precedence`` of each; together three quarters of printing the
+    equations of a chain. Anything else (numbers among the factors, a denominator other than the
+    coefficient's, an unevaluated product, non-commutative factors) goes to SymPy's printer."""
 
     def __init__(self):
         super().__init__()
         self._functions: dict = {}
+        self._factors: dict = {}  # factor -> (its text in a product, its sort key), or None: not plain
+        self._powers: dict = {}  # factor -> (base, exponent) as sympy's decompose_power gives them
+        self._keys: dict = {}  # base -> default_sort_key(base)
+        self._complex: dict = {}  # rational -> complex(rational)
 
     def _print_Function(self, expr) -> str:
         out = self._functions.get(expr)
@@ -644,7 +660,120 @@ class _Printer(StrPrinter):
             out = self._functions[expr] = super()._print_Function(expr)
         return out
 
+    def _factor(self, f):
+        """(text of `f` as a factor of a product, its sort key), or None when `f` is not a plain
+        factor: a symbol, a function, a sum (parenthesized), or a positive rational power of one
+        of these, with at least one free symbol and commutative."""
+        info = self._factors.get(f, False)
+        if info is not False:
+            return info
+        base = f.base if f.is_Pow else f
+        plain = (f.is_commutative and (base.is_Symbol or base.is_Function or base.is_Add) and not base.is_number
+                 and (not f.is_Pow or (f.exp.is_Rational and f.exp.is_positive))
+                 and (f.is_Add or precedence(f) > _MUL_PRECEDENCE))  # never parenthesized in a product
+        if not plain:
+            info = None
+        elif f.is_Add:
+            info = (f"({self._print(f)})", f.sort_key())
+        else:
+            info = (self._print(f), f.sort_key())
+        if len(self._factors) > 8192:
+            self._factors.clear()
+        self._factors[f] = info
+        return info
 
+    def _coefficient(self, expr):
+        """(the rational coefficient, the other factors) of a product or a single factor, or None
+        when SymPy's printing of it is not the plain one (see the class docstring)."""
+        if expr.is_Mul:
+            args = expr.args
+            first = args[0]
+            if first.is_Number:
+                if not first.is_Rational or first is _ONE_SYMPY:
+                    return None
+                return first, args[1:]
+            return _ONE_SYMPY, args
+        return _ONE_SYMPY, (expr,)
+
+    def _print_Mul(self, expr) -> str:
+        split = self._coefficient(expr)
+        if split is None:
+            return super()._print_Mul(expr)
+        c, rest = split
+        infos = []
+        for f in rest:
+            info = self._factor(f)
+            if info is None:
+                return super()._print_Mul(expr)
+            infos.append(info)
+        sign = ""
+        if c.is_negative:
+            sign, c = "-", -c
+        a = [] if c.p == 1 else [str(c.p)]
+        a += [text for text, _ in sorted(infos, key=lambda info: info[1])] if len(infos) > 1 else [infos[0][0]]
+        out = sign + "*".join(a)
+        return out if c.q == 1 else f"{out}/{c.q}"
+
+    def _power(self, f):
+        """sympy's ``decompose_power(f)``, once per factor."""
+        out = self._powers.get(f)
+        if out is None:
+            if len(self._powers) > 8192:
+                self._powers.clear()
+            out = self._powers[f] = decompose_power(f)
+        return out
+
+    def _sort_key(self, base):
+        out = self._keys.get(base)
+        if out is None:
+            if len(self._keys) > 8192:
+                self._keys.clear()
+            out = self._keys[base] = default_sort_key(base)
+        return out
+
+    def _print_Add(self, expr, order=None) -> str:
+        if order is not None or self.order is not None:
+            return super()._print_Add(expr, order=order)
+        # the terms in the order of Expr.as_ordered_terms() (as_terms and _parse_order's key, for
+        # order=None: lex), with the plain terms only
+        terms = []
+        gens: set = set()
+        for term in expr.args:
+            split = self._coefficient(term)
+            if split is None:
+                return super()._print_Add(expr, order=order)
+            c, rest = split
+            powers = {}
+            for f in rest:
+                if self._factor(f) is None:
+                    return super()._print_Add(expr, order=order)
+                base, e = self._power(f)
+                powers[base] = e
+                gens.add(base)
+            z = self._complex.get(c)
+            if z is None:
+                z = self._complex[c] = complex(c)
+            terms.append((term, powers, z))
+        index = {g: i for i, g in enumerate(sorted(gens, key=self._sort_key))}
+        keyed = []
+        for term, powers, z in terms:
+            monom = [0] * len(index)
+            for base, e in powers.items():
+                monom[index[base]] = -e
+            keyed.append(((tuple(monom), (), ((bool(z.imag), z.imag), (z.real, z.imag))), term))
+        keyed.sort(key=lambda kt: kt[0])
+        parts = []
+        for _, term in keyed:
+            t = self._print(term)
+            if t.startswith("-"):
+                parts.extend(("-", t[1:]))
+            else:
+                parts.extend(("+", t))
+        sign = parts.pop(0)
+        return ("" if sign == "+" else sign) + " ".join(parts)
+
+
+_MUL_PRECEDENCE = PRECEDENCE["Mul"]
 _PRINTER = _Printer()
 
 
