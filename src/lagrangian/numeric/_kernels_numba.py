@@ -528,6 +528,24 @@ def _dense(t, h, y, F, tq, out):
 
 
 @njit(cache=True)
+def _dense_row(t, h, y, F, tq, X, j):
+    """_dense into the row X[j] of a 2-d array, written through its indices (the same numbers as
+    _dense(..., X[j]), without the view of the row, whose reference counting costs an output
+    of a small model as much as its interpolation)."""
+    s = (tq - t) / h
+    s1 = 1.0 - s
+    for i in range(X.shape[1]):
+        v = (0.0 + F[6, i]) * s
+        v = (v + F[5, i]) * s1
+        v = (v + F[4, i]) * s
+        v = (v + F[3, i]) * s1
+        v = (v + F[2, i]) * s
+        v = (v + F[1, i]) * s1
+        v = (v + F[0, i]) * s
+        X[j, i] = y[i] + v
+
+
+@njit(cache=True)
 def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, modes, live, hold,
                         held):
     """The three extra stages and the coefficients F of the order-7 interpolant."""
@@ -1086,7 +1104,7 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
                 for i in range(nx):
                     X_out[j, i] = ynew[i]
             else:
-                _dense(t, h, y, F, t_out[j], X_out[j])
+                _dense_row(t, h, y, F, t_out[j], X_out, j)
             j += 1
         if proj != 0:  # onto the constraints: the outputs, then the state the next step starts from
             for jj in range(j0, j):
