@@ -573,6 +573,59 @@ def test_subcommand_help(capsys, command):
     assert f"lagrangian {command}" in out
 
 
+def _full_parser_commands():
+    """{command: (its module, its sub-parser)} when every module registers its commands."""
+    import argparse
+
+    from lagrangian import cli
+
+    out = {}
+    for module in cli._command_modules():
+        p = argparse.ArgumentParser(prog="lagrangian")
+        sub = p.add_subparsers(dest="command", metavar="COMMAND")
+        module.register(sub, argparse.RawDescriptionHelpFormatter)
+        out.update({name: (module.__name__.rsplit(".", 1)[1], parser) for name, parser in sub.choices.items()})
+    return out
+
+
+def test_the_command_table_names_every_command_and_its_module():
+    """cli.COMMANDS (a command line naming a command builds that command's module alone, issue 22)
+    lists exactly the commands the modules register, each with its module."""
+    from lagrangian import cli
+
+    full = _full_parser_commands()
+    assert {name: module for name, (module, _) in full.items()} == cli.COMMANDS, \
+        "cli.COMMANDS must list every command with the module that registers it (a new command: add it there)"
+
+
+def test_a_command_alone_parses_and_helps_as_with_every_command():
+    """The parser built for one command (`lagrangian derive ...`) gives the same help and the same
+    parse as the parser with every command."""
+    import argparse
+
+    from lagrangian import cli
+
+    def sub_parser(parser, name):
+        action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        return action.choices, action.choices[name]
+
+    full = cli._parser(["--help"])
+    for name in cli.COMMANDS:
+        choices, alone = sub_parser(cli._parser([name]), name)
+        assert list(choices) == [c for c, m in cli.COMMANDS.items() if m == cli.COMMANDS[name]]
+        assert alone.format_help() == sub_parser(full, name)[1].format_help(), name
+    argv = ["derive", "pendulum-chain-3", "--json"]
+    assert vars(cli._parser(argv).parse_args(argv)) == vars(full.parse_args(argv))
+
+
+def test_unknown_command_lists_every_command(capsys):
+    rc, out, err = run_cli(capsys, "derivee", "cart-pendulum")
+    assert rc == 2 and out == ""
+    assert "invalid choice: 'derivee'" in err
+    for command in ("derive", "simulate", "serve", "fit", "export"):
+        assert f"'{command}'" in err
+
+
 def test_top_level_help_and_version(capsys):
     rc, out, _ = run_cli(capsys, "--help")
     assert rc == 0

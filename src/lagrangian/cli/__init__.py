@@ -8,6 +8,7 @@ Errors go to stderr, without a traceback.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
 from typing import Sequence
@@ -24,16 +25,34 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"lagrangian: error: {message}\nRun `{self.prog} --help` for the options and an example.\n")
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser of the command line `argv` (sys.argv[1:] when None): with every command, or, when
+    `argv` starts with a command of :data:`COMMANDS`, with that command alone (what it parses and
+    prints is the same; the others' options are not built: `lagrangian derive` starts faster)."""
     p = _Parser(prog="lagrangian", description="Lagrangian dynamics of mechanical systems: derive Lagrange's "
                 "equations, diagnose the mass matrix and simulate, from a TOML model file or a built-in example.",
                 epilog="Example: lagrangian derive cart-pendulum")
     p.add_argument("--version", action="version", version=f"lagrangian {_version()}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     fmt = argparse.RawDescriptionHelpFormatter
-    for module in _command_modules():
+    args = sys.argv[1:] if argv is None else argv
+    named = COMMANDS.get(args[0]) if len(args) > 0 and isinstance(args[0], str) else None
+    for module in [importlib.import_module(f".{named}", __name__)] if named else _command_modules():
         module.register(sub, fmt)
     return p
+
+
+#: The module of each command, so that a command line naming one builds (and imports) its module
+#: alone; a command not listed here still works (every module is registered). Kept equal to what
+#: the modules register by tests/cli/test_cli.py.
+COMMANDS = {
+    **dict.fromkeys(("derive", "simulate", "check", "examples"), "_core"),
+    **dict.fromkeys(("equilibria", "steady", "linearize", "modes", "sweep"), "_analysis"),
+    **dict.fromkeys(("kinematics", "inverse-dynamics"), "_kinematics"),
+    "animate": "_visual", "report": "_report", "serve": "_serve",
+    **dict.fromkeys(("lqr", "place", "export"), "_control"),
+    "optimize": "_optimize", "fit": "_fit",
+}
 
 
 def _command_modules():
@@ -51,7 +70,7 @@ def _version() -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status."""
-    parser = _parser()
+    parser = _parser(argv)
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)
