@@ -299,3 +299,38 @@ def test_text_is_sympys_text_for_any_expression():
                -m * (x + 1) / 3, x * A * B + m, sympy.Add(x, m, evaluate=False) * 2, -(x + m), x ** -2 * m / 7]
     for e in special + [_random_expression(rng, 3) for _ in range(250)]:
         assert R.text(e) == sympy.sstr(e), e
+
+
+@pytest.mark.parametrize("name", ["four-bar", "heavy-top", "cart-pendulum-extended", "mck", "spherical-pendulum-3d",
+                                  "robot-arm-3-joints", "pendulum-chain-6", "slider-crank"])
+def test_equations_and_energy_built_as_sympy_builds_them(name):
+    """The residuals sum_j M_ij q_ddot_j - f_i - (G^T lambda)_i and the energy q_dot^T M q_dot / 2 - L0
+    are built from the readable M and f without SymPy's flattening where it would only sort (issue 22):
+    the same objects as sympy.Add and sympy.Mul build (equal, and the same tree)."""
+    eqs = lg.derive(lg.load(name))
+    assert eqs._mass_matrix_free_of_velocities
+    M, f, qdd, R, v, n = (eqs.mass_matrix, eqs.forcing, eqs.accelerations, eqs.constraint_forces, eqs.velocities,
+                          eqs.n)
+    for i, e in enumerate(eqs.equations):
+        expected = sympy.Add(*(M[i, j] * qdd[j] for j in range(n)), -f[i], -R[i])
+        assert e == expected and sympy.srepr(e) == sympy.srepr(expected)
+    if eqs.is_conservative:
+        L0 = eqs.core.L.subs({qd: 0 for qd in eqs.core.qd})
+        kinetic = [sympy.Mul(sympy.S.Half if i == j else 1, M[i, j], v[i], v[j]) for i in range(n) for j in range(i, n)]
+        expected = sympy.Add(*kinetic, eqs.readable(-L0, v))
+        h = eqs._readable_jacobi_integral()
+        assert h == expected and sympy.srepr(h) == sympy.srepr(expected)
+
+
+def test_times_and_plus_are_sympys_mul_and_add():
+    x, y, m, v, w = sympy.symbols("x y m v w")
+    cases = [(x + y, 1, [v]), (-3 * m * sympy.cos(x - y), sympy.S.Half, [v ** 2]), (sympy.S.Zero, 1, [v]),
+             (2 * sympy.sqrt(2) * m, 1, [v, w]), (sympy.Rational(-1, 3) * (x + y), sympy.S.Half, [v]),
+             (sympy.Float(1.5) * m, 1, [v]), (m, sympy.S.Half, [v ** 2])]
+    for expr, coef, extra in cases:
+        got, expected = R.times(expr, sympy.S(coef), extra), sympy.Mul(coef, expr, *extra)
+        assert got == expected and sympy.srepr(got) == sympy.srepr(expected)
+    for terms in ([x, -x], [x + y, -y, 2], [m * v, m * w, x * y], [], [sympy.S.Zero], [x * v, 2 * x * v]):
+        got, expected = R.plus(list(terms)), sympy.Add(*terms)
+        assert got == expected and sympy.srepr(got) == sympy.srepr(expected)
+    assert R.negated(x - 2 * y) == [-x, 2 * y]

@@ -32,7 +32,7 @@ import sympy
 from ..errors import LagrangianError, ModelError
 from ..model import Model
 from ..model._kinematics import to_sympy
-from ._readable import readable, readable_many, text as _text
+from ._readable import negated, plus, readable, readable_many, text as _text, times
 
 __all__ = ["Equations", "LinearSystem", "SymbolicCore"]
 
@@ -233,7 +233,10 @@ class Equations:
             # readable form of E_i is made of those of M and f, already computed
             M, f, qdd = self.mass_matrix, self.forcing, self.accelerations
             R = self.constraint_forces
-            return tuple(sympy.Add(*(M[i, j] * qdd[j] for j in range(self.n)), -f[i], -R[i]) for i in range(self.n))
+            # sympy.Add(*(M[i, j] * qdd[j] for j in range(n)), -f[i], -R[i]), built without SymPy's
+            # flattening where it would only sort (the same objects; the text of a 20-link chain)
+            return tuple(plus([times(M[i, j], sympy.S.One, [qdd[j]]) for j in range(self.n)]
+                              + negated(f[i]) + negated(R[i])) for i in range(self.n))
         on = list(self.accelerations) + list(self.velocities) + list(self.multipliers)
         return tuple(self.readable(e, on) for e in self._residuals_se)
 
@@ -548,9 +551,11 @@ class Equations:
             return self.readable(self._jacobi_se, self.velocities)
         M, v, n = self.mass_matrix, self.velocities, self.n
         L0 = self.core.L.subs({qd: 0 for qd in self.core.qd})
-        kinetic = [sympy.Mul(sympy.S.Half if i == j else sympy.S.One, M[i, j], v[i], v[j])
+        # sympy.Add(*(Mul(1/2 or 1, M[i, j], v[i], v[j]) for i <= j), readable(-L0)), built without
+        # SymPy's flattening where it would only sort (the same object)
+        kinetic = [times(M[i, j], sympy.S.Half, [v[i] ** 2]) if i == j else times(M[i, j], sympy.S.One, [v[i], v[j]])
                    for i in range(n) for j in range(i, n)]
-        return sympy.Add(*kinetic, self.readable(-L0, v))
+        return plus(kinetic + [self.readable(-L0, v)])
 
     # ------------------------------------------------------------- printing
     def equation(self, i: int) -> sympy.Eq:

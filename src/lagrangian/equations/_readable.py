@@ -582,7 +582,7 @@ def _factors(powers) -> list:
     return [_power(b, x) for b, x in powers]
 
 
-_ONE_SYMPY, _MINUS_ONE = sympy.S.One, sympy.S.NegativeOne
+_ONE_SYMPY, _MINUS_ONE, _ZERO = sympy.S.One, sympy.S.NegativeOne, sympy.S.Zero
 
 
 def _mul(coef: sympy.Expr, factors: list) -> sympy.Expr:
@@ -620,6 +620,27 @@ def _add_sympy(terms: list) -> sympy.Expr:
     if len(parts) != len(terms):
         return sympy.Add(*terms)
     return sympy.Add._from_args(sorted(terms, key=_args_sortkey), True)
+
+
+def times(expr: sympy.Expr, coef: sympy.Expr, extra: list) -> sympy.Expr:
+    """``sympy.Mul(coef, expr, *extra)`` (`coef` a rational, `extra` symbols or their powers with
+    bases not among the factors of `expr`: the velocities times an entry of M), built by `_mul`
+    without SymPy's flattening where it would only sort the factors."""
+    c, factors = expr.as_coeff_mul()
+    if not c.is_Rational or c.is_zero or any(f.is_Number for f in factors):
+        return sympy.Mul(coef, expr, *extra)
+    return _mul(c * coef, [*factors, *extra])
+
+
+def plus(terms: list) -> sympy.Expr:
+    """``sympy.Add(*terms)``: sums among them opened, zeros left out, then `_add_sympy`."""
+    flat = [t for term in terms for t in sympy.Add.make_args(term) if t is not _ZERO]
+    return _add_sympy(flat) if flat else sympy.S.Zero
+
+
+def negated(expr: sympy.Expr) -> list:
+    """The terms of ``-expr`` (SymPy's negation of each term of the sum)."""
+    return [-t for t in sympy.Add.make_args(expr)]
 
 
 def _plain_factor(f) -> bool:
