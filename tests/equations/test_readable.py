@@ -334,3 +334,49 @@ def test_times_and_plus_are_sympys_mul_and_add():
         got, expected = R.plus(list(terms)), sympy.Add(*terms)
         assert got == expected and sympy.srepr(got) == sympy.srepr(expected)
     assert R.negated(x - 2 * y) == [-x, 2 * y]
+
+
+def _depends_on_reference(expr, var, samples=6):
+    """_depends_on as it was before its memo (issue 22): the reference its decisions are checked against."""
+    if var not in expr.free_symbols:
+        return False
+    d = expr.diff(var)
+    if d == 0:
+        return False
+    symbols = sorted(d.free_symbols | expr.free_symbols, key=str)
+    rng = np.random.default_rng(12345)
+    for _ in range(samples):
+        point = {s: se.Float(float(v)) for s, v in zip(symbols, rng.uniform(0.3, 1.7, len(symbols)))}
+        value = complex(d.subs(point).n())
+        scale = abs(complex(expr.subs(point).n())) + 1.0
+        if not np.isfinite(value) or abs(value) > 1e-10 * scale:
+            return True
+    return False
+
+
+@pytest.mark.parametrize("name", ["kepler", "heavy-top", "gyroscope", "rolling-disk", "spherical-pendulum-3d",
+                                  "pendulum-chain-5", "sliding-disk-heavy-rod", "robot-arm-3-joints"])
+def test_dependence_with_a_memo_decides_as_without(name):
+    """cyclic_coordinates asks _depends_on(L, q_i) for every coordinate with one memo (L's free symbols,
+    points and values found once): the same decisions as the reference, call by call."""
+    from lagrangian.equations._equations import _depends_on
+
+    eqs = lg.derive(lg.load(name))
+    core = eqs.core
+    memo: dict = {}
+    for qi in (*core.q, *core.qd, core.t):
+        assert _depends_on(core.L, qi, memo=memo) == _depends_on(core.L, qi) == _depends_on_reference(core.L, qi)
+    assert {c.name for c in eqs.cyclic_coordinates} == {
+        c.name for c, qi in zip(eqs.coordinates, core.q) if not _depends_on_reference(core.L, qi)
+        and se.expand(core.Q[eqs.coordinates.index(c)] - core.D.diff(core.qd[eqs.coordinates.index(c)])) == 0
+        and (core.G is None or all(se.expand(core.G[k, eqs.coordinates.index(c)]) == 0 for k in range(core.G.rows)))}
+
+
+def test_dependence_that_cancels_is_not_counted():
+    from lagrangian.equations._equations import _depends_on
+
+    x, y, a = se.symbols("x y a")
+    memo: dict = {}
+    expr = a * (se.sin(x) ** 2 + se.cos(x) ** 2) + y ** 2
+    assert not _depends_on(expr, x, memo=memo) and _depends_on(expr, y, memo=memo) and _depends_on(expr, a, memo=memo)
+    assert not _depends_on(expr, se.Symbol("z"), memo=memo)

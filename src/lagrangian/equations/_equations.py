@@ -511,8 +511,9 @@ class Equations:
         the i-th generalized force and damping force vanish (Q_i - dD/dq_dot_i = 0)."""
         core = self.core
         out = []
+        memo: dict = {}  # L's free symbols, sample points and values, for every coordinate
         for i, (c, qi, qdi, Qi) in enumerate(zip(self.coordinates, core.q, core.qd, core.Q)):
-            if qi in core.L.free_symbols and _depends_on(core.L, qi):
+            if _depends_on(core.L, qi, memo=memo):
                 continue
             if se.expand(Qi - core.D.diff(qdi)) != 0:
                 continue
@@ -756,21 +757,42 @@ class Equations:
         return f"<Equations of {self.model.name!r}: {self.n} coordinates ({', '.join(self.state_names[:self.n])})>"
 
 
-def _depends_on(expr: se.Basic, var: se.Symbol, samples: int = 6) -> bool:
+def _depends_on(expr: se.Basic, var: se.Symbol, samples: int = 6, memo: dict | None = None) -> bool:
     """Whether `expr` really depends on `var`: d expr/d var is evaluated at random points, so
-    dependence that cancels (sin^2 + cos^2 of a rotation angle) is not counted."""
-    if var not in expr.free_symbols:
+    dependence that cancels (sin^2 + cos^2 of a rotation angle) is not counted.
+
+    `memo` (one dict for one `expr`, several `var`): its free symbols, and the points and the values
+    of `expr` there, found once (the points are drawn from the symbols of `expr`, among which are
+    those of its derivative: the same for every `var`; L of a 20-link chain, 20 coordinates)."""
+    if memo is None:
+        memo = {}
+    free = memo.get("free")
+    if free is None:
+        free = memo["free"] = expr.free_symbols
+    if var not in free:
         return False
     d = expr.diff(var)
     if d == 0:
         return False
-    symbols = sorted(d.free_symbols | expr.free_symbols, key=str)
-    rng = np.random.default_rng(12345)
-    for _ in range(samples):
-        point = {s: se.Float(float(v)) for s, v in zip(symbols, rng.uniform(0.3, 1.7, len(symbols)))}
+    symbols = memo.get("symbols")
+    if symbols is None:
+        symbols = memo["symbols"] = sorted(free, key=str)
+    if not set(d.free_symbols) <= free:  # not from SymEngine's diff: the points of these symbols, not cached
+        symbols, memo = sorted(d.free_symbols | free, key=str), {}
+    points = memo.get("points")
+    if points is None or len(points) < samples:  # the draws of the generator seeded 12345, in turn
+        rng = np.random.default_rng(12345)
+        points = memo["points"] = [{s: se.Float(float(v)) for s, v in zip(symbols, rng.uniform(0.3, 1.7, len(symbols)))}
+                                   for _ in range(samples)]
+        memo["scales"] = []
+    scales = memo["scales"]
+    for k in range(samples):
+        point = points[k]
         try:
             value = complex(d.subs(point).n())
-            scale = abs(complex(expr.subs(point).n())) + 1.0
+            if k == len(scales):
+                scales.append(abs(complex(expr.subs(point).n())) + 1.0)
+            scale = scales[k]
         except (RuntimeError, TypeError, ValueError):
             return True
         if not np.isfinite(value) or abs(value) > 1e-10 * scale:
