@@ -116,7 +116,7 @@ def _problems(text):
     # a frame's unknown parent: the joints' child frames are among the suggestions
     (SHOULDER + TOOL.replace('parent = "shoulder"', 'parent = "shoulderr"'),
      r"\[frames\[0\]\.parent\].*no frame is named 'shoulderr' \(did you mean 'shoulder'\?\); use \"world\" "
-     r"\(the inertial frame\), the name of a \[\[frames\]\] table or a joint's child frame"),
+     r"\(the inertial frame\) or the name of a \[\[frames\]\] table or of a joint's child frame"),
     # a cycle through a frame and a joint: reported once, under the frame
     ('[[frames]]\nname = "a"\nparent = "j"\n[[joints]]\nname = "j"\ntype = "revolute"\nparent = "a"\n',
      r"\[frames\[0\]\.parent\].*the frames a, j form a cycle of parents \(a -> j -> a\): every frame must hang, "

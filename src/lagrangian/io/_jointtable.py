@@ -17,7 +17,8 @@
     limit_stiffness = "k_stop"       # ... and enforced by one-sided springs of this stiffness, if given
     damping = "c"                    # optional: viscous damping, D = c q_dot**2 / 2 (per coordinate: a list)
     friction = "F"                   # optional: Coulomb friction, Q = -F sign(q_dot)
-    sequence = "xyz"                 # spherical and floating joints: the angle sequence
+    sequence = "xyz"                 # spherical and floating joints: the angle sequence, or
+    parametrization = "quaternion"   #   four Euler parameters with a unit-norm constraint (no singular posture)
 
 A joint's coordinates are declared by the joint (``coordinates = [...]`` at the top of the file may
 list them too, to fix their order; it may be left out when joints declare them all). Joints are
@@ -37,7 +38,7 @@ __all__ = ["JOINT_KEYS", "declare_joint_coordinates", "read_joints"]
 
 #: The keys of a [[joints]] table.
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "rotation", "matrix", "rpy", "axis", "coordinates",
-              "limits", "limit_stiffness", "damping", "friction", "sequence")
+              "limits", "limit_stiffness", "damping", "friction", "sequence", "parametrization")
 
 
 def _names(table: Mapping[str, Any]) -> list[str]:
@@ -51,9 +52,10 @@ def _names(table: Mapping[str, Any]) -> list[str]:
         return [given]
     if isinstance(given, list):
         return [c for c in given if isinstance(c, str)]
-    axis, sequence = table.get("axis"), table.get("sequence")
+    axis, sequence, pz = table.get("axis"), table.get("sequence"), table.get("parametrization")
     return list(default_coordinates(name, type_, axis if isinstance(axis, str) else None,
-                                    sequence if isinstance(sequence, str) else None))
+                                    sequence if isinstance(sequence, str) else None,
+                                    pz if isinstance(pz, str) else None))
 
 
 def declare_joint_coordinates(reader, value: object) -> None:
@@ -106,7 +108,7 @@ def build_joint(reader, entry, parent: str | None = None) -> bool:
         return False
     kwargs: dict[str, Any] = {}
     before = len(reader.problems)
-    for k in ("parent", "child", "axis", "coordinates", "sequence"):
+    for k in ("parent", "child", "axis", "coordinates", "sequence", "parametrization"):
         if k in table:
             kwargs[k] = table[k]
     if parent is not None:
@@ -144,7 +146,8 @@ def build_joint(reader, entry, parent: str | None = None) -> bool:
                 kwargs[k] = reader.expr(v, f"{key}.{k}")
     if "limits" in table:
         kwargs["limits"] = _limits(reader, table["limits"], f"{key}.limits")
-    if len(reader.problems) > before or any(v is None for k, v in kwargs.items() if k != "sequence"):
+    if len(reader.problems) > before or any(v is None for k, v in kwargs.items()
+                                            if k not in ("sequence", "parametrization")):
         entry.ok = False
         if isinstance(table.get("child", name), str):
             reader.frame_names.setdefault(table.get("child", name), None)

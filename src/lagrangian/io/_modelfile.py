@@ -966,7 +966,8 @@ class _Reader:
             elif parent not in named and parent not in children:
                 self.problem(f"{entry.key}.parent", f"no frame is named '{parent}'"
                              f"{did_you_mean(parent, [WORLD, *named, *children])}; use \"world\" (the inertial "
-                             "frame), the name of a [[frames]] table or a joint's child frame")
+                             "frame) or the name of a [[frames]] table" + (" or of a joint's child frame" if children
+                                                                          else ""))
             elif _cycle(named, entry.name, children) and entry.name not in in_reported_cycle:
                 loop = _cycle(named, entry.name, children)
                 in_reported_cycle.update(loop)
@@ -1784,6 +1785,12 @@ class _Reader:
                     out["sample_time"] = sample_time
             else:
                 self.unknown_key(key, name, _SIMULATION_KEYS, "[simulation]")
+        given = out.get("initial", {})  # a quaternion joint's q0 = 1 (Model.add_joint), unless the file gives one
+        defaults = {k: v for j in self.model.joints.values() if j.parametrization == "quaternion"
+                    and not any(c.name in given for c in j.coordinates[-4:])
+                    for k, v in self.model.simulation.get("initial", {}).items() if k == j.coordinates[-4].name}
+        if defaults:
+            out["initial"] = {**defaults, **given}
         self.model.simulation = out
 
     def read_initial(self, value: object) -> dict[str, float] | None:

@@ -46,11 +46,15 @@ Vector3 = tuple[sympy.Expr, sympy.Expr, sympy.Expr]
 @dataclass(frozen=True)
 class Factor:
     """One factor of a rotation: an elementary rotation by `angle` about the unit `axis` (in the
-    axes it starts from), or a general rotation `matrix` (3x3 tuple of rows)."""
+    axes it starts from), or a general rotation `matrix` (3x3 tuple of rows). A matrix factor may
+    give its own angular velocity `rate` (3 expressions of q and q_dot, in its axes) in place of the
+    vector of F^T F': a quaternion joint's 2 G(q) q_dot (model._joints), equal to it on the unit
+    sphere and linear in q_dot; its matrix is then a rotation only there (not checked as one)."""
 
     axis: Vector3 | None = None
     angle: sympy.Expr | None = None
     matrix: tuple | None = None
+    rate: tuple | None = None
 
     def as_matrix(self) -> sympy.Matrix:
         if self.matrix is not None:
@@ -139,6 +143,8 @@ def factor_rate(f: Factor, kin: "Kinematics"):
 
     if f.matrix is not None:
         F = se.DenseMatrix(3, 3, [kin.se(x) for row in f.matrix for x in row])
+        if f.rate is not None:
+            return F, [kin.se(w) for w in f.rate]
         dF = se.DenseMatrix(3, 3, [kin.rate(x) for row in f.matrix for x in row])
         W = F.T * dF
         return F, [(W[2, 1] - W[1, 2]) / 2, (W[0, 2] - W[2, 0]) / 2, (W[1, 0] - W[0, 1]) / 2]

@@ -27,7 +27,7 @@ floating       6            translations along the joint frame's x, y, z, then t
                             `sequence` (default ``"xyz"``): a free body
 =============  ===========  ============================================================================
 
-Spherical and floating joints use three angles, not a quaternion, so that the coordinates stay
+Spherical and floating joints use three angles by default, so that the coordinates stay
 independent and the equations stay in the form M q'' = f without a norm constraint. Every choice
 of three angles is singular somewhere; where is documented and chosen here: a Tait-Bryan sequence
 (three different axes, the default ``"xyz"``) is singular where the middle angle is +-pi/2 (the first
@@ -35,6 +35,29 @@ and last axes align), a proper Euler sequence (``"zxz"``, ...) where the middle 
 The default ``"xyz"`` is regular at the joint's reference posture (all angles 0) and within +-pi/2 of
 it in the middle angle; choose the joint frame's rotation so that the motion stays away from the
 singular posture (Model.check and ``lagrangian check`` report a singular mass matrix there).
+
+The singularity-free choice: ``parametrization = "quaternion"`` (Euler parameters). The rotation is
+given by four coordinates q = (q0, q1, q2, q3) (q0 the scalar part) on the unit sphere |q| = 1, a
+holonomic constraint ``<name>_norm``: q0^2 + q1^2 + q2^2 + q3^2 - 1 = 0 (its multiplier
+``lambda_<name>_norm``), kept by the constrained solve and the projection after each step. The
+rotation matrix is R(q) = (q0^2 - v.v) E + 2 v v^T + 2 q0 [v]x (v = (q1, q2, q3)), and the child's
+angular velocity in its own axes is omega = 2 G(q) q_dot with
+
+    G(q) = [[-q1,  q0,  q3, -q2],
+            [-q2, -q3,  q0,  q1],
+            [-q3,  q2, -q1,  q0]]
+
+(Nikravesh's G; the same as the vector of R^T R' on the unit sphere, and linear in q_dot). Every
+orientation, +-pi/2 of any angle included, is a regular point. Since omega does not see the
+direction q_dot ~ q (G q = 0), T alone leaves M singular there, and the compiled solve factors M
+(LDL^T) before it meets the constraint; so the joint adds the term T_n = k (q . q_dot)^2 / 2,
+k = 1 (the "augmented inertia" of Nikravesh), which is zero with its gradient on the constraint
+manifold (q . q_dot = 0 there): its Lagrange terms are k (q_dot . q_dot + q . q_ddot) q, along the
+constraint's gradient and zero where the constraint's second derivative holds, so the motion and
+the multiplier are unchanged, and M = 4 G^T I G + k q q^T (+ translations) is regular. Initial
+state: q0 = 1, the others 0 (the joint frame's axes), unless given; initial rates are
+q_dot = G(q)^T omega / 2 for an angular velocity omega in the child's axes. Default coordinate
+names ``<name>_q0`` .. ``<name>_q3`` (floating: ``<name>_x``, ``<name>_y``, ``<name>_z`` first).
 
 Default coordinate names: revolute and prismatic ``<name>``; cylindrical ``<name>_angle``,
 ``<name>_slide``; universal ``<name>_1``, ``<name>_2``; spherical ``<name>_1`` .. ``<name>_3``; planar
@@ -72,11 +95,15 @@ from ._symbols import check_name, dot
 if TYPE_CHECKING:  # pragma: no cover
     from ._model import Model
 
-__all__ = ["Joint", "JOINT_TYPES", "RotationalDamper", "add_joint", "default_coordinates", "singular_angle"]
+__all__ = ["Joint", "JOINT_TYPES", "PARAMETRIZATIONS", "RotationalDamper", "UnitQuaternion", "add_joint",
+           "coordinate_count", "default_coordinates", "quaternion_matrix", "quaternion_rate", "singular_angle"]
 
 #: The joint types and their numbers of coordinates.
 JOINT_TYPES = {"revolute": 1, "prismatic": 1, "cylindrical": 2, "universal": 2, "spherical": 3, "planar": 3,
                "fixed": 0, "floating": 6}
+
+#: How a spherical or floating joint's rotation is given: three angles (default) or a unit quaternion.
+PARAMETRIZATIONS = ("angles", "quaternion")
 
 #: For a planar joint with the normal `axis`, its two in-plane axes (right-handed with the normal).
 _PLANE = {"z": ("x", "y"), "x": ("y", "z"), "y": ("z", "x")}
@@ -107,7 +134,9 @@ class Joint:
     damping, friction : tuple of sympy.Expr or None
         One per coordinate (a spherical joint's damping: one rotational coefficient).
     sequence : str or None
-        The angle sequence of a spherical or floating joint.
+        The angle sequence of a spherical or floating joint (None with a quaternion).
+    parametrization : str
+        ``"angles"`` or, for a spherical or floating joint, ``"quaternion"``.
     """
 
     name: str
@@ -123,11 +152,15 @@ class Joint:
     friction: tuple | None = None
     sequence: str | None = None
     limit_stiffness: sympy.Expr | None = None
+    parametrization: str = "angles"
 
     @property
     def motion(self) -> tuple[Factor, ...]:
         """The joint's rotations by its coordinates (after the joint frame's R0)."""
         q = self.coordinates
+        if self.parametrization == "quaternion":
+            e = q[-4:]
+            return (Factor(matrix=quaternion_matrix(e), rate=quaternion_rate(e)),)
         if self.type in ("revolute", "cylindrical"):
             return (Factor(axis=self.axes[0], angle=q[0]),)
         if self.type == "universal":
@@ -165,6 +198,43 @@ class Joint:
         return Frame(self.child, self.parent, origin, tuple(self.factors) + self.motion)
 
 
+def quaternion_matrix(e) -> tuple:
+    """R(q) of the unit quaternion q = (q0, q1, q2, q3) (q0 the scalar part), as 3 rows: homogeneous of
+    degree 2, a rotation on the unit sphere (|q|^2 times one elsewhere)."""
+    q0, q1, q2, q3 = e
+    return ((q0**2 + q1**2 - q2**2 - q3**2, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)),
+            (2 * (q1 * q2 + q0 * q3), q0**2 - q1**2 + q2**2 - q3**2, 2 * (q2 * q3 - q0 * q1)),
+            (2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0**2 - q1**2 - q2**2 + q3**2))
+
+
+def quaternion_rate(e) -> tuple:
+    """omega = 2 G(q) q_dot, the angular velocity in the rotated axes of the quaternion q (see the module
+    docstring), as 3 expressions of q and q_dot."""
+    q0, q1, q2, q3 = e
+    d0, d1, d2, d3 = (dot(c) for c in e)
+    return (2 * (-q1 * d0 + q0 * d1 + q3 * d2 - q2 * d3),
+            2 * (-q2 * d0 - q3 * d1 + q0 * d2 + q1 * d3),
+            2 * (-q3 * d0 + q2 * d1 - q1 * d2 + q0 * d3))
+
+
+@dataclass(frozen=True)
+class UnitQuaternion(Element):
+    """The augmented inertia of a quaternion joint's coordinates: T = k (q . q_dot)^2 / 2, zero with its
+    gradient on the unit sphere, so that M is regular and the motion unchanged (see the module docstring)."""
+
+    name: str
+    coordinates: tuple = ()
+    coefficient: sympy.Expr = sympy.Integer(1)
+    kind = "unit quaternion"
+
+    def expressions(self) -> dict[str, sympy.Expr]:
+        return {"coefficient": self.coefficient}
+
+    def contribute(self, kin):
+        s = sum((kin.se(c) * kin.se(dot(c)) for c in self.coordinates), kin.se(sympy.Integer(0)))
+        return Contribution(T=kin.se(self.coefficient) * s * s / 2)
+
+
 @dataclass(frozen=True)
 class RotationalDamper(Element):
     """A rotational damper on the rotations `factors` (a spherical joint's): D = c |omega|^2 / 2, omega
@@ -192,8 +262,16 @@ def singular_angle(sequence: str) -> str:
     return "the middle angle is +-pi/2 (Tait-Bryan angles: the first and last axes align)"
 
 
-def default_coordinates(name: str, type: str, axis=None, sequence=None) -> tuple[str, ...]:
+def coordinate_count(type: str, parametrization: str | None = None) -> int:
+    """The number of coordinates of a joint: JOINT_TYPES, one more for a quaternion."""
+    return JOINT_TYPES[type] + (1 if parametrization == "quaternion" and type in ("spherical", "floating") else 0)
+
+
+def default_coordinates(name: str, type: str, axis=None, sequence=None, parametrization=None) -> tuple[str, ...]:
     """The default coordinate names of a joint (see the module docstring)."""
+    if parametrization == "quaternion" and type in ("spherical", "floating"):
+        quaternion = tuple(f"{name}_q{i}" for i in range(4))
+        return quaternion if type == "spherical" else (f"{name}_x", f"{name}_y", f"{name}_z") + quaternion
     if type in ("revolute", "prismatic"):
         return (name,)
     if type == "cylindrical":
@@ -216,7 +294,8 @@ def _types_text() -> str:
 
 def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, child: str | None = None,
               origin=(0, 0, 0), rotation=None, axis=None, coordinates=None, limits=None, damping=None,
-              friction=None, sequence: str | None = None, limit_stiffness=None) -> Joint:
+              friction=None, sequence: str | None = None, limit_stiffness=None,
+              parametrization: str | None = None) -> Joint:
     """Add a joint to `model` (:meth:`Model.add_joint` documents the arguments). All or nothing: on a
     problem, nothing is added and one ModelError lists every problem found."""
     from .._util import did_you_mean
@@ -238,7 +317,19 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
         extra = did_you_mean(str(type), JOINT_TYPES) if isinstance(type, str) else ""
         raise ModelError([Problem(f"unknown joint type {type!r}{extra}; the types are {_types_text()}",
                                   key=f"{where}.type")])
-    n = JOINT_TYPES[type]
+    quaternion = False
+    if parametrization is not None:
+        if type not in ("spherical", "floating"):
+            problem("parametrization", f"only spherical and floating joints have a parametrization (\"angles\" or "
+                                       f"\"quaternion\"); a {type} joint has none: remove it")
+        elif parametrization not in PARAMETRIZATIONS:
+            extra = did_you_mean(str(parametrization), PARAMETRIZATIONS) if isinstance(parametrization, str) else ""
+            problem("parametrization", f"unknown parametrization {parametrization!r}{extra}; expected \"angles\" "
+                                       "(three angles, the default) or \"quaternion\" (four Euler parameters with "
+                                       "a unit-norm constraint: no singular posture)")
+        else:
+            quaternion = parametrization == "quaternion"
+    n = coordinate_count(type, "quaternion" if quaternion else None)
     child = name if child is None else child
     if not isinstance(child, str) or not child.isidentifier():
         problem("child", f"the child frame's name must be an identifier, e.g. 'upper_arm', got {child!r}")
@@ -271,6 +362,9 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
             problem("axis", f"a {type} joint turns about three axes given by its sequence (default \"xyz\"), not "
                             "one axis: remove axis, or give sequence = \"zyx\" (three of x, y, z)")
         seq = "xyz" if sequence is None else sequence
+        if quaternion and sequence is not None:
+            problem("sequence", f"a quaternion {type} joint has no sequence of angles: remove sequence, or give "
+                                "parametrization = \"angles\"")
         if not (isinstance(seq, str) and len(seq) == 3 and set(seq) <= set("xyz")
                 and seq[0] != seq[1] and seq[1] != seq[2]):
             problem("sequence", f"expected three axes among x, y, z, no two neighbours the same (\"xyz\", \"zyx\", "
@@ -312,14 +406,17 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
                 problems.extend(exc.problems)
 
     # coordinates
+    if quaternion:
+        seq, axes = None, ()
+    pz = "quaternion" if quaternion else None
     if coordinates is None:
-        names = default_coordinates(name, type, axis, seq)
+        names = default_coordinates(name, type, axis, seq, pz)
     elif isinstance(coordinates, str):
         names = (coordinates,)
     else:
         names = tuple(coordinates) if isinstance(coordinates, (list, tuple)) else None
     if names is None or len(names) != n:
-        example = list(default_coordinates(name, type, axis, seq))
+        example = list(default_coordinates(name, type, axis, seq, pz))
         problem("coordinates", f"a {type} joint has {n} coordinate{'s' if n != 1 else ''}, got {coordinates!r}"
                                + (f"; give {n} name{'s' if n != 1 else ''}, e.g. {example}" if n else "; remove it"))
         names = ()
@@ -347,6 +444,10 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
             continue
         new_names.append(cname)
 
+    if quaternion and limits is not None:
+        problem("limits", "a quaternion's components have no limits (they are not angles): remove limits, or give "
+                          "parametrization = \"angles\" to record limits of three angles")
+        limits = None
     limits_t = _per_coordinate_pairs(model, limits, n, where, problem) if limits is not None else (None,) * n
     damping_t = _per_coordinate(model, damping, n, where, "damping", problem, type)
     friction_t = _per_coordinate(model, friction, n, where, "friction", problem, type)
@@ -361,6 +462,15 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
                                        "angles, not a physical stop): remove limit_stiffness")
         elif k_limit is not None and k_limit.is_number and not k_limit > 0:
             problem("limit_stiffness", f"a limit stiffness is positive, got {k_limit}")
+    if quaternion:
+        taken = {c.name for c in model._constraints}
+        if f"{name}_norm" in taken or f"lambda_{name}_norm" in model._all_names():
+            problem("parametrization", f"a quaternion joint adds the constraint '{name}_norm' (multiplier "
+                                       f"'lambda_{name}_norm'), but that name is taken: rename the joint or the "
+                                       "other constraint")
+        if f"{name}_unit" in {e.name for e in model._elements}:
+            problem("parametrization", f"a quaternion joint adds the element '{name}_unit', but an element has "
+                                       "that name: rename the joint or the element")
     if problems:
         raise ModelError(problems)
 
@@ -369,8 +479,15 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
     symbols = {c.name: c for c in model._coordinates}
     q = tuple(symbols[c.name if isinstance(c, sympy.Symbol) else c] for c in names)
     joint = Joint(name, type, parent, child, q, tuple(o), factors, axes, limits_t, damping_t, friction_t, seq,
-                  k_limit)
+                  k_limit, "quaternion" if quaternion else "angles")
     model._frames[child] = joint.frame()
+    if quaternion:
+        e = q[-4:]
+        model._elements.append(UnitQuaternion(model._unique_element_name(f"{name}_unit", "element"), e))
+        model.add_constraint(sum(c**2 for c in e) - 1, name=f"{name}_norm")
+        initial = model.simulation.setdefault("initial", {})
+        if not any(c.name in initial for c in e):
+            initial[e[0].name] = 1.0
     if damping_t is not None:
         if type in ("spherical",):
             model._elements.append(RotationalDamper(model._unique_element_name(f"{name}_damping", "damper"),

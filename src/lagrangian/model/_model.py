@@ -476,7 +476,7 @@ class Model:
 
     def add_joint(self, name: str, type: str, *, parent: str = WORLD, child: str | None = None, origin=(0, 0, 0),
                   rotation=None, axis=None, coordinates=None, limits=None, damping=None, friction=None,
-                  sequence: str | None = None, limit_stiffness=None):
+                  sequence: str | None = None, limit_stiffness=None, parametrization: str | None = None):
         """A joint from the frame `parent` to a new frame `child` (default: the joint's name), with its
         coordinates (declared here unless declared before) and its dampers and friction.
 
@@ -507,6 +507,10 @@ class Model:
         sequence : str, optional
             The angle sequence of a spherical or floating joint (default ``"xyz"``, singular where the
             middle angle is +-pi/2).
+        parametrization : str, optional
+            A spherical or floating joint's rotation: ``"angles"`` (default: the three angles of
+            `sequence`) or ``"quaternion"`` (four Euler parameters ``<name>_q0`` .. ``<name>_q3`` with the
+            unit-norm constraint ``<name>_norm``: no singular posture; see :mod:`lagrangian.model._joints`).
 
         Returns
         -------
@@ -516,7 +520,7 @@ class Model:
 
         return add_joint(self, name, type, parent=parent, child=child, origin=origin, rotation=rotation, axis=axis,
                          coordinates=coordinates, limits=limits, damping=damping, friction=friction,
-                         sequence=sequence, limit_stiffness=limit_stiffness)
+                         sequence=sequence, limit_stiffness=limit_stiffness, parametrization=parametrization)
 
     # ------------------------------------------------------------------- bodies
     def add_rigid_body(self, mass, inertia, position=None, angle=None, *, frame: str | None = None,
@@ -1152,7 +1156,7 @@ class Model:
                     problems.append(Problem(why, key=f"{el.kind} '{el.name}'.radius"))
         for frame in self._frames.values():
             for f in frame.factors:
-                if f.matrix is not None:
+                if f.matrix is not None and f.rate is None:  # (a quaternion's is a rotation on its unit sphere)
                     problems += _rotation_problems(f.matrix, values, f"frame '{frame.name}'.rotation")
         return problems
 

@@ -1,0 +1,287 @@
+"""The singularity-free spherical and floating joint: parametrization = "quaternion" (Euler parameters with the
+unit-norm constraint, omega = 2 G(q) q_dot, the augmented inertia k (q . q_dot)^2 / 2).
+
+Checked against: the rotation matrix and angular velocity of the three-angle joint (the quaternion of the
+same rotation), the three-angle joint's motion away from its singular posture (the same rotation to 1e-9),
+a symmetric free body's closed-form precession, the conserved energy and angular momentum through the
+posture where the angles are singular, a falling floating body's closed form, and the drift of |q| kept by
+the projection."""
+
+import re
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import lagrangian as lg
+from lagrangian.errors import ModelError, ModelFileError
+from lagrangian.io import loads_model
+from lagrangian.model._joints import quaternion_matrix, quaternion_rate
+
+VALUES = dict(m=1.0, g=9.81, l=0.1, I1=0.02, I2=0.03, I3=0.01)
+
+
+def _top(parametrization=None, gravity=True, values=VALUES, floating=False):
+    """A rigid body on a spherical joint at its tip (a heavy top), or free (no gravity), or floating."""
+    m = lg.Model("top")
+    for k, v in values.items():
+        m.parameter(k, v)
+    m.add_joint("ball", "floating" if floating else "spherical", parametrization=parametrization)
+    m.add_rigid_body("m", ["I1", "I2", "I3"], frame="ball", center=(0, 0, 0 if floating else "l"))
+    if gravity:
+        m.add_gravity("g")
+    return m
+
+
+def _qmul(a, b):
+    a0, av, b0, bv = a[0], np.asarray(a[1:]), b[0], np.asarray(b[1:])
+    return np.concatenate(([a0 * b0 - av @ bv], a0 * bv + b0 * av + np.cross(av, bv)))
+
+
+def _quaternion_xyz(a, b, c):
+    """The quaternion of Rx(a) Ry(b) Rz(c) (intrinsic x, y, z: the three-angle joint's default)."""
+    qx = np.array([np.cos(a / 2), np.sin(a / 2), 0, 0])
+    qy = np.array([np.cos(b / 2), 0, np.sin(b / 2), 0])
+    qz = np.array([np.cos(c / 2), 0, 0, np.sin(c / 2)])
+    return _qmul(_qmul(qx, qy), qz)
+
+
+def _G(q):
+    q0, q1, q2, q3 = q
+    return np.array([[-q1, q0, q3, -q2], [-q2, -q3, q0, q1], [-q3, q2, -q1, q0]])
+
+
+_e = sp.symbols("e0:4")
+_R = sp.lambdify(_e, sp.Matrix(quaternion_matrix(_e)), "numpy")
+
+
+def _Rxyz(a, b, c):
+    ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
+    Rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
+    Ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+    Rz = np.array([[cc, -sc, 0], [sc, cc, 0], [0, 0, 1]])
+    return Rx @ Ry @ Rz
+
+
+def test_the_matrix_and_the_angular_velocity_are_those_of_the_rotation():
+    rng = np.random.default_rng(1)
+    R_sym = sp.Matrix(quaternion_matrix(_e))
+    for _ in range(5):
+        a, b, c = rng.uniform(-3, 3, 3)
+        q = _quaternion_xyz(a, b, c)
+        R = np.array(_R(*q), float)
+        assert np.allclose(R, _Rxyz(a, b, c), atol=1e-14)
+        # omega = 2 G q_dot equals the vector of R^T R' for a q_dot tangent to the sphere
+        w = rng.normal(size=3)
+        qd = _G(q).T @ w / 2
+        assert abs(q @ qd) < 1e-15
+        dR = sum(np.array(R_sym.diff(s).subs(dict(zip(_e, q))), float) * v for s, v in zip(_e, qd))
+        W = R.T @ dR
+        assert np.allclose([W[2, 1], W[0, 2], W[1, 0]], w, atol=1e-13)
+        assert np.allclose(W + W.T, 0, atol=1e-13)
+        rate = sp.lambdify([*_e, *(sp.Symbol(f"{s}_dot") for s in _e)], sp.Matrix(quaternion_rate(_e)))
+        assert np.allclose(np.array(rate(*q, *qd), float).ravel(), w, atol=1e-14)
+
+
+def test_the_joint_declares_four_coordinates_the_constraint_and_a_regular_mass_matrix():
+    model = _top("quaternion")
+    assert [c.name for c in model.q] == ["ball_q0", "ball_q1", "ball_q2", "ball_q3"]
+    assert [(c.name, c.kind) for c in model.constraints] == [("ball_norm", "holonomic")]
+    assert model.joints["ball"].parametrization == "quaternion" and model.joints["ball"].sequence is None
+    assert model.simulation["initial"] == {"ball_q0": 1.0}
+    eqs = lg.derive(model)
+    M = sp.lambdify(model.q, eqs.mass_matrix.subs(eqs.parameters), "numpy")
+    I_tip = np.diag([0.02 + 0.01, 0.03 + 0.01, 0.01])  # about the tip: I + m l^2 across the axis
+    for q in (np.array([1.0, 0, 0, 0]), _quaternion_xyz(0.3, np.pi / 2, -1.0), _quaternion_xyz(2, -np.pi / 2, 1)):
+        Mq = np.array(M(*q), float)
+        # M = 4 G^T I_tip G + (k + 4 m l^2) q q^T (k = 1): the body's inertia about the tip in the tangent
+        # directions; along q the augmented inertia k and the centre's r(q) = R(q) c, homogeneous of degree 2
+        assert np.allclose(Mq, 4 * _G(q).T @ I_tip @ _G(q) + (1 + 4 * 1.0 * 0.1**2) * np.outer(q, q), atol=1e-14)
+        assert np.linalg.eigvalsh(Mq).min() > 0.03  # regular at the angles' singular posture too
+    # the three-angle joint is singular there
+    angles = lg.derive(_top())
+    Ma = sp.lambdify(_top().q, angles.mass_matrix.subs(angles.parameters), "numpy")
+    assert abs(np.linalg.det(np.array(Ma(0.3, np.pi / 2, -1.0), float))) < 1e-15
+
+
+def _start(a, b, c, wa, wb, wc):
+    """The quaternion state of the angle state (a, b, c, rates): q and q_dot = G^T omega / 2."""
+    q = _quaternion_xyz(a, b, c)
+    # omega in body axes of Rx(a) Ry(b) Rz(c) from the rates: Rz^T Ry^T (wa e_x) + Rz^T (wb e_y) + wc e_z
+    Rz, Ry = _Rxyz(0, 0, c), _Rxyz(0, b, 0)
+    w = Rz.T @ Ry.T @ np.array([wa, 0, 0]) + Rz.T @ np.array([0, wb, 0]) + np.array([0, 0, wc])
+    return q, _G(q).T @ w / 2, w
+
+
+def _initial(q, qd):
+    return {**{f"ball_q{i}": v for i, v in enumerate(q)}, **{f"ball_q{i}_dot": v for i, v in enumerate(qd)}}
+
+
+def _quaternions(traj):
+    return np.array([traj[f"ball_q{i}"] for i in range(4)]).T, np.array([traj[f"ball_q{i}_dot"] for i in range(4)]).T
+
+
+@pytest.mark.slow
+def test_the_heavy_top_moves_as_with_three_angles_away_from_their_singular_posture():
+    a0 = (0.3, 0.4, -0.2, 1.0, -2.0, 20.0)  # angles and rates; b stays within (-1.2, 1.2) for 0.6 s
+    ta = lg.simulate(lg.derive(_top()), t_end=0.6, initial=dict(zip(
+        ["ball_1", "ball_2", "ball_3", "ball_1_dot", "ball_2_dot", "ball_3_dot"], a0)), rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(ta["ball_2"])) < 1.2
+    q, qd, _ = _start(*a0)
+    tq = lg.simulate(lg.derive(_top("quaternion")), t_end=0.6, initial=_initial(q, qd), rtol=1e-12, atol=1e-12)
+    Q, _ = _quaternions(tq)
+    err = max(np.max(np.abs(np.array(_R(*Q[k]), float) - _Rxyz(ta["ball_1"][k], ta["ball_2"][k], ta["ball_3"][k])))
+              for k in range(len(tq.t)))
+    assert err < 1e-9
+
+
+def _energy_momentum(Q, Qd, values, I_tip, gravity):
+    E, L = [], []
+    for q, qd in zip(Q, Qd):
+        w = 2 * _G(q) @ qd
+        R = np.array(_R(*q), float)
+        V = values["m"] * values["g"] * (R @ [0, 0, values["l"]])[2] if gravity else 0.0
+        E.append(w @ I_tip @ w / 2 + V)
+        L.append(R @ I_tip @ w)
+    return np.array(E), np.array(L)
+
+
+@pytest.mark.slow
+def test_the_heavy_top_through_the_singular_posture_conserves_energy_and_vertical_momentum():
+    # start at b = pi/2 (the three angles' singular posture: their M is singular there) with b_dot != 0
+    q, qd, _ = _start(0.2, np.pi / 2, 0.5, 0.7, 3.0, 15.0)
+    tq = lg.simulate(lg.derive(_top("quaternion")), t_end=2.0, initial=_initial(q, qd), rtol=1e-11, atol=1e-11)
+    Q, Qd = _quaternions(tq)
+    sin_b = np.array([np.array(_R(*x), float)[0, 2] for x in Q])  # R = Rx Ry Rz: R[0, 2] = sin b
+    assert sin_b[0] == pytest.approx(1.0, abs=1e-14) and sin_b.min() < 0.9  # it moves through it and away
+    I_tip = np.diag([0.03, 0.04, 0.01])
+    E, L = _energy_momentum(Q, Qd, VALUES, I_tip, gravity=True)
+    assert np.max(np.abs(E - E[0])) < 1e-8 * abs(E[0])
+    assert np.max(np.abs(L[:, 2] - L[0, 2])) < 1e-8 * np.max(np.abs(L))
+    assert np.max(np.abs(np.sum(Q**2, axis=1) - 1)) < 1e-10  # the projection keeps |q| = 1
+    assert np.max(np.abs(np.sum(Q * Qd, axis=1))) < 1e-9
+
+
+@pytest.mark.slow
+def test_a_symmetric_free_body_precesses_as_the_closed_form_through_every_posture():
+    values = dict(m=1.0, g=0.0, l=0.0, I1=0.03, I2=0.03, I3=0.05)
+    w0 = np.array([1.5, 0.0, 4.0])
+    q0 = _quaternion_xyz(0.0, np.pi / 2, 0.0)  # the singular posture of the angles
+    qd0 = _G(q0).T @ w0 / 2
+    tq = lg.simulate(lg.derive(_top("quaternion", gravity=False, values=values)), t_end=3.0,
+                     initial=_initial(q0, qd0), rtol=1e-11, atol=1e-11)
+    Q, Qd = _quaternions(tq)
+    W = np.array([2 * _G(q) @ qd for q, qd in zip(Q, Qd)])
+    # Euler's equations of a symmetric body: w3 constant, (w1, w2) turning at Omega = (I3 - I1)/I1 * w3
+    Omega = (0.05 - 0.03) / 0.03 * 4.0
+    t = tq.t
+    exact = np.array([1.5 * np.cos(Omega * t), 1.5 * np.sin(Omega * t), 4.0 + 0 * t]).T
+    assert np.max(np.abs(W - exact)) < 1e-8
+    I = np.diag([0.03, 0.03, 0.05])
+    E, L = _energy_momentum(Q, Qd, values, I, gravity=False)
+    assert np.max(np.abs(E - E[0])) < 1e-9 * E[0]
+    assert np.max(np.abs(L - L[0])) < 1e-9 * np.linalg.norm(L[0])  # the whole angular momentum, in world axes
+    assert np.max(np.abs(np.sum(Q**2, axis=1) - 1)) < 1e-10
+
+
+@pytest.mark.slow
+def test_a_floating_quaternion_body_falls_as_the_closed_form_while_it_tumbles():
+    values = dict(m=2.0, g=9.81, l=0.0, I1=0.02, I2=0.03, I3=0.04)
+    model = _top("quaternion", values=values, floating=True)
+    assert [c.name for c in model.q] == ["ball_x", "ball_y", "ball_z", "ball_q0", "ball_q1", "ball_q2", "ball_q3"]
+    q0 = _quaternion_xyz(0.1, np.pi / 2, 0.0)
+    w0 = np.array([0.3, 5.0, 0.2])  # about the intermediate axis: it tumbles
+    init = {**_initial(q0, _G(q0).T @ w0 / 2), "ball_x_dot": 0.5, "ball_z_dot": 2.0}
+    tq = lg.simulate(lg.derive(model), t_end=1.0, initial=init, rtol=1e-11, atol=1e-11)
+    t = tq.t
+    assert np.max(np.abs(tq["ball_z"] - (2.0 * t - 9.81 * t**2 / 2))) < 1e-9
+    assert np.max(np.abs(tq["ball_x"] - 0.5 * t)) < 1e-9
+    Q, Qd = _quaternions(tq)
+    E, L = _energy_momentum(Q, Qd, values, np.diag([0.02, 0.03, 0.04]), gravity=False)
+    assert np.max(np.abs(E - E[0])) < 1e-9 * E[0] and np.max(np.abs(L - L[0])) < 1e-9 * np.linalg.norm(L[0])
+
+
+def test_the_model_file_key_builds_the_same_joint():
+    text = '''name = "top"
+[parameters]
+m = 1.0
+g = 9.81
+l = 0.1
+I1 = 0.02
+I2 = 0.03
+I3 = 0.01
+c = 0.05
+[[joints]]
+name = "ball"
+type = "spherical"
+parametrization = "quaternion"
+damping = "c"
+[[bodies]]
+mass = "m"
+frame = "ball"
+inertia = ["I1", "I2", "I3"]
+center = ["0", "0", "l"]
+[gravity]
+g = "g"
+[simulation]
+t_end = 1.0
+'''
+    a = loads_model(text)
+    b = _top("quaternion")
+    b.parameter("c", 0.05)
+    with pytest.raises(ModelError):  # a model is built once: the damping goes in add_joint
+        b.add_joint("ball", "spherical", parametrization="quaternion")
+    b = lg.Model("top")
+    for k, v in {**VALUES, "c": 0.05}.items():
+        b.parameter(k, v)
+    b.add_joint("ball", "spherical", parametrization="quaternion", damping="c")
+    b.add_rigid_body("m", ["I1", "I2", "I3"], frame="ball", center=(0, 0, "l"))
+    b.add_gravity("g")
+    ea, eb = lg.derive(a), lg.derive(b)
+    assert a.q == b.q and a.simulation["initial"] == {"ball_q0": 1.0}
+    assert sp.expand(ea.mass_matrix - eb.mass_matrix) == sp.zeros(4, 4)
+    assert sp.expand(ea.forcing - eb.forcing) == sp.zeros(4, 1)
+    # the rotational damper: D = c |omega|^2 / 2 with omega = 2 G q_dot
+    w = sp.Matrix(quaternion_rate(a.q))
+    assert sp.expand(ea.D - sp.Symbol("c") * (w.T * w)[0] / 2) == 0
+    # the file's own initial values replace the default q0 = 1
+    c = loads_model(text.replace("t_end = 1.0", "initial = { ball_q3 = 1.0 }"))
+    assert c.simulation["initial"] == {"ball_q3": 1.0}
+
+
+def _problems(text):
+    with pytest.raises(ModelFileError) as info:
+        loads_model(text)
+    return str(info.value)
+
+
+@pytest.mark.parametrize("table, match", [
+    ('type = "spherical"\nparametrization = "quaternions"',
+     r"\[joints\[0\]\.parametrization\].*unknown parametrization 'quaternions' \(did you mean 'quaternion'\?\); "
+     r"expected \"angles\" \(three angles, the default\) or \"quaternion\""),
+    ('type = "spherical"\nparametrization = 4', r"\[joints\[0\]\.parametrization\].*unknown parametrization 4;"),
+    ('type = "spherical"\nparametrization = "__import__(\'os\')"',
+     r"unknown parametrization \"__import__\('os'\)\""),
+    ('type = "revolute"\nparametrization = "quaternion"',
+     r"\[joints\[0\]\.parametrization\].*only spherical and floating joints have a parametrization"),
+    ('type = "spherical"\nparametrization = "quaternion"\nsequence = "zyx"',
+     r"\[joints\[0\]\.sequence\].*a quaternion spherical joint has no sequence of angles: remove sequence"),
+    ('type = "spherical"\nparametrization = "quaternion"\nlimits = [[0, 1], [0, 1], [0, 1], [0, 1]]',
+     r"\[joints\[0\]\.limits\].*a quaternion's components have no limits"),
+    ('type = "spherical"\nparametrization = "quaternion"\ncoordinates = ["a", "b", "c"]',
+     r"a spherical joint has 4 coordinates, got \['a', 'b', 'c'\]; give 4 names, e\.g\. \['j_q0', 'j_q1', "
+     r"'j_q2', 'j_q3'\]"),
+    ('type = "floating"\nparametrization = "quaternion"\nfriction = 1', r"a floating joint takes no friction"),
+])
+def test_parametrization_problems(table, match):
+    message = _problems(f'name = "bad"\n[[joints]]\nname = "j"\n{table}\n')
+    assert re.search(match, message, flags=re.DOTALL), message
+
+
+def test_the_constraint_name_taken_is_refused_before_anything_is_added():
+    m = lg.Model("m")
+    m.coordinate("x")
+    m.add_constraint("x", name="ball_norm")
+    with pytest.raises(ModelError, match=r"a quaternion joint adds the constraint 'ball_norm' .* that name is taken"):
+        m.add_joint("ball", "spherical", parametrization="quaternion")
+    assert [c.name for c in m.q] == ["x"] and "ball" not in m.frames and not m.joints
