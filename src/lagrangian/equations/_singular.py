@@ -22,7 +22,7 @@ from ._equations import Equations
 from ._readable import trigonometric_polynomial
 from ._search import minimize, multistart, wrap_angle, wrap_angles
 
-__all__ = ["singularities", "SingularityReport", "SingularConfiguration", "inertia_measure", "determinant",
+__all__ = ["diagnosis", "singularities", "SingularityReport", "SingularConfiguration", "inertia_measure", "determinant",
            "factored"]
 
 _SYMBOLIC_DET_MAX_N = 4
@@ -296,6 +296,10 @@ def _element_motion(eqs: Equations, where: dict, direction: sympy.Matrix, values
     """Which massive elements stay still along `direction` at `where`, and which massless ones move."""
     still, moving_massless = [], []
     at = {**values, **where}
+    # at a zero the numeric search found (floats: a large model), the rates in SymEngine, not SymPy's
+    # diff, subs and simplify of the bodies' positions (a third of a second for the bicycle)
+    numeric = bool(where) and all(isinstance(v, sympy.Float) for v in where.values())
+    at_se = {se.Symbol(k.name): se.sympify(v) for k, v in at.items()} if numeric else None
     for el in eqs.model.elements:
         if not isinstance(el, (Particle, RigidBody, RigidBody3D)):
             continue
@@ -305,8 +309,11 @@ def _element_motion(eqs: Equations, where: dict, direction: sympy.Matrix, values
             coords += [x for f in el.factors if f.matrix is not None for row in f.matrix for x in row]
         moves = False
         for c in coords:
-            rate = sum(sympy.diff(c, q) * d for q, d in zip(eqs.coordinates, direction))
-            val = sympy.simplify(rate.subs(at))
+            if numeric:
+                val = _rate_at(c, eqs.coordinates, direction, at_se)
+            else:
+                rate = sum(sympy.diff(c, q) * d for q, d in zip(eqs.coordinates, direction))
+                val = sympy.simplify(rate.subs(at))
             if val != 0:
                 moves = True
                 break
@@ -317,6 +324,17 @@ def _element_motion(eqs: Equations, where: dict, direction: sympy.Matrix, values
         elif not moves and not massless:
             still.append(f"{el.kind} '{el.name}'")
     return tuple(still), tuple(moving_massless)
+
+
+def _rate_at(c, coordinates, direction, at: dict):
+    """d c/dt along `direction` (one velocity per coordinate) at `at` ({SymEngine symbol: number}), a
+    number (SymEngine): 0 exactly where no term survives."""
+    e = se.sympify(c)
+    rate = se.Integer(0)
+    for q, d in zip(coordinates, direction):
+        if d != 0:
+            rate = rate + e.diff(se.Symbol(q.name)) * se.sympify(d)
+    return rate.subs(at)
 
 
 def _blamed_coordinate(eqs: Equations, direction: sympy.Matrix) -> sympy.Symbol:
@@ -348,9 +366,16 @@ def singularities(equations: Equations, parameters: Mapping | None = None) -> Si
     ModelError
         A name in `parameters` that is not a parameter of the model.
     """
+    return diagnosis(equations, parameters, equations.mass_matrix)
+
+
+def diagnosis(equations: Equations, parameters: Mapping | None, mass_matrix) -> SingularityReport:
+    """:func:`singularities` with the mass matrix given as it is to be shown (and kept in the report's
+    det M): the Equations' readable M, or the derived one (equal to it) for a model too large to expand,
+    whose readable M takes a second to build (the derivation report's)."""
     eqs = equations
     values = _values(eqs, parameters)
-    M = sympy.Matrix(eqs.mass_matrix)
+    M = sympy.Matrix(mass_matrix)
     n = eqs.n
     det = det_values = numeric_M = None
     if n <= _SYMBOLIC_DET_MAX_N:
@@ -412,9 +437,9 @@ def _configuration(eqs, M, M_values, where, values, numeric: bool = False,
 
 def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tuple[str, str]:
     direction = [c.null_velocity.get(v.name, 0) for v in eqs.velocities]
-    q = _blamed_coordinate(eqs, direction)
     has_elements = any(isinstance(e, (Particle, RigidBody, RigidBody3D)) for e in eqs.model.elements)
     if c.moving_massless:
+        q = _blamed_coordinate(eqs, direction)
         cause = (f"along this motion only massless parts move: {', '.join(c.moving_massless)}; "
                  "every body with mass stays still, so the motion has no inertia.")
         fix = ("give the massless part a positive mass (set its mass parameter > 0), "
@@ -431,6 +456,7 @@ def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tu
         fix = ("keep the motion away from these configurations, or describe the rotation by other angles (another "
                "order of the elementary rotations) that are regular where the motion goes.")
         return cause, fix
+    q = _blamed_coordinate(eqs, direction)  # (reads the readable M: after the gimbal lock's test, which does not)
     if has_elements:
         still = f" ({_still(c.still)})" if c.still else ""
         cause = (f"coordinate {q.name} moves no mass of its own: along this combination no element with "

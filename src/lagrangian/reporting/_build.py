@@ -14,12 +14,14 @@ analysis layer provides them, the equilibria and their stability. Sections are n
 from __future__ import annotations
 
 import os
+from functools import cached_property
 
 import symengine as se
 import sympy
 
-from ..equations import Equations, constraint_singularities, derive, singularities
-from ..equations._singular import determinant, factored
+from ..equations import Equations, constraint_singularities, derive
+from ..equations._readable import MAX_TERMS, expanded_terms_bound, readable
+from ..equations._singular import determinant, diagnosis, factored
 from ..errors import LagrangianError
 from ..model import Model
 from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBody, RigidBody3D, Spring, Torque,
@@ -35,6 +37,13 @@ S = sympy.Symbol
 _ZERO = sympy.Integer(0)
 #: q_dot after a matrix in a product (not commutative, so that the product keeps its order).
 _ORDERED_QDOT = sympy.Symbol("q_dot", commutative=False)
+#: For a model too large to expand (Equations.too_large_to_expand: the bicycle), the readable form's
+#: budget in the report: an expression whose expansion could have more terms than this, or that has a
+#: root (the wheels' contact geometry, 1/sqrt(...)), is shown as derived. The bicycle's M, G, g and c
+#: came out larger expanded than derived (G's entries 2 KB derived, 9 KB expanded), over the printing
+#: limit either way, and took 4 s to expand and rewrite; under this budget, without roots, the readable
+#: form is cheap and usually the shorter (dL/dthetaR: 0.2 KB against 5 KB).
+LARGE_MODEL_TERMS = 300
 
 
 def report(source, *, title: str | None = None, equilibria: bool = True) -> Report:
@@ -103,7 +112,97 @@ class _Builder:
         massive = [e for e in self.model.elements if isinstance(e, (Particle, RigidBody, RigidBody3D))]
         self.kin = Kinematics(self.model.q, massive)
         self.massive = massive
-        self.readable = eqs.readable
+        # a model too large to expand: its expressions as derived, unless they are small
+        self.large = eqs.too_large_to_expand
+        if self.large:
+            self.readable = self._shown
+        else:
+            self.readable = eqs.readable
+
+    def _shown(self, expr, collect_on=()) -> sympy.Expr:
+        """For a model too large to expand: `expr` in readable form where that is cheap (its expansion
+        has at most LARGE_MODEL_TERMS terms, and no root), else as derived (converted to SymPy)."""
+        try:
+            e = se.sympify(expr)
+        except (TypeError, ValueError, RuntimeError):
+            return self.eqs.readable(expr, collect_on)
+        cheap = (expanded_terms_bound(e, LARGE_MODEL_TERMS) <= LARGE_MODEL_TERMS
+                 and all(p.args[1].is_integer for p in e.atoms(se.Pow)))
+        return readable(e, state=self.eqs._varying, collect_on=collect_on, max_terms=MAX_TERMS if cheap else 0)
+
+    # the parts of the equations as the report shows them: the Equations' readable forms, or for a model
+    # too large to expand, the derived expressions made readable under LARGE_MODEL_TERMS (equal to them)
+    @cached_property
+    def mass_matrix(self) -> sympy.ImmutableMatrix:
+        eqs = self.eqs
+        if not self.large:
+            return eqs.mass_matrix
+        n, M = eqs.n, eqs.core.M
+        upper = {(i, j): self.readable(M[i, j]) for i in range(n) for j in range(i, n)}
+        return sympy.ImmutableMatrix(n, n, [upper[min(i, j), max(i, j)] for i in range(n) for j in range(n)])
+
+    @cached_property
+    def forcing(self) -> sympy.ImmutableMatrix:
+        if not self.large:
+            return self.eqs.forcing
+        return sympy.ImmutableMatrix([self.readable(x, self.eqs.velocities) for x in self.eqs.core.f])
+
+    @cached_property
+    def constraint_sides(self) -> tuple:
+        if not self.large:
+            return tuple(self.eqs.constraints.values())
+        return tuple(self.readable(g, self.eqs.velocities) for g in self.eqs.core.g)
+
+    @cached_property
+    def constraint_jacobian(self) -> sympy.ImmutableMatrix:
+        eqs = self.eqs
+        if not self.large:
+            return eqs.constraint_jacobian
+        return sympy.ImmutableMatrix(len(eqs.core.g), eqs.n, [self.readable(x) for x in eqs.core.G])
+
+    @cached_property
+    def constraint_forces(self) -> sympy.ImmutableMatrix:
+        if not self.large:
+            return self.eqs.constraint_forces
+        return self.constraint_jacobian.T * sympy.Matrix(self.eqs.multipliers)
+
+    @cached_property
+    def constraint_acceleration(self) -> sympy.ImmutableMatrix:
+        if not self.large:
+            return self.eqs.constraint_acceleration
+        return sympy.ImmutableMatrix([self.readable(x, self.eqs.velocities) for x in self.eqs.core.c])
+
+    @cached_property
+    def coriolis_matrix(self) -> sympy.ImmutableMatrix:
+        """C from the Christoffel symbols of M (Equations.coriolis_matrix's formula), for a model too large
+        to expand made readable from SymEngine (not converted to SymPy and back: 1 s for the bicycle).
+        Raises LagrangianError where T* is not quadratic in the velocities."""
+        eqs = self.eqs
+        if not self.large:
+            return eqs.coriolis_matrix.applyfunc(self.readable)
+        eqs._kinetic_split  # noqa: B018 - raises where T* is not quadratic in the velocities
+        M, q, qd, n = eqs.core.M, eqs.core.q, eqs.core.qd, eqs.n
+        dM: dict = {}
+
+        def d(i, j, k):  # dM_ij/dq_k, M symmetric
+            key = (min(i, j), max(i, j), k)
+            if key not in dM:
+                dM[key] = M[i, j].diff(q[k])
+            return dM[key]
+
+        return sympy.ImmutableMatrix(n, n, [
+            self.readable(sum(((d(i, j, k) + d(i, k, j) - d(j, k, i)) * qd[k] / 2 for k in range(n)), se.Integer(0)))
+            for i in range(n) for j in range(n)])
+
+    @cached_property
+    def equation_residuals(self) -> tuple:
+        """E_i = (M q_ddot)_i - f_i - (G^T lambda)_i, as Equations.equations for a model too large to expand."""
+        eqs = self.eqs
+        if not (self.large and eqs._mass_matrix_free_of_velocities):
+            return eqs.equations
+        M, f, qdd = self.mass_matrix, self.forcing, eqs.accelerations
+        R = self.constraint_forces if eqs.is_constrained else sympy.zeros(eqs.n, 1)
+        return tuple(sympy.Add(*(M[i, j] * qdd[j] for j in range(eqs.n)), -f[i], -R[i]) for i in range(eqs.n))
 
     # ----------------------------------------------------------- 1. bodies
     def bodies(self) -> Section:
@@ -386,7 +485,7 @@ class _Builder:
         # the constraints' g, G, c are readable already: made readable again only for a model small
         # enough to expand (the bicycle: 1 s for the same text)
         again = (lambda e: e) if eqs.too_large_to_expand else self.readable
-        for c, g in zip(cons, eqs.constraints.values()):
+        for c, g in zip(cons, self.constraint_sides):
             kind = "holonomic" if c.kind == "holonomic" else "velocity (nonholonomic)"
             blocks.append(Paragraph.of(f"Constraint {c.name}, {kind}, multiplier ", c.multiplier, ":"))
             blocks.append(Math(_ZERO, again(g), key=f"constraint[{c.name}]"))
@@ -394,7 +493,7 @@ class _Builder:
         if independent:
             blocks.append(Paragraph.of(f"The independent coordinates ([simulation] independent): "
                                        f"{', '.join(independent)}; the constraints fix the others."))
-        G = eqs.constraint_jacobian.applyfunc(again)
+        G = self.constraint_jacobian.applyfunc(again)
         blocks.append(Paragraph.of(
             "Their Jacobian G, one row per constraint: dg/dq for a holonomic constraint, the velocities' "
             "coefficients a for a velocity constraint; at velocity level the constraints read ",
@@ -406,7 +505,7 @@ class _Builder:
                                    " (with g written as a length, a distance minus a length, dg/dq is a unit vector "
                                    "and lambda the force along it):"))
         blocks.append(Math(lam, S("lambda"), key="multipliers"))
-        blocks.append(Math(eqs.constraint_forces.applyfunc(again),
+        blocks.append(Math(self.constraint_forces.applyfunc(again),
                            sympy.Mul(S("G^T"), S("lambda"), evaluate=False), key="constraint-forces"))
         blocks.append(Paragraph.of(
             "Differentiated to acceleration level (a holonomic constraint twice, a velocity constraint once), "
@@ -414,7 +513,7 @@ class _Builder:
             Math(S("c"), S("G") * S("q_ddot")), ", with ",
             Math((-sympy.Mul(Partial(S("w"), S("q")), _ORDERED_QDOT, evaluate=False), -Partial(S("w"), S("t"))),
                  S("c")), ":"))
-        blocks.append(Math(eqs.constraint_acceleration.applyfunc(again), S("c"), key="c"))
+        blocks.append(Math(self.constraint_acceleration.applyfunc(again), S("c"), key="c"))
         return Section("constraints", "Constraints", tuple(blocks))
 
     # ----------------------------------------------------- 7. Lagrangian
@@ -422,10 +521,13 @@ class _Builder:
         eqs = self.eqs
         blocks = [Math((S("T^*"), -S("V")), S("L"), key="L-definition"),
                   Math(self.readable(eqs.L), S("L"), key="L")]
-        if eqs.too_large_to_expand and eqs._mass_matrix_free_of_velocities:
-            # h = q_dot^T M q_dot / 2 - L0 with the readable M (not h expanded and made readable again:
-            # the bicycle's h is over the budget, and its conversion and bound took 4 s)
-            h = eqs._readable_jacobi_integral()
+        if self.large and eqs._mass_matrix_free_of_velocities:
+            # h = q_dot^T M q_dot / 2 - L0 with M as shown (not h expanded and made readable, nor h as
+            # derived converted to SymPy: the bicycle's h is over the budget, and either took seconds)
+            M, v, n = self.mass_matrix, eqs.velocities, eqs.n
+            L0 = eqs.core.L.subs({qd: 0 for qd in eqs.core.qd})
+            h = sympy.Add(*(sympy.Mul(sympy.S.Half if i == j else sympy.S.One, M[i, j], v[i], v[j])
+                            for i in range(n) for j in range(i, n)), self.readable(-L0, v))
         else:
             h = self.readable(eqs.jacobi_integral)
         constrained = eqs.is_constrained
@@ -463,7 +565,7 @@ class _Builder:
                                "symbols)" + ("; the constraint forces (G^T lambda)_i, with the multipliers "
                                              "lambda_k as further unknowns, join the generalized forces:"
                                              if constrained else ":"))]
-        forces = eqs.constraint_forces if constrained else None
+        forces = self.constraint_forces if constrained else None
         Lsym, Dsym = S("L"), S("D")
         qdd = [se.Symbol(a.name) for a in eqs.accelerations]
         for i, (q, qd) in enumerate(zip(eqs.coordinates, eqs.velocities)):
@@ -485,7 +587,7 @@ class _Builder:
             if constrained:
                 blocks.append(Math(self.readable(forces[i]), ConstraintForce(i + 1), key=f"constraint-force[{q.name}]"))
             blocks.append(Paragraph.of("so that"))
-            blocks.append(Math(_ZERO, eqs.equations[i], key=f"equation[{q.name}]", label=f"({i + 1})"))
+            blocks.append(Math(_ZERO, self.equation_residuals[i], key=f"equation[{q.name}]", label=f"({i + 1})"))
         return Section("equations", "Lagrange's equations", tuple(blocks))
 
     # ----------------------------------------------------- 9. matrix form
@@ -493,7 +595,7 @@ class _Builder:
         eqs = self.eqs
         blocks = []
         try:
-            C = eqs.coriolis_matrix
+            C = self.coriolis_matrix
         except LagrangianError as exc:
             C = None
             blocks.append(Paragraph.of(f"{exc}."))
@@ -531,9 +633,9 @@ class _Builder:
                                    + (", the Coriolis and centrifugal matrix C from the Christoffel symbols "
                                       "of M, the gradient " + ("dV/dq" if constrained else "G = dV/dq")
                                       if C is not None else "") + ":"))
-        blocks.append(Math(eqs.mass_matrix, S("M"), key="M"))
+        blocks.append(Math(self.mass_matrix, S("M"), key="M"))
         if C is not None:
-            blocks.append(Math(C.applyfunc(self.readable), S("C"), key="C"))
+            blocks.append(Math(C, S("C"), key="C"))
             blocks.append(Math(eqs.potential_gradient.applyfunc(self.readable), gradient, key="G"))
         blocks += parts
         if constrained:
@@ -548,7 +650,7 @@ class _Builder:
             blocks.append(Math(sympy.ImmutableMatrix([S("f"), S("c")]), saddle, key="saddle-point"))
         else:
             blocks.append(Paragraph.of("Equivalently M q_ddot = f, the form the simulation solves, with the forcing"))
-        blocks.append(Math(eqs.forcing, S("f"), key="f"))
+        blocks.append(Math(self.forcing, S("f"), key="f"))
         lin = eqs.linear
         if lin is not None:
             blocks.append(Paragraph.of("The system is linear: ",
@@ -610,7 +712,7 @@ class _Builder:
 
     # ----------------------------------------------------- 11. singularities
     def singularities(self) -> Section:
-        rep = singularities(self.eqs)
+        rep = diagnosis(self.eqs, None, self.mass_matrix)  # singularities(), with M as the report shows it
         blocks = []
         detM = sympy.Function("det")(S("M"))
         if isinstance(rep.det_mass_matrix, sympy.Determinant):
