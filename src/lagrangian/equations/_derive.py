@@ -59,9 +59,11 @@ def derive(model: Model) -> Equations:
     D = kin.se(snapshot.D)
     Q = [kin.se(snapshot.Q.get(c, 0)) for c in snapshot.q]
     V_written = V  # V without gravity's, a sum over the positions (bounded as T's inputs, see _check_sizes)
+    kinetic = []  # (element, its T*), for the momenta in Kane's form
     for element in snapshot.elements:
         c = element.contribute(kin)
         T, V, D = T + c.T, V + c.V, D + c.D
+        kinetic.append((element, c.T))
         if not isinstance(element, Gravity):
             V_written = V_written + c.V
         if c.Q:
@@ -70,10 +72,13 @@ def derive(model: Model) -> Equations:
     _check_sizes(snapshot, V_written, D, Q, kin)
     L = T - V
     q, qd, t = kin.q, kin.qd, kin.t
-    p = [L.diff(v) for v in qd]
     if expanded_terms_bound(T, KANE_ABOVE) > KANE_ABOVE:
         M, f = _kane_core(snapshot, kin)
+        p = _kane_momenta(snapshot, kin, M, kinetic)
+        if p is None:
+            p = [L.diff(v) for v in qd]
     else:
+        p = [L.diff(v) for v in qd]
         M, f = _lagrange_core(L, D, Q, p, kin)
     g, G, w, c = _constraint_parts(snapshot, kin)
     core = SymbolicCore(q=tuple(q), qd=tuple(qd), t=t, T=T, V=V, D=D, Q=tuple(Q), L=L,
@@ -114,6 +119,41 @@ def _kane_core(model: Model, kin: Kinematics):
     rows, f, _ = kane_form(model, kin)
     n = len(f)
     return se.DenseMatrix(n, n, [x for row in rows for x in row]), list(f)
+
+
+def _kane_momenta(model: Model, kin: Kinematics, M, kinetic) -> list | None:
+    """p = dL/dq_dot of a model whose M is in Kane's form, from M: p = M q_dot + dT_r/dq_dot - H_r q_dot,
+    with T_r the kinetic co-energy of what is not in Kane's form (the [energy] T, elements other than
+    particles and bodies of constant mass) and H_r its Hessian in q_dot (M holds it). The particles and
+    bodies in Kane's form have velocities J(q) q_dot when nothing of their motion depends on t, so their
+    T* is q_dot^T M_b q_dot / 2 and its gradient M_b q_dot: the same p as differentiating T* (in
+    SymEngine, a chain of 20 rods on spherical joints: 60 gradients of T* of its 60 positions take
+    minutes, M q_dot milliseconds). None when a motion depends on t (then p is T*'s gradient)."""
+    from ._named import _massive_kane
+
+    q, qd, t = kin.q, kin.qd, kin.t
+    varying = set(q) | set(qd) | {t}
+    rest = kin.se(model.T)
+    for element, T in kinetic:
+        if not (isinstance(element, (Particle, RigidBody, RigidBody3D)) and _massive_kane(element, varying, kin)):
+            rest = rest + T
+            continue
+        parts = list(element.position)
+        if isinstance(element, RigidBody):
+            parts.append(element.angle)
+        elif isinstance(element, RigidBody3D):
+            for f in element.factors:
+                parts += ([f.angle] if f.matrix is None
+                          else [x for row in f.matrix for x in row] + list(getattr(f, "rate", None) or ()))
+        if any(t in kin.se(x).free_symbols for x in parts):
+            return None
+    n = len(qd)
+    out = []
+    for i in range(n):
+        ri = rest.diff(qd[i])
+        pi = ri - sum((ri.diff(qd[j]) * qd[j] for j in range(n)), se.Integer(0)) if ri != 0 else ri
+        out.append(sum((M[i, j] * qd[j] for j in range(n)), pi))
+    return out
 
 
 def _check_sizes(model: Model, V, D, Q, kin: Kinematics) -> None:

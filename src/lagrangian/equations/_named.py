@@ -176,11 +176,15 @@ class _FrameMotion:
         if out is None:
             import sympy
 
-            from ..model._frames import frame_pose
+            from ..model._frames import chain
 
-            origin, R = frame_pose(self.frames, name)
+            # each frame's pose at zero, composed (not the world pose's large expressions, then zero)
             zero = {s: 0 for s in self.kin_symbols_sympy()}
-            out = self._pose[name] = (sympy.Matrix(origin).xreplace(zero), sympy.Matrix(R).xreplace(zero))
+            origin, R = sympy.zeros(3, 1), sympy.eye(3)
+            for fr in chain(self.frames, name):
+                origin = origin + R * sympy.Matrix(fr.origin).xreplace(zero)
+                R = R * fr.rotation.xreplace(zero)
+            out = self._pose[name] = (origin, R)
         return out
 
     def kin_symbols_sympy(self):
@@ -202,17 +206,20 @@ def _local(element, motion: _FrameMotion, frame: str, kin, rng):
 
     from ..model._frames import frame_pose
 
-    position = [sympy.sympify(x) for x in element.position]
-    if len(position) != 3:
+    if len(element.position) != 3:
         return None
+    # in SymEngine: a position down a chain of frames is a large tree of shared subexpressions
+    position = [kin.se(x) for x in element.position]
     origin0, R0 = motion.pose_at_zero(frame)
-    zero = {s: 0 for s in motion.kin_symbols_sympy()}
-    p0 = sympy.Matrix(position).xreplace(zero)
+    zero = {se.Symbol(s.name): se.Integer(0) for s in motion.kin_symbols_sympy()}
+    p0 = sympy.Matrix([sympy.sympify(x.xreplace(zero)) for x in position])
     c = [sympy.nsimplify(x) if x.is_number else sympy.simplify(x) for x in (R0.T * (p0 - origin0))]
     if any(set(x.free_symbols) & set(motion.kin_symbols_sympy()) for x in c):
         return None
     origin, R = frame_pose(motion.frames, frame)
-    residual = [kin.se(position[i] - origin[i] - sum(R[i, k] * c[k] for k in range(3))) for i in range(3)]
+    cs = [kin.se(x) for x in c]
+    residual = [position[i] - kin.se(origin[i]) - sum((kin.se(R[i, k]) * cs[k] for k in range(3)), se.Integer(0))
+                for i in range(3)]
     symbols = sorted(set().union(*(r.free_symbols for r in residual)), key=str)
     for _ in range(2):
         point = {s: se.Float(float(x)) for s, x in zip(symbols, rng.uniform(0.3, 1.7, len(symbols)))}

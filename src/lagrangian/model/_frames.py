@@ -24,6 +24,7 @@ forming the products of sines and cosines whose sum the identities would have to
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import TYPE_CHECKING, Mapping
 
 import sympy
@@ -122,13 +123,41 @@ def chain(frames: Mapping[str, Frame], name: str) -> list[Frame]:
 
 
 def frame_pose(frames: Mapping[str, Frame], name: str) -> tuple[tuple[sympy.Expr, ...], sympy.Matrix]:
-    """(origin in world coordinates, R_world) of the frame `name` (SymPy)."""
+    """(origin in world coordinates, R_world) of the frame `name` (SymPy).
+
+    Down a chain of more than SEQUENTIAL_DEPTH frames the frames' poses are composed in halves
+    (:func:`_composed`), not one after another: the same values, in expressions whose trees (with
+    their shared subexpressions written out, as SymPy walks them) grow as a power of the depth
+    instead of as 3^depth (20 rods on spherical joints: 55,000 nodes a component against 10^10)."""
+    path = tuple(chain(frames, name))
+    if len(path) > SEQUENTIAL_DEPTH:
+        origin, R = _composed(path)
+        return tuple(origin), sympy.Matrix(R)
     origin = sympy.zeros(3, 1)
     R = sympy.eye(3)
-    for frame in chain(frames, name):
+    for frame in path:
         origin = origin + R * sympy.Matrix(frame.origin)
         R = R * frame.rotation
     return tuple(origin), R
+
+
+#: Chains of frames up to this depth are composed one frame after another (their poses print as
+#: they always have); deeper ones in halves.
+SEQUENTIAL_DEPTH = 3
+
+
+@lru_cache(maxsize=4096)
+def _composed(path: tuple[Frame, ...]) -> tuple[sympy.ImmutableMatrix, sympy.ImmutableMatrix]:
+    """(o, R) of the frames `path` composed: a point with components c in the last frame is at
+    o + R c in the axes of the first one's parent. Split at the largest power of two below the
+    length, so that deeper frames of one chain reuse the composed poses of the frames above them."""
+    if len(path) == 1:
+        (frame,) = path
+        return sympy.ImmutableMatrix(frame.origin), sympy.ImmutableMatrix(frame.rotation)
+    half = 1 << ((len(path) - 1).bit_length() - 1)
+    o1, R1 = _composed(path[:half])
+    o2, R2 = _composed(path[half:])
+    return sympy.ImmutableMatrix(o1 + R1 * o2), sympy.ImmutableMatrix(R1 * R2)
 
 
 def world_factors(frames: Mapping[str, Frame], name: str) -> tuple[Factor, ...]:

@@ -12,9 +12,36 @@ from ._symbols import dot, t
 __all__ = ["Kinematics", "to_se", "to_sympy"]
 
 
-def to_se(expr) -> se.Basic:
-    """A SymPy expression (or number) as a SymEngine one."""
-    return se.sympify(expr)
+def to_se(expr, memo: dict | None = None) -> se.Basic:
+    """A SymPy expression (or number) as a SymEngine one, each shared subexpression converted once.
+
+    SymEngine's own conversion walks the tree: a subexpression used twice is converted twice, so the
+    world position of a body down a chain of frames (products of the frames' rotations, each entry
+    used by three of the next product's) costs a time exponential in the chain's depth. Here sums,
+    products and powers are rebuilt from their converted arguments, looked up in `memo` (by
+    identity: {id(SymPy node): (node, SymEngine node)}, filled), so that a tree of shared
+    subexpressions is converted in a time proportional to its distinct nodes; anything else (a
+    symbol, a number, a function of a small argument) is converted by SymEngine."""
+    if not isinstance(expr, sympy.Basic) or not expr.args:
+        return se.sympify(expr)
+    memo = {} if memo is None else memo
+    return _to_se(expr, memo)
+
+
+_SE_BUILD = {sympy.Add: se.Add, sympy.Mul: se.Mul, sympy.Pow: se.Pow}
+
+
+def _to_se(expr, memo: dict) -> se.Basic:
+    hit = memo.get(id(expr))
+    if hit is not None:
+        return hit[1]
+    build = _SE_BUILD.get(type(expr))
+    if build is None or not expr.args:
+        out = se.sympify(expr)
+    else:
+        out = build(*[_to_se(a, memo) for a in expr.args])
+    memo[id(expr)] = (expr, out)  # the node is kept, so that its id is not reused while memo lives
+    return out
 
 
 def to_sympy(expr) -> sympy.Expr:
@@ -39,12 +66,14 @@ class Kinematics:
         self.t = se.Symbol(t.name)
         self.massive_elements = tuple(massive_elements)
         self._cache: dict = {}
+        self._nodes: dict = {}  # to_se's memo: the subexpressions converted, shared by every expression
 
     def se(self, expr) -> se.Basic:
-        """`expr` in SymEngine (converted once per expression)."""
+        """`expr` in SymEngine (converted once per expression, and each subexpression shared by
+        expressions converted before it only once: see :func:`to_se`)."""
         out = self._cache.get(expr)
         if out is None:
-            out = self._cache[expr] = to_se(expr)
+            out = self._cache[expr] = to_se(expr, self._nodes)
         return out
 
     def rate(self, expr) -> se.Basic:

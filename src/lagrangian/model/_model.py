@@ -1088,8 +1088,9 @@ class Model:
                 if isinstance(el, (Spring, Damper)) and field_name == "length":
                     role = "length"
                 sources.append((f"{el.kind} '{el.name}'.{field_name}", e, role))
+        memo: dict = {}  # free symbols of the subexpressions the sources share (see _free_symbols)
         for where, e, role in sources:
-            free = e.free_symbols
+            free = _free_symbols(e, memo)
             for s in sorted(free - known - qdd, key=str):
                 extra = did_you_mean(s.name, [k.name for k in known], sentence=True)
                 problems.append(Problem(
@@ -1280,6 +1281,28 @@ def derived_order(parameters: Mapping[str, object], where: str = "parameters") -
     for name in derived:
         visit(name, [])
     return out
+
+
+def _free_symbols(expr, memo: dict) -> set:
+    """`expr.free_symbols`, each shared subexpression visited once (`memo`: {id(node): (node, symbols)},
+    read and filled): SymPy's walks the tree, which for the position of a body down a chain of frames
+    (each entry of a product of rotations used by several of the next) costs many times its nodes."""
+    if not isinstance(expr, sympy.Basic):
+        return sympy.sympify(expr).free_symbols
+    compound = (sympy.Add, sympy.Mul, sympy.Pow)
+    stack = [(expr, False)]
+    while stack:  # depth first, each node's symbols after its children's
+        e, ready = stack.pop()
+        if id(e) in memo:
+            continue
+        if type(e) not in compound:
+            memo[id(e)] = (e, e.free_symbols)
+        elif ready:
+            memo[id(e)] = (e, set().union(*(memo[id(a)][1] for a in e.args)))
+        else:
+            stack.append((e, True))
+            stack.extend((a, False) for a in e.args if id(a) not in memo)
+    return set(memo[id(expr)][1])
 
 
 def _nonlinear_in(expr, variables) -> bool:
