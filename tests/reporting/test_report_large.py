@@ -65,3 +65,18 @@ def test_bicycle_singular_configuration_is_a_zero_of_the_inertia(bicycle):
     M = nm.mass_matrix(0.0, np.concatenate((q, np.zeros(eqs.n))), np.zeros(len(eqs.inputs)), nm.parameter_values)
     assert np.max(np.abs(v)) == 1.0
     assert np.linalg.norm(M @ v) <= 1e-5 * np.linalg.norm(M) * np.linalg.norm(v)
+
+
+@pytest.mark.slow
+def test_bicycle_report_matrix_form_and_equations_equal_the_derived_ones(bicycle):
+    """M, C, f and each Lagrange equation as the report shows them (derived parts made readable only
+    where cheap) equal the derived expressions, and C is the Christoffel form of Equations.coriolis_matrix."""
+    eqs, rep = bicycle
+    core, n = eqs.core, eqs.n
+    M, C, f = rep.expression("M"), rep.expression("C"), rep.expression("f")
+    _same([M[i, j] for i in range(n) for j in range(n)], [core.M[i, j] for i in range(n) for j in range(n)])
+    _same(list(f), list(core.f))
+    _same([C[i, j] for i in range(n) for j in range(n)], list(eqs.coriolis_matrix))
+    residuals = [rep.math(f"equation[{q.name}]").lhs for q in eqs.coordinates]
+    _same(residuals, list(eqs._residuals_se))
+
