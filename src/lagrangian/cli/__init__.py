@@ -51,15 +51,15 @@ COMMANDS = {
     **dict.fromkeys(("kinematics", "inverse-dynamics"), "_kinematics"),
     "animate": "_visual", "report": "_report", "serve": "_serve",
     **dict.fromkeys(("lqr", "place", "export"), "_control"),
-    "optimize": "_optimize", "fit": "_fit",
+    "optimize": "_optimize", "fit": "_fit", "load": "_load",
 }
 
 
 def _command_modules():
     """Each module adds its commands with `register(sub, fmt)`, each command setting `handler`."""
-    from . import _analysis, _control, _core, _fit, _kinematics, _report, _serve, _visual, _optimize
+    from . import _analysis, _control, _core, _fit, _kinematics, _load, _report, _serve, _visual, _optimize
 
-    return [_core, _analysis, _kinematics, _visual, _report, _serve, _control, _optimize, _fit]
+    return [_core, _analysis, _kinematics, _visual, _report, _serve, _control, _optimize, _fit, _load]
 
 
 def _version() -> str:

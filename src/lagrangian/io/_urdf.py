@@ -209,7 +209,8 @@ class _Builder:
         self.default_name = default_name
         self.folder = None if folder is None else Path(folder).resolve()
         self.problems: list[Problem] = []
-        self.notes: list[str] = []
+        self.notes: list[str] = []  # also in the model's description
+        self.merges: list[str] = []  # links merged, fixed to the world or massless
 
     def problem(self, key, message, line=None):
         if line is None and key:  # the line of <link name="..."> or <joint name="..."> (ElementTree keeps none)
@@ -292,6 +293,7 @@ class _Builder:
         except ModelError as exc:  # pragma: no cover - the checks above should leave nothing to the model
             raise ModelFileError(exc.problems, file=self.source) from None
         model.visuals = tuple(visuals)
+        model.import_notes = tuple(self.notes + self.merges)  # what lagrangian load reports
         note = f"Imported from the URDF {Path(self.source).name}"
         model.description = note + ("; " + "; ".join(self.notes) if self.notes else "")
         return model
@@ -560,6 +562,7 @@ class _Builder:
         anchor = {base: base}  # link -> the link whose frame it moves with (through fixed joints)
         offset = {base: (np.eye(3), np.zeros(3))}  # link -> (R, p) of its frame in the anchor's
         frame_of = {base: root_frame}
+        merged_by: dict[str, str] = {}  # link -> the fixed joint that merges it into its parent's body
         order = []
         stack = [base]
         while stack:
@@ -581,6 +584,7 @@ class _Builder:
                 Ra, pa = offset[j.parent]
                 anchor[j.child] = anchor[j.parent]
                 offset[j.child] = (Ra @ R0, pa + Ra @ np.array(j.xyz))
+                merged_by[j.child] = j.name
                 continue
             axis = _axis(j.axis)
             kwargs = {}
@@ -602,10 +606,18 @@ class _Builder:
         for link in [base] + [j.child for j in order]:
             groups.setdefault(anchor[link], []).append(link)
         for head, members in groups.items():
+            for n in members[1:]:
+                if links[n].mass > 0 or head != base or self.floating_base:
+                    self.merges.append(f"link '{n}' merged into link '{head}' (fixed joint '{merged_by[n]}')")
             if head == base and not self.floating_base:
+                fixed_mass = sum(links[n].mass for n in members)
+                if fixed_mass > 0:
+                    self.merges.append(f"link '{head}' is fixed to the world: its {fixed_mass:g} kg (with the links "
+                                      "merged into it) never move and are left out")
                 continue  # fixed to the world: no kinetic energy, a constant potential
             mass, com, inertia = _merge([(links[n], *offset[n]) for n in members])
             if mass <= 0:
+                self.merges.append(f"link '{head}' has no mass: no body (it carries the links below it)")
                 continue
             model.add_rigid_body(_number(mass), [[_number(x) for x in row] for row in inertia], frame=frame_of[head],
                                  center=tuple(_number(c) for c in com), name=links[head].frame)
@@ -670,3 +682,216 @@ def _axis(axis):
     if sum(abs(r) for r in rounded) == 1 and all(abs(a - r) < 1e-12 for a, r in zip(axis, rounded)):
         return tuple(rounded)
     return tuple(float(a) for a in axis)
+
+
+# --------------------------------------------------------------------------- writing the model file
+
+def model_file_text(model, *, source: str | None = None) -> str:
+    """The lagrangian model file (TOML) of `model`, as the URDF import builds it: ``coordinates``,
+    ``[parameters]``, ``[[frames]]``, ``[[joints]]`` (with their limits, damping, friction and end stops),
+    ``[[bodies]]`` in space and ``[gravity]``. Read back (:func:`lagrangian.load`), it gives a model with the
+    same coordinates and the same equations (a body's centre is written in its frame's axes, computed from
+    its world position; checked at a second posture).
+
+    Raises
+    ------
+    ModelError
+        For what this writer does not write (other elements, explicit energies, constraints other than a
+        quaternion joint's, wheels, parameters without a value), naming each.
+    """
+    import json
+
+    from .._version import __version__
+    from ..errors import ModelError
+    from ..model._elements import Gravity, RigidBody3D
+    from ..model._frames import WORLD
+
+    joints = model.joints
+    owned = set()
+    for j in joints.values():
+        n = len(j.coordinates)
+        suffixes = [""] + [f"_{i + 1}" for i in range(n)]
+        owned |= {f"{j.name}_{what}{s}" for what in ("damping", "friction", "upper_stop", "lower_stop") for s in
+                  suffixes} | {f"{j.name}_unit"}
+    problems = []
+    bodies, gravity = [], None
+    for e in model.elements:
+        if e.name in owned:
+            continue
+        if isinstance(e, RigidBody3D) and e.shape is None:
+            bodies.append(e)
+        elif isinstance(e, Gravity):
+            gravity = e
+        else:
+            problems.append(Problem(f"the {e.kind} '{e.name}' is not written by this writer (it writes what the "
+                                    "URDF import builds: joints, frames, rigid bodies in space and gravity): write "
+                                    "it in the model file by hand", key=f"{e.kind} '{e.name}'"))
+    norms = {f"{j.name}_norm" for j in joints.values() if j.parametrization == "quaternion"}
+    problems += [Problem(f"the constraint '{c.name}' is not written by this writer: add it as a [[constraints]] "
+                         "table by hand", key=f"constraint '{c.name}'")
+                 for c in model.constraints if c.name not in norms]
+    if model.wheels:
+        problems.append(Problem("wheels are not written by this writer: add them as [[wheels]] tables by hand",
+                                key="wheels"))
+    if any(x != 0 for x in (model.T, model.V, model.D)) or any(v != 0 for v in model.Q.values()):
+        problems.append(Problem("explicit energies and forces ([energy], [forces]) are not written by this writer: "
+                                "add them by hand", key="energy"))
+    values = model.parameters
+    problems += [Problem(f"the parameter '{p}' has no value: give it one before writing the model file",
+                         key=f"parameters.{p}") for p, v in values.items() if v is None]
+    if problems:
+        raise ModelError(problems)
+
+    def string(text: str) -> str:
+        return json.dumps(str(text))  # a TOML basic string (JSON's escapes are TOML's)
+
+    def value(e) -> str:
+        e = sympy.sympify(e)
+        if e.is_Integer:
+            return str(int(e))
+        if isinstance(e, sympy.Float):
+            return repr(float(e))
+        return string(_ExactPrinter().doprint(e))
+
+    def vector(v) -> str:
+        return "[" + ", ".join(value(x) for x in v) + "]"
+
+    def axis_text(a) -> str:
+        letter = {(1, 0, 0): "x", (0, 1, 0): "y", (0, 0, 1): "z"}.get(tuple(sympy.sympify(c) for c in a))
+        return string(letter) if letter else vector(a)
+
+    def rotation(factors) -> list[str]:
+        if len(factors) == 1 and factors[0].matrix is not None:
+            return ["matrix = [" + ", ".join(vector(r) for r in factors[0].matrix) + "]"]
+        if not factors:
+            return []
+        return ["rotation = [" + ", ".join(f"[{axis_text(f.axis)}, {value(f.angle)}]" for f in factors) + "]"]
+
+    lines = [f"# Generated by lagrangian {__version__}" + (f" from {_comment(source)}" if source else ""),
+             "# lagrangian load reads it back into the same model (the same coordinates and equations)."]
+    for note in getattr(model, "import_notes", ()):
+        lines.append(f"# {_comment(note)}")
+    if getattr(model, "visuals", ()):
+        lines.append("# The URDF's <visual> shapes are not written (a model file draws bodies by their frames).")
+    lines += [f"name = {string(model.name)}"]
+    if model.description:
+        lines.append(f"description = {string(model.description)}")
+    lines.append("coordinates = [" + ", ".join(string(q.name) for q in model.q) + "]")
+    if model.inputs:
+        lines.append("inputs = [" + ", ".join(string(u.name) for u in model.inputs) + "]")
+    derived = model.derived_parameters
+    if values or derived:
+        lines += ["", "[parameters]"]
+        lines += [f"{p.name} = {value(v)}" for p, v in values.items() if p.name not in derived]
+        lines += [f"{k} = {string(_ExactPrinter().doprint(e))}" for k, e in derived.items()]
+    children = {j.child for j in joints.values()}
+    for frame in model.frames.values():
+        if frame.name in children:
+            continue
+        lines += ["", "[[frames]]", f"name = {string(frame.name)}"]
+        if frame.parent != WORLD:
+            lines.append(f"parent = {string(frame.parent)}")
+        if any(sympy.sympify(c) != 0 for c in frame.origin):
+            lines.append(f"origin = {vector(frame.origin)}")
+        lines += rotation(frame.factors)
+    for j in joints.values():
+        lines += ["", "[[joints]]", f"name = {string(j.name)}", f"type = {string(j.type)}"]
+        if j.parent != WORLD:
+            lines.append(f"parent = {string(j.parent)}")
+        if j.child != j.name:
+            lines.append(f"child = {string(j.child)}")
+        if any(sympy.sympify(c) != 0 for c in j.origin):
+            lines.append(f"origin = {vector(j.origin)}")
+        lines += rotation(j.factors)
+        if j.type in ("revolute", "prismatic", "cylindrical"):
+            lines.append(f"axis = {axis_text(j.axes[0])}")
+        elif j.type == "universal":
+            lines.append(f"axis = [{axis_text(j.axes[0])}, {axis_text(j.axes[1])}]")
+        elif j.type == "planar":
+            lines.append(f"axis = {axis_text(j.axes[0])}")
+        elif j.parametrization == "quaternion":
+            lines.append('parametrization = "quaternion"')
+        elif j.sequence is not None:
+            lines.append(f"sequence = {string(j.sequence)}")
+        if j.coordinates:
+            lines.append("coordinates = [" + ", ".join(string(c.name) for c in j.coordinates) + "]")
+        if any(p is not None for p in j.limits):
+            pairs = [None if p is None else f"[{value(p[0])}, {value(p[1])}]" for p in j.limits]
+            lines.append("limits = " + (pairs[0] if len(pairs) == 1 else "[" + ", ".join(p or "[]" for p in pairs)
+                                        + "]"))
+        if j.limit_stiffness is not None:
+            lines.append(f"limit_stiffness = {value(j.limit_stiffness)}")
+        for what in ("damping", "friction"):
+            per = getattr(j, what)
+            if per is None:
+                continue
+            one = j.type == "spherical" or len(set(per)) == 1
+            lines.append(f"{what} = " + (value(per[0]) if one else vector(per)))
+    for b in bodies:
+        center = _center_in_frame(model, b)
+        lines += ["", "[[bodies]]", f"name = {string(b.name)}", f"mass = {value(b.mass)}",
+                  f"frame = {string(b.frame)}",
+                  "inertia = [" + ", ".join(vector(row) for row in b.inertia) + "]"]
+        if center is not None:
+            if any(c != 0 for c in center):
+                lines.append(f"center = {vector(center)}")
+        else:
+            lines += [f"center = {vector(b.position)}", 'center_frame = "world"']
+    if gravity is not None:
+        lines += ["", "[gravity]", f"g = {value(gravity.g)}"]
+        if gravity.direction is not None:
+            lines.append(f"direction = {vector(gravity.direction)}")
+    sim = {k: v for k, v in model.simulation.items() if k in ("t_end", "dt", "rtol", "atol")}
+    initial = {k: v for k, v in (model.simulation.get("initial") or {}).items()}
+    for j in joints.values():  # a quaternion joint's default q0 = 1 comes back with the joint
+        if j.parametrization == "quaternion" and initial == {j.coordinates[-4].name: 1.0}:
+            initial = {}
+    if sim or initial:
+        lines += ["", "[simulation]"] + [f"{k} = {repr(float(v))}" for k, v in sim.items()]
+        if initial:
+            lines.append("initial = { " + ", ".join(f"{k} = {repr(float(v))}" for k, v in initial.items()) + " }")
+    return "\n".join(lines) + "\n"
+
+
+def _comment(text: str) -> str:
+    """Text for one comment line: control characters (newlines) as spaces."""
+    return "".join(c if c.isprintable() else " " for c in str(text))[:500]
+
+
+class _ExactPrinter(sympy.printing.str.StrPrinter):
+    """SymPy's text, with each Float as Python's shortest repr (which reads back to the same double)."""
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+
+def _center_in_frame(model, body):
+    """The centre of mass of `body` in its frame's axes, from its world position: R^T (p - o) at q = 0, t = 0,
+    kept where it is constant (the same at a second posture, to 1e-12 relative); None otherwise."""
+    from ..model._frames import frame_pose
+    from ..model._symbols import t
+
+    origin, R = frame_pose(model.frames, body.frame)
+    local = R.T * (sympy.Matrix(body.position) - sympy.Matrix(origin))
+    zero = {q: 0 for q in model.q}
+    zero[t] = 0
+    for j in model.joints.values():  # a quaternion's reference posture is q0 = 1
+        if j.parametrization == "quaternion":
+            zero[j.coordinates[-4]] = 1
+    center = [sympy.nsimplify(sympy.simplify(c.xreplace(zero)), rational=False) if not c.xreplace(zero).is_number
+              else c.xreplace(zero) for c in local]
+    values = {p: sympy.Float(v) for p, v in model.parameters.items() if v is not None}
+    rng = np.random.default_rng(7)
+    at = {q: sympy.Float(v) for q, v in zip(model.q, rng.uniform(-2, 2, len(model.q)))}
+    at[t] = sympy.Float(0.3)
+    for j in model.joints.values():  # a quaternion on its unit sphere
+        if j.parametrization == "quaternion":
+            e = j.coordinates[-4:]
+            norm = sympy.sqrt(sum(at[c] ** 2 for c in e))
+            at.update({c: at[c] / norm for c in e})
+    for c, c0 in zip(local, center):
+        a = complex(sympy.sympify(c).xreplace(at).xreplace(values).evalf())
+        b = complex(sympy.sympify(c0).xreplace(values).evalf())
+        if abs(a - b) > 1e-12 * (1 + abs(b)):
+            return None
+    return [sympy.Float(float(c)) if c.is_number and not c.is_Integer and not c.is_Rational else c for c in center]
