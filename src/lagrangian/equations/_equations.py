@@ -152,14 +152,22 @@ class Equations:
     def mass_matrix(self) -> sympy.ImmutableMatrix:
         n = self.n
         pairs = [(i, j) for i in range(n) for j in range(i, n)]
-        upper = dict(zip(pairs, readable_many([self.core.M[i, j] for i, j in pairs], state=self._varying)))
+        upper = dict(zip(pairs, readable_many([self.core.M[i, j] for i, j in pairs], state=self._varying,
+                                              bounds=self._bounds)))
         return sympy.ImmutableMatrix(n, n, [upper[min(i, j), max(i, j)] for i in range(n) for j in range(n)])
 
     M = property(lambda self: self.mass_matrix, doc="Alias of `mass_matrix`.")
 
     @cached_property
     def forcing(self) -> sympy.ImmutableMatrix:
-        return sympy.ImmutableMatrix(readable_many(self.core.f, state=self._varying, collect_on=self.velocities))
+        return sympy.ImmutableMatrix(readable_many(self.core.f, state=self._varying, collect_on=self.velocities,
+                                                   bounds=self._bounds))
+
+    @cached_property
+    def _bounds(self) -> dict:
+        """The memo of expanded_terms_bound at the readable forms' budget (MAX_TERMS), shared by M,
+        f and too_large_to_expand, which count the same entries."""
+        return {}
 
     def readable(self, expr, collect_on=()) -> sympy.Expr:
         """`expr` (SymPy or SymEngine) in the compact form the equations are shown in: expanded,
@@ -176,10 +184,9 @@ class Equations:
         :attr:`named_form` (unless asked for every entry in full)."""
         from ._readable import MAX_TERMS as budget, expanded_terms_bound
 
-        memo: dict = {}
         n = self.n
         entries = [self.core.M[i, j] for i in range(n) for j in range(i, n)] + list(self.core.f)
-        return any(expanded_terms_bound(e, budget, memo) > budget for e in entries)
+        return any(expanded_terms_bound(e, budget, self._bounds) > budget for e in entries)
 
     @cached_property
     def named_form(self):

@@ -70,12 +70,13 @@ def readable(expr, *, state: Iterable = (), collect_on: Iterable = (), max_terms
 
 
 def readable_many(exprs: Iterable, *, state: Iterable = (), collect_on: Iterable = (),
-                  max_terms: int = MAX_TERMS) -> list[sympy.Expr]:
+                  max_terms: int = MAX_TERMS, bounds: dict | None = None) -> list[sympy.Expr]:
     """:func:`readable` of each of `exprs`, the budget's count of their common subexpressions
-    (the entries of M and f share many) done once."""
+    (the entries of M and f share many) done once; `bounds`: that count's memo, for `max_terms`
+    (see :func:`expanded_terms_bound`), shared with other calls."""
     state_names = state if isinstance(state, frozenset) else frozenset(str(s) for s in state)
     collect_names = frozenset(str(s) for s in collect_on)
-    bounds: dict = {}
+    bounds = {} if bounds is None else bounds
     out = []
     for expr in exprs:
         terms = _rewritten(expr, max_terms, bounds)
@@ -143,18 +144,19 @@ def expanded_terms_bound(expr, limit: int | None = None, memo: dict | None = Non
         k = memo.get(e)
         if k is not None:
             return k
-        if kind is _ADD:
+        if kind is _ADD:  # (the atoms among the arguments counted here, without a call: most are)
             k = 0
             for a in e.args:
-                k += bound(a)
+                k += bound(a) if type(a) in _COMPOUND else 1
                 if k >= cap:
                     break
         elif kind is _MUL:
             k = 1
             for a in e.args:
-                k *= bound(a)
-                if k >= cap:
-                    break
+                if type(a) in _COMPOUND:
+                    k *= bound(a)
+                    if k >= cap:
+                        break
         elif kind is _POW:
             base, exp = e.args
             kb = bound(base)
