@@ -285,3 +285,11 @@ def test_the_constraint_name_taken_is_refused_before_anything_is_added():
     with pytest.raises(ModelError, match=r"a quaternion joint adds the constraint 'ball_norm' .* that name is taken"):
         m.add_joint("ball", "spherical", parametrization="quaternion")
     assert [c.name for c in m.q] == ["x"] and "ball" not in m.frames and not m.joints
+
+
+def test_the_check_finds_no_singular_configuration_on_the_unit_sphere():
+    # det M = 64 I3 (I1 + m l^2)(I2 + m l^2)(4 m l^2 + 1) |q|^8 vanishes only at q = 0, off the constraint
+    report = lg.singularities(lg.derive(_top("quaternion")))
+    assert not report.singular and "ball_q0**2 + ball_q1**2 + ball_q2**2 + ball_q3**2" in str(report.det_mass_matrix)
+    angles = lg.singularities(lg.derive(_top()))
+    assert angles.singular and [c.condition for c in angles.configurations] == ["ball_2 = -pi/2", "ball_2 = pi/2"]

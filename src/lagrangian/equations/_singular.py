@@ -405,6 +405,7 @@ def diagnosis(equations: Equations, parameters: Mapping | None, mass_matrix) -> 
                     zeros.extend(z)
         else:
             zeros = _numeric_det_search(eqs, numeric_M)
+        zeros = [z for z in zeros if _may_meet_constraints(eqs, z, values)]
         # the numeric search's zeros are diagnosed with the compiled M (SymPy's subs of the parameter
         # values into the bicycle's M took 30 s)
         M_values = M.subs(values) if zeros and symbolic_ok else None
@@ -422,6 +423,25 @@ def diagnosis(equations: Equations, parameters: Mapping | None, mass_matrix) -> 
         cause, fix = _cause_and_fix(eqs, configurations[0], values)
     return SingularityReport(det, det_values, singular, bool(everywhere), tuple(configurations),
                              cause, fix, tuple(q.name for q in eqs.coordinates))
+
+
+def _may_meet_constraints(eqs: Equations, where: dict, values: dict) -> bool:
+    """False where `where` gives every coordinate of a quaternion joint's unit-norm constraint and violates
+    it: det M there (at q = 0, off the unit sphere) is no singularity of the motion. (Other constraints' are
+    kept: the bicycle lying flat, off its contact constraints, is still reported, as the gimbal lock it is.)"""
+    norms = {f"{j.name}_norm" for j in eqs.model.joints.values() if getattr(j, "parametrization", "") == "quaternion"}
+    for c in eqs.model.constraints:
+        if c.name not in norms:
+            continue
+        g = c.expression.xreplace(values)
+        free = g.free_symbols
+        if free and free <= set(where):
+            try:
+                if abs(float(g.xreplace({k: where[k] for k in free}))) > 1e-6:
+                    return False
+            except (TypeError, ValueError):
+                continue
+    return True
 
 
 def _configuration(eqs, M, M_values, where, values, numeric: bool = False,
