@@ -80,3 +80,20 @@ def test_bicycle_report_matrix_form_and_equations_equal_the_derived_ones(bicycle
     residuals = [rep.math(f"equation[{q.name}]").lhs for q in eqs.coordinates]
     _same(residuals, list(eqs._residuals_se))
 
+
+
+@pytest.mark.slow
+def test_bicycle_report_prints_expressions_up_to_its_own_limit(bicycle):
+    """A model too large to expand is printed up to LARGE_MODEL_NODES nodes per expression (its larger
+    ones, 20 to 70 KB of MathML each, took most of the printing time); the others up to MAX_NODES."""
+    from lagrangian.reporting._build import LARGE_MODEL_NODES
+    from lagrangian.reporting._printing import MAX_NODES, too_large
+
+    _, rep = bicycle
+    assert rep.max_nodes == LARGE_MODEL_NODES < MAX_NODES
+    html = rep.to_html()
+    assert f"(expression too large to print: more than {LARGE_MODEL_NODES} nodes; " in html
+    for block in rep.math_blocks():
+        shown = f'<div class="math" data-key="{block.key}">' in html
+        assert shown == (too_large(block.parts(), LARGE_MODEL_NODES) is None), block.key
+    assert lg.report("cart-pendulum", equilibria=False).max_nodes == MAX_NODES

@@ -143,8 +143,15 @@ def least_squares(fun: Residual, z0, rows: int):
 
     z0 = np.asarray(z0, dtype=float)
     solve = _padded(fun, len(z0), rows)
+    last: list = [None, None]  # SciPy asks for r and dr/dz at a point separately: one evaluation serves both
+
+    def evaluate(z):
+        if last[0] is None or not np.array_equal(last[0], z):
+            last[:] = [np.array(z, dtype=float), solve(z)]
+        return last[1]
+
     try:
-        res = lm(lambda z: solve(z)[0], z0, jac=lambda z: solve(z)[1], method="lm", xtol=PRECISE, ftol=PRECISE,
+        res = lm(lambda z: evaluate(z)[0], z0, jac=lambda z: evaluate(z)[1], method="lm", xtol=PRECISE, ftol=PRECISE,
                  gtol=PRECISE, max_nfev=50 * len(z0))
     except (ValueError, np.linalg.LinAlgError, FloatingPointError):
         return None

@@ -29,7 +29,7 @@ from ..model._elements import (Damper, Force, Gravity, Particle, Point, RigidBod
 from ..model._frames import angular_velocity
 from ..model._kinematics import Kinematics
 from ._document import Math, Paragraph, Report, Section, Table
-from ._printing import ConstraintForce, Given, Partial, Rotation, TimeDerivative
+from ._printing import MAX_NODES, ConstraintForce, Given, Partial, Rotation, TimeDerivative
 
 __all__ = ["report"]
 
@@ -44,6 +44,10 @@ _ORDERED_QDOT = sympy.Symbol("q_dot", commutative=False)
 #: limit either way, and took 4 s to expand and rewrite; under this budget, without roots, the readable
 #: form is cheap and usually the shorter (dL/dthetaR: 0.2 KB against 5 KB).
 LARGE_MODEL_TERMS = 300
+#: The printing limit of the report of a model too large to expand (MAX_NODES for the others): its
+#: expressions of 1000 to 2500 nodes, 20 to 70 KB of MathML each, took 0.7 s of the bicycle's 1.2 s of
+#: printing (the derivation's text, `lagrangian derive --json`, has them in full).
+LARGE_MODEL_NODES = 1000
 
 
 def report(source, *, title: str | None = None, equilibria: bool = True) -> Report:
@@ -94,7 +98,7 @@ def report(source, *, title: str | None = None, equilibria: bool = True) -> Repo
     sections = [Section(s.key, f"{i}. {s.title}", s.blocks) for i, s in enumerate(sections, 1)]
     model = eqs.model
     return Report(title or f"Lagrange's equations of {model.name}", model.name,
-                  model.description, tuple(sections))
+                  model.description, tuple(sections), LARGE_MODEL_NODES if b.large else MAX_NODES)
 
 
 def _col(items) -> sympy.ImmutableMatrix:

@@ -13,6 +13,8 @@ from typing import Union
 
 import sympy
 
+from ._printing import MAX_NODES
+
 __all__ = ["Report", "Section", "Paragraph", "Math", "Table", "Terms", "Block"]
 
 #: A sum written in the given order (SymPy would sort the terms of an ``Add``).
@@ -132,12 +134,16 @@ class Report:
     model_name : str
     description : str
     sections : tuple of Section
+    max_nodes : int
+        Expressions with more nodes than this are not printed (the writers say so in their place):
+        ``_printing.MAX_NODES``, less for a model too large to expand (``_build.LARGE_MODEL_NODES``).
     """
 
     title: str
     model_name: str
     description: str
     sections: tuple
+    max_nodes: int = MAX_NODES
 
     # ------------------------------------------------------------------ lookup
     def section(self, key: str) -> Section:

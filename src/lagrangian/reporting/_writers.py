@@ -1,7 +1,8 @@
 """The three writers of a Report: HTML with MathML, Markdown with LaTeX, and a LaTeX document.
 
-An expression larger than :data:`~lagrangian.report._printing.MAX_NODES` nodes is not printed;
-the report says so in its place (printing it would take long and help nobody).
+An expression larger than :data:`~lagrangian.report._printing.MAX_NODES` nodes (the report's
+``max_nodes``: fewer for a model too large to expand) is not printed; the report says so in its place
+(printing it would take long and help nobody).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import sympy
 
 from .._codetext import without_controls
 from ._document import Math, Paragraph, Report, Table
-from ._printing import MAX_NODES, latex, math_element, mathml, too_large
+from ._printing import latex, math_element, mathml, too_large
 
 __all__ = ["to_html", "to_markdown", "to_latex"]
 
@@ -20,7 +21,7 @@ _RELATIONS = {"=": ("<mo>=</mo>", "="), "=>": ("<mo>&#x21D2;</mo>", "\\Rightarro
 
 
 def _too_large_text(report: Report, nodes: int) -> str:
-    return (f"(expression too large to print: more than {MAX_NODES} nodes; "
+    return (f"(expression too large to print: more than {report.max_nodes} nodes; "
             f"`lagrangian derive {report.model_name} --json` gives it in full)")
 
 
@@ -92,7 +93,7 @@ def _html_block(report: Report, block) -> str:
         rows = "".join("<tr>" + "".join(f"<td>{_html_inline(c)}</td>" for c in row) + "</tr>"
                        for row in block.rows)
         return f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>"
-    nodes = too_large(block.parts())
+    nodes = too_large(block.parts(), report.max_nodes)
     key = f' data-key="{html.escape(block.key)}"' if block.key else ""
     if nodes is not None:
         return f'<p class="too-large"{key}>{html.escape(_too_large_text(report, nodes))}</p>'
@@ -157,7 +158,7 @@ def _md_block(report: Report, block) -> str:
         lines = ["| " + " | ".join(block.header) + " |", "|" + "---|" * len(block.header)]
         lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in block.rows]
         return "\n".join(lines)
-    nodes = too_large(block.parts())
+    nodes = too_large(block.parts(), report.max_nodes)
     if nodes is not None:
         return f"*{_md_text(_too_large_text(report, nodes))}*"
     return "$$\n" + _latex_relation(block) + "\n$$"
@@ -212,7 +213,7 @@ def _tex_block(report: Report, block) -> str:
         lines += [" & ".join(_tex_inline(c) for c in row) + " \\\\" for row in block.rows]
         lines += ["\\hline", "\\end{tabular}", ""]
         return "\\begin{center}\n" + "\n".join(lines) + "\\end{center}\n"
-    nodes = too_large(block.parts())
+    nodes = too_large(block.parts(), report.max_nodes)
     if nodes is not None:
         return f"\\noindent\\emph{{{_tex_text(_too_large_text(report, nodes))}}}\n"
     return "\\[\n" + _latex_relation(block) + "\n\\]\n"
