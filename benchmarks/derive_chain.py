@@ -18,6 +18,26 @@ The children run with Python's bytecode cached, as an installed package runs (pi
 install), in a temporary folder (PYTHONPYCACHEPREFIX; one uncounted run of each first), unless
 --environment-as-is: here PYTHONDONTWRITEBYTECODE=1 is set, and every process then compiles
 lagrangian's modules from source (about 0.1 s of CPU; SymPy's bytecode was compiled on install).
+
+Measured here (2 cores shared by five engineers, load average 7-8; --targets 7, bytecode cached; the
+"before" is the source at commit e685003 run by the same script through PYTHONPATH, in the same
+half hour):
+
+| target (every run) | before: median [min] | after: median [min] |
+|---|---:|---:|
+| (a) derive + readable M and f, 10 links, in process, >= 20x | 22.3x [18.5x] (36.4 ms) | 21.7x [20.4x] (36.8 ms) |
+| (b) `lagrangian derive pendulum-chain-20`, CPU of the process, >= 3x | 3.8x [3.7x] (1.34 s) | 5.1x [4.8x] (1.03 s) |
+| (b) the same, wall time | 3.7x [3.2x] | 5.2x [3.6x] |
+
+KanesMethod took 0.79-0.80 s (a) and 5.1-5.2 s (b) of CPU in these runs. (b) gained from printing
+sums and products directly (the readable text of the 20-link chain 0.24 s -> 0.08 s), a parser
+with the named command alone (no lagrangian.serve, asyncio; 40 ms -> 10 ms), the residuals and the
+energy built without SymPy's flattening (59 ms -> 24 ms) and one memo for L in the cyclic test
+(75 ms -> 53 ms for the conserved quantities). With PYTHONDONTWRITEBYTECODE=1 every process adds
+about 0.1 s (before: 1.38 s, 3.8x [3.5x]). (a) did not move: its time is derive (11 ms, SymEngine's
+derivatives in _lagrange_core 6.4 ms, the bodies' positions converted 3 ms) and the readable forms
+(21 ms: expanding f 4 ms, the expansion bound 3 ms, the identities 5 ms, building SymPy's objects
+6 ms); its margin under load stays thin (20x-24x per run).
 """
 
 from __future__ import annotations
