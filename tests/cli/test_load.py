@@ -260,3 +260,35 @@ def test_a_public_arm_written_as_a_model_file_matches_pinocchio(tmp_path, capsys
         assert np.allclose(M[np.ix_(order, order)], Mp, rtol=0, atol=1e-10 * np.abs(Mp).max())
         tp = pin.rnea(pm, data, q[order], qd[order], qdd[order])
         assert np.allclose(tau[order], tp, rtol=0, atol=1e-10 * np.abs(tp).max())
+
+
+def test_a_floating_base_turned_by_a_quaternion(arm, tmp_path, capsys):
+    code, out, _ = _run(capsys, "load", str(arm), "--floating-base", "quaternion", "--json")
+    assert code == 0
+    info = json.loads(out)
+    assert info["coordinates"][:7] == ["floating_base_x", "floating_base_y", "floating_base_z", "floating_base_q0",
+                                       "floating_base_q1", "floating_base_q2", "floating_base_q3"]
+    assert info["coordinates"][7:] == ["waist", "elbow_1", "wrist"]
+    assert info["joints"][0]["parametrization"] == "quaternion"
+    assert [c["name"] for c in info["constraints"]] == ["floating_base_norm"]
+    assert {b["name"]: b["mass"] for b in info["bodies"]}["base"] == 4  # it moves now
+    # written and read back: the same equations
+    out_file = tmp_path / "floating.toml"
+    assert main(["load", str(arm), "--floating-base", "quaternion", "--write", str(out_file)]) == 0
+    capsys.readouterr()
+    a, b = lg.io.load_urdf(str(arm), floating_base="quaternion"), lg.load(str(out_file))
+    assert a.q == b.q and b.simulation["initial"] == {"floating_base_q0": 1.0}
+    for (Ma, fa), (Mb, fb) in zip(_numbers(a), _numbers(b)):
+        assert np.allclose(Ma, Mb, rtol=1e-12, atol=1e-13) and np.allclose(fa, fb, rtol=1e-12, atol=1e-12)
+    # three angles, as before
+    code, out, _ = _run(capsys, "load", str(arm), "--floating-base", "--json")
+    assert json.loads(out)["coordinates"][3:6] == ["floating_base_1", "floating_base_2", "floating_base_3"]
+
+
+def test_floating_base_values_are_checked(arm, capsys):
+    with pytest.raises(lg.ModelError, match=r"floating_base='quaternions' \(did you mean 'quaternion'\?\): expected "
+                                            r"False \(the root link fixed to the world\), True or \"angles\""):
+        lg.io.load_urdf(str(arm), floating_base="quaternions")
+    with pytest.raises(SystemExit) as info:
+        main(["load", str(arm), "--floating-base", "quaternions"])
+    assert info.value.code == 2 and "invalid choice: 'quaternions'" in capsys.readouterr().err

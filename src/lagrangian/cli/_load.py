@@ -37,8 +37,10 @@ def register(sub, fmt) -> None:
     p.add_argument("--write", metavar="FILE.toml",
                    help="write the equivalent model file (atomically; an existing file only with --force)")
     p.add_argument("--force", action="store_true", help="let --write replace an existing file")
-    p.add_argument("--floating-base", action="store_true",
-                   help="a URDF: give the root link 6 coordinates (a free body) instead of fixing it to the world")
+    p.add_argument("--floating-base", nargs="?", const="angles", choices=("angles", "quaternion"),
+                   help="a URDF: give the root link 6 coordinates (a free body) instead of fixing it to the world, "
+                        "turned by three angles (default) or by a unit quaternion (--floating-base quaternion: 7 "
+                        "coordinates and a norm constraint, no singular posture)")
     p.set_defaults(handler=_cmd_load)
 
 
@@ -61,7 +63,7 @@ def _cmd_load(args: argparse.Namespace) -> int:
                          "coordinates: remove it, or give a .urdf file")
     if args.write is not None:
         check_write(args.write, args.force)
-    model = load_urdf(source, floating_base=True) if args.floating_base else load(source)
+    model = load_urdf(source, floating_base=args.floating_base) if args.floating_base else load(source)
     written = None
     if args.write is not None:
         text = _model_file_text(model, source, kind)

@@ -19,7 +19,9 @@ What is read
   merged into the link it hangs from (one rigid body per moving link: mass, centre of mass and
   inertia combined by the parallel-axis theorem).
 - The root link is fixed to ``world`` unless ``floating_base=True`` (a floating joint
-  ``floating_base`` with coordinates ``floating_base_x`` .. ``floating_base_3``).
+  ``floating_base`` with coordinates ``floating_base_x`` .. ``floating_base_3``), or
+  ``floating_base="quaternion"`` (its rotation by a unit quaternion ``floating_base_q0`` .. ``_q3``
+  with the constraint ``floating_base_norm``: no singular posture; see :mod:`lagrangian.model._joints`).
 - Gravity: a parameter ``g`` (default 9.81) along -z of the world (URDF does not carry it).
 - ``<visual>`` geometry (box, cylinder, sphere; a mesh as a small marker, its file never opened) is
   kept in ``model.visuals`` for drawing.
@@ -138,8 +140,9 @@ def load_urdf(path: str | os.PathLike, *, floating_base: bool = False, gravity: 
     ----------
     path : str or os.PathLike
         The ``.urdf`` file.
-    floating_base : bool, optional
-        Give the root link 6 coordinates (a free body) instead of fixing it to the world.
+    floating_base : bool or str, optional
+        Give the root link 6 coordinates (a free body) instead of fixing it to the world: True or
+        ``"angles"`` (three angles), or ``"quaternion"`` (a unit quaternion, 7 coordinates).
     gravity : float or None, optional
         The value of the parameter ``g`` (gravity along -z); None for no gravity.
 
@@ -204,7 +207,7 @@ class _Builder:
         self.root = root
         self.raw = raw
         self.source = source
-        self.floating_base = bool(floating_base)
+        self.floating_base, self.base_parametrization = _floating_base(floating_base)
         self.gravity = gravity
         self.default_name = default_name
         self.folder = None if folder is None else Path(folder).resolve()
@@ -537,7 +540,8 @@ class _Builder:
                     for j in moving}
         names = [n for j in moving for n in names_of[j.name]]
         if self.floating_base:
-            names = list(default_coordinates(FLOATING_BASE, "floating")) + names
+            names = list(default_coordinates(FLOATING_BASE, "floating",
+                                             parametrization=self.base_parametrization)) + names
         seen: set[str] = set()
         for n in names:
             if n in seen:
@@ -555,7 +559,8 @@ class _Builder:
         # frames, parents first
         root_frame = links[base].frame
         if self.floating_base:
-            model.add_joint(FLOATING_BASE, "floating", child=root_frame if root_frame != WORLD else "base")
+            model.add_joint(FLOATING_BASE, "floating", child=root_frame if root_frame != WORLD else "base",
+                            parametrization=self.base_parametrization)
             root_frame = root_frame if root_frame != WORLD else "base"
         elif root_frame != WORLD:
             model.add_frame(root_frame)
@@ -623,6 +628,22 @@ class _Builder:
                                  center=tuple(_number(c) for c in com), name=links[head].frame)
         if gname is not None:
             model.add_gravity(model.symbol(gname), direction=(0, 0, -1))
+
+
+def _floating_base(value) -> tuple[bool, str | None]:
+    """(whether the root link floats, its parametrization) of load_urdf's floating_base."""
+    from .._util import did_you_mean
+
+    if value is False or value is None:
+        return False, None
+    if value is True or value == "angles":
+        return True, None
+    if value == "quaternion":
+        return True, "quaternion"
+    extra = did_you_mean(value, ["angles", "quaternion"]) if isinstance(value, str) else ""
+    raise ModelError(f"floating_base={value!r}{extra}: expected False (the root link fixed to the world), True or "
+                     "\"angles\" (a floating base turned by three angles), or \"quaternion\" (by a unit quaternion: "
+                     "no singular posture)")
 
 
 def _planar_normal(axis) -> str:
