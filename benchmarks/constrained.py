@@ -1,6 +1,6 @@
 """Cost per step of the compiled constrained integration against the compiled unconstrained one.
 
-Run:  python benchmarks/constrained.py [--repeat N] [--split-ab]      (default 15)
+Run:  python benchmarks/constrained.py [--repeat N] [--split-ab] [--zeros-ab] [--only MODEL ...]   (default 15)
       python benchmarks/constrained.py --parts MODEL [MODEL ...] [--repeat N]
 
 For each constrained example, the compiled DOP853 kernel is timed (CPU time, median over the
@@ -96,6 +96,31 @@ def _cut_modules(eqs, folder: Path) -> dict:
     return modules
 
 
+def _dense(eqs, fast, folder: Path):
+    """`fast` with the numba rhs and projection generated without the structural zeros of M and G
+    (every product of the written-out solve taken, as before _codegen_constrained._structure), or
+    None where the solve is not written out (n or m > UNROLL_MAX: nothing is left out)."""
+    import dataclasses
+
+    from lagrangian.numeric import _codegen_constrained
+    from lagrangian.numeric._codegen import numba_source
+
+    generated = numba_source(eqs)
+    saved, _codegen_constrained._structure = _codegen_constrained._structure, lambda eq, consts: {}
+    try:
+        source = numba_source(eqs)
+    finally:
+        _codegen_constrained._structure = saved
+    if source == generated:
+        return None
+    path = folder / "lg_dense.py"
+    path.write_text(source, encoding="utf-8")
+    spec = importlib.util.spec_from_file_location("lg_dense", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return dataclasses.replace(fast, rhs_c=module.rhs, project_c=module.project)
+
+
 def _unsplit(eqs, fast, folder: Path):
     """`fast` with the numba rhs that evaluates M, f, G, c and then calls lg_saddle (SPLIT_MIN
     raised), or None where the generated rhs is not split."""
@@ -124,7 +149,7 @@ def parts(names: list[str], repeat: int) -> None:
     """Where the constrained step cost goes (see the module)."""
     from numba import njit
 
-    from lagrangian.numeric._kernels_numba import _ptr, _rc, _vf
+    from lagrangian.numeric._kernels_numba import _ptr, _rc
 
     @njit
     def rhs_loop(addr, x, u, p, dx, work, count):
@@ -135,7 +160,7 @@ def parts(names: list[str], repeat: int) -> None:
     def project_loop(addr, x0, x, u, p, work, drift, count):
         for _ in range(count):
             x[:] = x0
-            _vf(addr, 0.1, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
+            _rc(addr, 0.1, _ptr(x, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))  # (returns its code)
 
     def part_loop(f):
         @njit
@@ -193,12 +218,17 @@ def main() -> None:
     parser.add_argument("--parts", nargs="+", metavar="MODEL", help="where the step cost goes (see the module)")
     parser.add_argument("--split-ab", action="store_true",
                         help="also time the rhs not split (M, f, G, c, then lg_saddle) where it is split")
+    parser.add_argument("--zeros-ab", action="store_true",
+                        help="also time the rhs and projection generated without the structural zeros of M and G")
+    parser.add_argument("--only", nargs="+", metavar="MODEL", help="these examples only")
     args = parser.parse_args()
     if args.parts:
         parts(args.parts, args.repeat)
         return
     print(f"{'model':<20} {'constrained':>14} {'unconstrained':>14} {'per step':>9} {'per f':>7}")
     for name, t_end in CASES:
+        if args.only and name not in args.only:
+            continue
         model = lg.load(name)
         eqs = lg.derive(model)
         free = model.copy()
@@ -218,11 +248,17 @@ def main() -> None:
             if unsplit is not None:
                 ukw = dict(kw, project=_address(unsplit.project_c))
                 per_step(unsplit, x0, times, p, prog, **ukw)
-            rounds, others = [], []
+            dense = _dense(eqs, fast, Path(folder)) if args.zeros_ab else None
+            if dense is not None:
+                dkw = dict(kw, project=_address(dense.project_c))
+                per_step(dense, x0, times, p, prog, **dkw)
+            rounds, others, denses = [], [], []
             for _ in range(args.repeat):
                 rounds.append((per_step(fast, x0, times, p, prog, **kw), per_step(plain, x0, times, p, prog)))
                 if unsplit is not None:
                     others.append(per_step(unsplit, x0, times, p, prog, **ukw)[0] / rounds[-1][1][0])
+                if dense is not None:
+                    denses.append(per_step(dense, x0, times, p, prog, **dkw)[0] / rounds[-1][1][0])
         (_, _, c_n), (_, _, u_n) = rounds[0]
         c_step, c_eval, u_step, u_eval = (statistics.median(r[a][b] for r in rounds) for a in (0, 1) for b in (0, 1))
         ratios = [c[0] / u[0] for c, u in rounds]
@@ -232,6 +268,10 @@ def main() -> None:
         print(f"{name:<20} {c_step * 1e6:>10.2f} us {u_step * 1e6:>10.2f} us {ratio:>8.2f}x {ratio_f:>6.2f}x"
               f"  ({c_n} and {u_n} steps) {'holds' if ratio <= TARGET else 'missed'} (target {TARGET}x);"
               f" per-step ratio quartiles [{q1:.2f}, {q3:.2f}]")
+        if denses:
+            o1, o3 = np.percentile(denses, [25, 75])
+            print(f"{'':<20} without the structural zeros: {statistics.median(denses):.2f}x per step"
+                  f" [{o1:.2f}, {o3:.2f}], alternating with the runs above")
         if others:
             o1, o3 = np.percentile(others, [25, 75])
             print(f"{'':<20} the same rhs not split (SPLIT_MIN): {statistics.median(others):.2f}x per step"

@@ -12,12 +12,16 @@ import pytest
 from lagrangian.numeric import _codegen_constrained as cc
 
 
-def _helpers(n: int, m: int, unroll: bool, split: bool = False) -> tuple[dict, str]:
-    consts = {"N": n, "M": m, "MH": 0, **{k: v for k, v in cc.layout(n, m).items() if k != "size"},
-              "SINGULAR_RATIO": cc.SINGULAR_RATIO, "PROJECTION_STEPS": cc.PROJECTION_STEPS,
-              "PROJECTION_TOL": cc.PROJECTION_TOL, "NEWTON_EXIT": cc.NEWTON_EXIT, "MET": cc.MET,
-              "SINGULAR": cc.SINGULAR, "NOT_FINITE": cc.NOT_FINITE}
-    e = cc._Emit("py", consts, unroll=unroll)
+def _consts(n: int, m: int) -> dict:
+    return {"N": n, "M": m, "MH": 0, **{k: v for k, v in cc.layout(n, m).items() if k != "size"},
+            "SINGULAR_RATIO": cc.SINGULAR_RATIO, "PROJECTION_STEPS": cc.PROJECTION_STEPS,
+            "PROJECTION_TOL": cc.PROJECTION_TOL, "NEWTON_EXIT": cc.NEWTON_EXIT, "MET": cc.MET,
+            "SINGULAR": cc.SINGULAR, "NOT_FINITE": cc.NOT_FINITE}
+
+
+def _helpers(n: int, m: int, unroll: bool, split: bool = False, zeros=None) -> tuple[dict, str]:
+    consts = _consts(n, m)
+    e = cc._Emit("py", consts, unroll=unroll, zeros=zeros)
     cc._algorithm(e, 0, split=split)
     text = "\n".join(e.lines)
     space = {"math": math, "njit": lambda **kw: (lambda f: f)}
@@ -129,3 +133,57 @@ def test_the_split_solve_gives_lg_saddles_numbers_and_decisions_bit_for_bit(unro
             assert 0.0 <= r_one <= cc.SINGULAR_RATIO, name
         else:
             assert r_one == expected[name], name
+
+
+# the Whipple bicycle's patterns of M and G (n = 8, m = 5: 46 of 64 and 25 of 40 entries not 0)
+_BIKE_M = ["10111010", "01111010", "11111111", "11111011", "11111111", "00101100", "11111010", "00111001"]
+_BIKE_G = ["10111100", "01111100", "00011010", "10111011", "01111011"]
+
+
+def _sparse_parts(rng, Mnz, Gnz):
+    n, m = len(Mnz), len(Gnz)
+    A = np.where(Mnz, rng.normal(size=(n, n)), 0.0)
+    M = np.tril(A, -1) + np.tril(A, -1).T
+    M += np.diag(np.sum(np.abs(M), axis=1) + 1.0 + rng.uniform(size=n))  # positive definite, M's pattern
+    return M, rng.normal(size=n), np.where(Gnz, rng.normal(size=(m, n)), 0.0), rng.normal(size=m)
+
+
+def test_the_structural_zeros_are_left_out_and_the_solve_is_the_same():
+    """M's and G's structural zeros (_structure): L's fill-in, Z = L^-1 G^T's, the QR's. The written-out
+    solve leaves their products out (fewer terms in the text) and gives the loop form's q_ddot, lambda
+    and measure, and the KKT system's solution; with a dependent row, the same decision."""
+    Mnz = np.array([[c == "1" for c in row] for row in _BIKE_M])
+    Gnz = np.array([[c == "1" for c in row] for row in _BIKE_G])
+    n, m = Gnz.shape[1], Gnz.shape[0]
+    zeros = cc.structural_zeros(Mnz, Gnz, [2], {**_consts(n, m), "MH": 1})
+    at = cc.layout(n, m)
+    L_zeros = {k for k in zeros[m] if k < n * n}
+    assert len(L_zeros) == 28 - 23 and len(zeros[m] & set(range(at["G0"], at["C0"]))) == 40 - 25
+    assert set(zeros[1]) >= L_zeros and len(zeros[1]) == 5 + 15 + 5  # the holonomic row's QR: 3 of 8 not 0
+    full, text_full = _helpers(n, m, True)
+    sparse, text = _helpers(n, m, True, zeros=zeros)
+    assert text.count(" * ") <= text_full.count(" * ") - 90  # 774 -> 678 multiplications written
+    loop, _ = _helpers(n, m, False)
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        M, f, G, c = _sparse_parts(rng, Mnz, Gnz)
+        results = {}
+        for name, space in (("sparse", sparse), ("full", full), ("loop", loop)):
+            work, _ = _work(n, m, M, f, G, c)
+            r = space["lg_saddle"](work)
+            results[name] = r, work[at["A0"]:at["A0"] + n].copy(), work[at["L0"]:at["L0"] + m].copy()
+        r0, a0, l0 = results["loop"]
+        for name in ("sparse", "full"):
+            r, a, lam = results[name]
+            assert 0.0 < r <= 1.0 and r == pytest.approx(r0, rel=1e-12), name
+            np.testing.assert_allclose(a, a0, rtol=0, atol=1e-12 * np.max(np.abs(a0)), err_msg=name)
+            np.testing.assert_allclose(lam, l0, rtol=0, atol=1e-12 * np.max(np.abs(l0)), err_msg=name)
+        kkt = np.block([[M, G.T], [G, np.zeros((m, m))]])
+        sol = np.linalg.solve(kkt, np.concatenate([f, c]))
+        np.testing.assert_allclose(results["sparse"][1], sol[:n], rtol=0, atol=1e-10 * np.max(np.abs(sol[:n])))
+        np.testing.assert_allclose(results["sparse"][2], -sol[n:], rtol=0, atol=1e-10 * np.max(np.abs(sol[n:])))
+    # a dead point inside the patterns: row 4 equal to row 1 (values 0 where one pattern allows more)
+    G[1, 5] = 0.0
+    G[4] = G[1]
+    for space in (sparse, full, loop):
+        assert space["lg_saddle"](_work(n, m, M, f, G, c)[0]) <= cc.SINGULAR_RATIO

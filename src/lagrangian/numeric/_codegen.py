@@ -30,7 +30,7 @@ __all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "32"
+GENERATOR_VERSION = "33"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",

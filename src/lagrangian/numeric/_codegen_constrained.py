@@ -23,6 +23,15 @@ with M symmetric positive definite on a mechanism (the kinetic energy):
    orders of magnitude above it, so that every backend decides the same way.
 3. a = M^-1 f (L, D), w = R^-T (c - G a), lambda = R^-1 w, q_ddot = a + L^-T D^-1 Q w.
 
+Written as generated, the QR keeps its columns unnormalized: Z = V R' with V^T D^-1 V = diag(d) and
+R' unit upper triangular (Q = V d^-1/2, R = d^1/2 R': the same measure, min_k d_k / |z_k|^2 under
+one square root), so that step 3 is w' = d^-1 R'^-T (c - G a), lambda = R'^-1 w', q_ddot = a +
+L^-T D^-1 V w': no square root and no division on the chain of dependent operations but one 1/d_k
+per column. Where n and m are small enough to be written out, the products with a structural zero
+(an entry of M or G that is 0 in the equations, and those of L, Z, V and R' that follow from them:
+_structure) are left out. Both change the rounding, not the decisions; the NumPy transcription
+(LAPACK's Cholesky and QR) agrees to rounding.
+
 The *measure* is min(r_M, rho_G) (r_M alone at m = 0: then steps 2 and 3 vanish and this is the
 unconstrained solve). The compiled DOP853 stops at once where it is at most SINGULAR_RATIO and
 locates the crossing of EVENT_RATIO (numeric._kernels); the SciPy path does the same. Which of the
@@ -37,8 +46,9 @@ energy, q_dot -= M^-1 G^T S^-1 w = L^-T D^-1 Q R^-T w (steps 1 and 2 again). Whe
 measure is at most SINGULAR_RATIO the step is not taken (the result code says SINGULAR).
 
 The work array holds, in order: M (n*n, its lower triangle row-major, L below the diagonal after
-the factorization), f (n), G (m*n), c (m), D (n), 1/D (n), a (n), Z then Q (m columns of n), R (m*m, upper),
-lambda (m), w (m), v (n), and the holonomic g (m) and G_h (m*n) of the projection.
+the factorization), f (n), G (m*n), c (m), D (n), 1/D (n), a (n), Z then V (m columns of n), R'
+(m*m, upper; 1/d_k on its diagonal), lambda (m), w (m), v (n), and the holonomic g (m) and G_h (m*n)
+of the projection.
 
 A change of the template changes the generated code: bump numeric._codegen.GENERATOR_VERSION with
 it (the compiled modules are found in the cache by a fingerprint of the equations and that
@@ -120,10 +130,25 @@ class _Emit:
     numbers bit for bit), and a helper with a size argument m is written once per size it is called
     with (lg_qr for m = M, lg_qr_<m> for the holonomic MH < M); an offset b stays an argument."""
 
-    def __init__(self, lang: str, consts: dict[str, int | float], unroll: bool = False):
+    def __init__(self, lang: str, consts: dict[str, int | float], unroll: bool = False,
+                 zeros: dict[int, frozenset[int]] | None = None):
         self.lang, self.consts, self.unroll, self.lines, self.depth = lang, consts, unroll, [], 0
         self.defined: set[str] = set()
         self.defs: list[str] = []
+        # structural zeros (see _structure): {m: the work entries that are 0 wherever a helper of size m,
+        # or the code of the rhs (m = M), reads them}; written out, a term reading one is left out
+        self.zeros = zeros if unroll and zeros else {}
+        self.zero: frozenset[int] = self.zeros.get(consts.get("M"), frozenset())
+
+    def is_zero(self, index: str) -> bool:
+        """Whether work[index] (a constant index, written out) is a structural zero here."""
+        if not self.zero:
+            return False
+        text = self.x(str(index))
+        return bool(re.fullmatch(r"\d+", text)) and int(text) in self.zero
+
+    def _reads_zero(self, term: str) -> bool:
+        return bool(self.zero) and any(int(k) in self.zero for k in re.findall(r"work\[(\d+)\]", self.x(term)))
 
     def x(self, expr: str) -> str:
         for name, value in self.consts.items():
@@ -185,6 +210,7 @@ class _Emit:
                 self.do(f"{var} {op}= {term(v)}")
             return
         terms = [term(v) for v in range(_int(self.x(str(lo))), _int(self.x(str(hi))))]
+        terms = [t for t in terms if not self._reads_zero(t)]  # a structural zero's product: 0 (see _structure)
         while len(terms) > 1:
             terms = [f"({a} + {b})" for a, b in zip(terms[::2], terms[1::2])] + terms[len(terms) - len(terms) % 2:]
         if not terms:
@@ -208,11 +234,13 @@ class _Emit:
             args = (str(m), *args)
         if fname not in self.defined:
             self.defined.add(fname)
-            saved = self.lines, self.depth
+            saved = self.lines, self.depth, self.zero
             self.lines, self.depth = [], 1
+            if sized and self.zeros:  # the projection's QR of the holonomic rows (m = MH < M) has its own zeros
+                self.zero = self.zeros.get(m, frozenset())
             body(self, m if self.unroll else "m") if sized else body(self)
             self._define(fname, ret, [a for a in params if not (self.unroll and a[0] == "m")], doubles, ints, doc)
-            self.lines, self.depth = saved
+            self.lines, self.depth, self.zero = saved
         return f"{fname}({', '.join(args if params[0][0] != 'work' else ('work', *args))})"
 
     def _define(self, name, ret, params, doubles, ints, doc):
@@ -280,33 +308,35 @@ def _qr(e: _Emit, m) -> None:
         e.do("big = fmax(big, s)")
     with e.when("!(big > 0.0 && big < INFINITY)"):
         e.ret("0.0")
-    e.do("rho = 1.0")
-    for k in e.loop("k", 0, m):  # column k is orthogonal to q_0 .. q_k-1: q_k, then the later columns made
+    e.do("rho = big")  # min(big, d_k ...) / big at the end: min_k d_k / big, one division (it is monotonic)
+    for k in e.loop("k", 0, m):  # column k is orthogonal to v_0 .. v_k-1: v_k, then the later columns made
         # orthogonal to it (right-looking: the same operations on each column in the same order as
-        # column by column, but the later columns' updates are independent of each other)
+        # column by column, but the later columns' updates are independent of each other); v_k is not
+        # normalized (no square root, no scaling of the column on the chain of dependent operations)
         e.total("s", "0.0", "+", "i", 0, "N",
                 lambda i: f"work[Q0 + {k} * N + {i}] * work[Q0 + {k} * N + {i}] * work[E0 + {i}]")
         with e.when("!(s > 0.0 && s < INFINITY)"):
             e.ret("0.0")
-        e.do("rho = fmin(rho, s / big)")
-        e.do("s = sqrt(s)")
-        e.do(f"work[R0 + {k} * M + {k}] = s")
+        e.do("rho = fmin(rho, s)")
         e.do("s = 1.0 / s")
-        for i in e.loop("i", 0, "N"):
-            e.do(f"work[Q0 + {k} * N + {i}] *= s")
+        e.do(f"work[R0 + {k} * M + {k}] = s")
         for j in e.loop("j", f"{k} + 1", m):
-            e.total("s", "0.0", "+", "i", 0, "N",
+            e.total("t", "0.0", "+", "i", 0, "N",
                     lambda i: f"work[Q0 + {k} * N + {i}] * work[Q0 + {j} * N + {i}] * work[E0 + {i}]")
-            e.do(f"work[R0 + {k} * M + {j}] = s")
+            e.do("t = t * s")
+            e.do(f"work[R0 + {k} * M + {j}] = t")
             for i in e.loop("i", 0, "N"):
-                e.do(f"work[Q0 + {j} * N + {i}] -= s * work[Q0 + {k} * N + {i}]")
-    e.ret("sqrt(rho)")
+                if not e.is_zero(f"Q0 + {k} * N + {i}"):
+                    e.do(f"work[Q0 + {j} * N + {i}] -= t * work[Q0 + {k} * N + {i}]")
+    e.ret("sqrt(rho / big)")
 
 
 def _rt(e: _Emit, m) -> None:
-    for k in e.loop("k", 0, m):
+    for k in e.loop("k", 0, m):  # y = R'^-T b (R' unit upper), then w' = y / d
         e.total("s", f"work[b + {k}]", "-", "j", 0, k, lambda j: f"work[R0 + {j} * M + {k}] * work[b + {j}]")
-        e.do(f"work[b + {k}] = s / work[R0 + {k} * M + {k}]")
+        e.do(f"work[b + {k}] = s")
+    for k in e.loop("k", 0, m):
+        e.do(f"work[b + {k}] *= work[R0 + {k} * M + {k}]")
 
 
 def _qv(e: _Emit, m) -> None:
@@ -353,7 +383,7 @@ def _step3(e: _Emit) -> None:
     for k in e.down("k", "M"):
         e.total("s", f"work[W0 + {k}]", "-", "i", f"{k} + 1", "M",
                 lambda i: f"work[R0 + {k} * M + {i}] * work[L0 + {i}]")
-        e.do(f"work[L0 + {k}] = s / work[R0 + {k} * M + {k}]")
+        e.do(f"work[L0 + {k}] = s")
     e.do(e.call("lg_qv", "W0", m=M))
     e.do(e.call("lg_upper", "V0"))
     for i in e.loop("i", 0, "N"):
@@ -459,14 +489,15 @@ _HELPERS = {
     "lg_lower": ("void", [("work", _W), ("b", "int")], "s", "i, k", "work[b:b+N] <- L^-1 work[b:b+N] (L unit lower)",
                  _lower),
     "lg_upper": ("void", [("work", _W), ("b", "int")], "s", "i, k", "work[b:b+N] <- L^-T D^-1 work[b:b+N]", _upper),
-    "lg_qr": ("double", [("work", _W), ("m", "int")], "big, s, rho", "i, j, k",
-              "Z = Q R (the m columns of Z at Q0, column k at Q0 + k N) by modified Gram-Schmidt in the "
-              "metric D^-1; R at R0 (R_jk at R0 + j M + k). The rank measure min_k R_kk / max_k |z_k| "
-              "(0 where a column is 0 or not finite)", _qr),
-    "lg_rt": ("void", [("work", _W), ("m", "int"), ("b", "int")], "s", "j, k", "work[b:b+m] <- R^-T work[b:b+m]",
-              _rt),
-    "lg_qv": ("void", [("work", _W), ("m", "int"), ("b", "int")], "s", "i, k", "work[V0:V0+N] <- Q work[b:b+m]",
-              _qv),
+    "lg_qr": ("double", [("work", _W), ("m", "int")], "big, s, t, rho", "i, j, k",
+              "Z = V R' (the m columns of Z at Q0, column k at Q0 + k N, become V's) by modified Gram-Schmidt "
+              "in the metric D^-1, V's columns orthogonal, not normalized (V^T D^-1 V = diag(d)), R' unit upper "
+              "(R'_jk at R0 + j M + k, 1/d_k on the diagonal); Z = Q R with Q = V d^-1/2, R = d^1/2 R'. The "
+              "rank measure min_k R_kk / max_k |z_k| (0 where a column is 0 or not finite)", _qr),
+    "lg_rt": ("void", [("work", _W), ("m", "int"), ("b", "int")], "s", "j, k",
+              "work[b:b+m] <- d^-1 R'^-T work[b:b+m] (= d^-1/2 R^-T)", _rt),
+    "lg_qv": ("void", [("work", _W), ("m", "int"), ("b", "int")], "s", "i, k",
+              "work[V0:V0+N] <- V work[b:b+m] (after lg_rt: Q R^-T)", _qv),
     "lg_factor": ("double", [("work", _W)], "r, rho", "i, k",
                   "Steps 1 and 2 (M, G in work): the measure min(r_M, rho_G)", _factor),
     "lg_saddle": ("double", [("work", _W)], "r, s", "i, k",
@@ -504,6 +535,64 @@ def _constants(eq: Equations) -> tuple[dict, int]:
               "PROJECTION_TOL": PROJECTION_TOL, "NEWTON_EXIT": NEWTON_EXIT, "MET": MET, "SINGULAR": SINGULAR,
               "NOT_FINITE": NOT_FINITE}
     return consts, mh
+
+
+def _structure(eq: Equations, consts: dict) -> dict[int, frozenset[int]]:
+    """The structural zeros of the written-out solve: {m: the indices of the work array that hold 0
+    wherever the code of size m reads them} (m = M: the rhs, the velocity projection and their
+    helpers; m = MH < M: the QR of the holonomic rows in the coordinate projection).
+
+    Known from the generated expressions (an entry of M or G that is 0): L's pattern from M's by the
+    fill-in of M = L D L^T without pivoting, Z = L^-1 G^T's column by column, then Q's and R's of the
+    Gram-Schmidt QR (a column takes the pattern of each earlier column it is not orthogonal to by
+    structure); the projection's QR from the holonomic rows of G. A product with such an entry is 0
+    and is left out of the written-out sums (the Whipple bicycle: M 46 of 64 entries, G 25 of 40,
+    L 23 of 28 below the diagonal, Z 33 of 40); the other operations are those of the loop form, the
+    sums over fewer terms (rounding changes, not the decisions)."""
+    from ._codegen import _mass_and_forcing
+
+    n, m = consts["N"], consts["M"]
+    Ms, _ = _mass_and_forcing(eq)
+    G = eq.core.G
+    return structural_zeros([[Ms[i][j] != 0 for j in range(n)] for i in range(n)],
+                            [[G[k, j] != 0 for j in range(n)] for k in range(m)], holonomic_rows(eq), consts)
+
+
+def structural_zeros(Mnz, Gnz, holonomic, consts: dict) -> dict[int, frozenset[int]]:
+    """_structure from the patterns: Mnz[i][j] (M's entry not 0; the lower triangle is read), Gnz[k][j],
+    the indices of the holonomic rows, the constants of the layout (N, M, MH, G0, Q0, R0)."""
+    n, m, mh = consts["N"], consts["M"], consts["MH"]
+    L = [[i > j and bool(Mnz[i][j]) for j in range(n)] for i in range(n)]
+    for j in range(n):
+        for i in range(j + 1, n):
+            L[i][j] = L[i][j] or any(L[i][k] and L[j][k] for k in range(j))
+    common = {i * n + j for i in range(n) for j in range(i) if not L[i][j]}
+    common |= {consts["G0"] + k * n + j for k in range(m) for j in range(n) if not Gnz[k][j]}
+
+    def qr(columns: list[list[bool]]) -> set[int]:
+        Q = [list(c) for c in columns]
+        R = [[False] * len(Q) for _ in Q]
+        for k in range(len(Q)):
+            for j in range(k + 1, len(Q)):
+                if any(a and b for a, b in zip(Q[k], Q[j])):
+                    R[k][j] = True
+                    Q[j] = [a or b for a, b in zip(Q[j], Q[k])]
+        zero = {consts["Q0"] + k * n + i for k in range(len(Q)) for i in range(n) if not Q[k][i]}
+        # R_kj left 0 only where the final columns share no entry (a superset of those met while the
+        # columns were still filling in: the sums are taken over the final patterns)
+        return zero | {consts["R0"] + k * m + j for k in range(len(Q)) for j in range(k + 1, len(Q))
+                       if not any(a and b for a, b in zip(Q[k], Q[j]))}
+
+    def forward(g: list[bool]) -> list[bool]:  # the pattern of L^-1 g
+        z = list(g)
+        for i in range(n):
+            z[i] = z[i] or any(L[i][k] and z[k] for k in range(i))
+        return z
+
+    out = {m: frozenset(common | qr([forward(Gnz[k]) for k in range(m)]))}
+    if 0 < mh < m:
+        out[mh] = frozenset(common | qr([list(map(bool, Gnz[k])) for k in holonomic]))
+    return out
 
 
 def _unrolled(eq: Equations) -> bool:
@@ -563,7 +652,8 @@ def constrained_main(equations: Equations) -> list[str]:
         out += parts("lg_position", *position, "g of the holonomic constraints, then their rows of G.")
     out += parts("lg_velocity", *velocity, "w = G q_dot + b, G and M's lower triangle.")
     body, split = _rhs_body(pr, rhs, consts)
-    e = _Emit("py", consts, unroll=_unrolled(eq))
+    unroll = _unrolled(eq)
+    e = _Emit("py", consts, unroll=unroll, zeros=_structure(eq, consts) if unroll else None)
     _algorithm(e, mh, split=split)
     out += e.lines
     out += ["", "", "@njit(cache=True)", "def _u(u_):", f"    return carray(u_, ({max(nu, 1)},))",
@@ -642,7 +732,8 @@ def constrained_c(equations: Equations, prefix: str = "lg_", storage: str = "", 
     if mh:
         out += parts("lg_position", *position)
     out += parts("lg_velocity", *velocity)
-    e = _Emit("c", consts, unroll=_unrolled(eq))
+    unroll = _unrolled(eq)
+    e = _Emit("c", consts, unroll=unroll, zeros=_structure(eq, consts) if unroll else None)
     _algorithm(e, mh)
     out += e.lines
     out += ["", (f"{storage}double {prefix}constrained_rhs(double t, double *x, double *u, double *p, double *dx, "
