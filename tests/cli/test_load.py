@@ -292,3 +292,21 @@ def test_floating_base_values_are_checked(arm, capsys):
     with pytest.raises(SystemExit) as info:
         main(["load", str(arm), "--floating-base", "quaternions"])
     assert info.value.code == 2 and "invalid choice: 'quaternions'" in capsys.readouterr().err
+
+
+def test_every_refusal_of_the_writer_is_named():
+    m = lg.Model("mixed", coordinates=["x", "y"], T="x_dot**2/2", parameters={"k": None, "r": 1.0})
+    m.add_constraint("x - y", name="tie")
+    with pytest.raises(lg.ModelError) as info:
+        model_file_text(m)
+    message = str(info.value)
+    assert "the constraint 'tie' is not written by this writer: add it as a [[constraints]] table by hand" in message
+    assert "explicit energies and forces ([energy], [forces]) are not written by this writer" in message
+    assert "the parameter 'k' has no value: give it one before writing the model file" in message
+
+
+def test_write_to_something_that_is_not_a_regular_file(arm, tmp_path, capsys):
+    fifo = tmp_path / "pipe.toml"
+    os.mkfifo(fifo)
+    code, _, err = _run(capsys, "load", str(arm), "--write", str(fifo), "--force")
+    assert code == 2 and f"--write {fifo}: it is not a regular file; choose another path" in err

@@ -293,3 +293,13 @@ def test_the_check_finds_no_singular_configuration_on_the_unit_sphere():
     assert not report.singular and "ball_q0**2 + ball_q1**2 + ball_q2**2 + ball_q3**2" in str(report.det_mass_matrix)
     angles = lg.singularities(lg.derive(_top()))
     assert angles.singular and [c.condition for c in angles.configurations] == ["ball_2 = -pi/2", "ball_2 = pi/2"]
+
+
+def test_the_element_name_taken_is_refused():
+    m = lg.Model("m")
+    x = m.coordinate("x")
+    m.add_particle(1, (x, 0), name="ball_unit")
+    with pytest.raises(ModelError, match=r"a quaternion joint adds the element 'ball_unit', but an element has that "
+                                         r"name: rename the joint or the element"):
+        m.add_joint("ball", "spherical", parametrization="quaternion")
+    assert not m.joints and [c.name for c in m.q] == ["x"]
