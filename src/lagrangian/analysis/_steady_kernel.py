@@ -35,9 +35,12 @@ __all__ = ["points", "free_rates", "steady_rows", "central_jacobian", "differenc
 @njit(cache=True)
 def points(A, t, u, p, q, shape, h, given, given_values):  # pragma: no cover - compiled
     """Fill A (2 k + 1 rows) with the arguments (t, q, q_dot, u, p) of q and of the points q +- h_j
-    along the shape coordinates (rows 2 j + 1 and 2 j + 2), the given rates set, the others 0."""
+    along the shape coordinates (rows 2 j + 1 and 2 j + 2), the given rates set, the others 0. Nothing
+    is written where A is not of that shape (compiled code does not check its indices)."""
     n = q.shape[0]
     nu = u.shape[0]
+    if A.shape[0] != 2 * shape.shape[0] + 1 or A.shape[1] != 1 + 2 * n + nu + p.shape[0] or h.shape[0] < shape.shape[0]:
+        return
     for i in range(A.shape[0]):
         A[i, 0] = t
         for j in range(n):
@@ -354,11 +357,13 @@ def central_jacobian(R, A, W, scale, q, h, n, held, hol, J):  # pragma: no cover
     accelerations for the held rows (`scale` at q plus the largest squared rate), 1 + max |q| for the
     holonomic rows, (1 + max |q_dot|)(1 + max |W|) for the velocity rows, at q (A[0]: its arguments,
     W[0]: its constraint Jacobian). Returns False (J untouched) where a row is not finite."""
+    rows, k = J.shape
+    if R.shape[0] < 2 * k + 1 or R.shape[1] != rows or h.shape[0] < k:  # not the batch of q +- h_j
+        return False
     for i in range(R.shape[0]):
         for r in range(R.shape[1]):
             if not math.isfinite(R[i, r]):
                 return False
-    rows, k = J.shape
     rates2 = 0.0
     rates = 0.0
     for j in range(n):
