@@ -254,6 +254,11 @@ def test_hostile_and_unsupported_urdfs(text, match):
     assert re.search(match, _error(text))
 
 
+def test_a_link_with_a_problem_gives_one_error_not_a_second_for_its_joint():
+    message = _error(_robot(ARM.replace('value="1"', 'value="nan"') + _joint()))
+    assert "every number must be finite" in message and "no link is named" not in message
+
+
 def test_problems_carry_the_line_of_their_link_or_joint():
     text = _robot(ARM.replace('value="1"', 'value="-2"') + "\n\n" + _joint(extra='<mimic joint="x"/>'))
     message = _error(text)

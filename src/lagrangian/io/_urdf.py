@@ -214,6 +214,8 @@ class _Builder:
         self.problems: list[Problem] = []
         self.notes: list[str] = []  # also in the model's description
         self.merges: list[str] = []  # links merged, fixed to the world or massless
+        self.link_names = {el.get("name") for el in root.findall("link")}  # a joint to a link with problems: no
+        # second error
 
     def problem(self, key, message, line=None):
         if line is None and key:  # the line of <link name="..."> or <joint name="..."> (ElementTree keeps none)
@@ -392,8 +394,9 @@ class _Builder:
             if link is None:
                 self.problem(f"{key}.{tag}", f"missing <{tag} link=\"...\"/>")
             elif link not in links:
-                self.problem(f"{key}.{tag}", f"no link is named '{link}'; the links are "
-                                             f"{', '.join(list(links)[:10])}")
+                if link not in self.link_names:
+                    self.problem(f"{key}.{tag}", f"no link is named '{link}'; the links are "
+                                                 f"{', '.join(list(links)[:10])}")
                 link = None
             ends.append(link)
         if None in ends:
