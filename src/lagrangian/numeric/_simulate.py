@@ -134,6 +134,8 @@ def _parameters(nm: NumericModel, params: Mapping | None, problems: list[Problem
     for i, v in _named_values(params or {}, nm.parameter_names, "a parameter of the model", "params",
                               problems, derived).items():
         values[i] = v
+    if not np.isnan(values).any():  # (one test of the array: simulate() asks on every call)
+        return values
     reported = {p.key for p in problems}
     for name, v in zip(nm.parameter_names, values):
         if np.isnan(v) and f"params.{name}" not in reported:
@@ -723,11 +725,11 @@ _CALLABLE_INPUT = ("an input is a Python function, which compiled code cannot ca
 
 def _event_expressions(nm, events, stop_on, problems) -> dict:
     """{name: sympy expression} of the event functions; problems for bad names or expressions."""
+    if not events and not stop_on:  # (before the imports: simulate() asks on every call)
+        return {}
     from ..errors import ExpressionError
     from ..model._expr import parse_expression
 
-    if not events and not stop_on:
-        return {}
     events = dict(events or {})
     eq = nm.equations
     names = {"t": eq.t, **{s.name: s for s in (*eq.coordinates, *eq.velocities, *eq.inputs)},
