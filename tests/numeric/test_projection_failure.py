@@ -152,3 +152,16 @@ def test_without_a_model_the_status_still_names_the_projection():
     assert str(error).startswith("the projection onto the constraints failed at t = 0.25 in the state x = 1, y = 0, "
                                  "x_dot = 0, y_dot = 0: the projection onto the constraints met values that are not "
                                  "finite")
+
+
+def test_a_batch_run_whose_projection_fails_has_the_status_the_others_go_on():
+    """simulate_batch: the runs whose projection meets the singular system stop with
+    Status.PROJECTION_SINGULAR at the time simulate() stops; a run whose constraints stay regular
+    (b = 1, e = 1: the rows at 45 degrees in both metrics) ends as asked."""
+    eq = _skewed()
+    batch = lg.simulate_batch(eq, 1.0, initial={"y": 1.0, "x_dot": 1.0, "z": 0.1}, params={"b": [1e-13, 1.0],
+                                                                                          "e": [1e-26, 1.0]},
+                              rtol=1e-3, atol=1e-3)
+    assert batch.statuses == [lg.Status.PROJECTION_SINGULAR, lg.Status.SUCCESS]
+    assert batch.stop_time[0] == pytest.approx(0.07, abs=1e-12) and batch.stop_time[1] == 1.0
+    assert np.all(np.isnan(batch.x[0, 7:])) and np.all(np.isfinite(batch.x[1]))
