@@ -13,12 +13,30 @@ mass_matrix_full and forcing_full (str), as the issue measured it.
 Prints, for each, the median CPU time to M and f (lagrangian: derive, then the named form it prints;
 KanesMethod: kanes_equations, mass_matrix_full and forcing_full) and the size of the printed forms,
 with the ratios; then the expanded form's size for comparison (lagrangian --expanded, n = 3 only).
+
+Large models stay usable (issue 22): the whole pipeline, each run a fresh process, stage by stage:
+
+    python benchmarks/spatial_chain.py 20 --pipeline [--repeat R] [--backends numba,scipy] [--t-end T]
+    python benchmarks/spatial_chain.py --panda [--repeat R] [--backends numba,scipy] [--t-end T]
+
+load, derive, compile (each backend named: numba is the default one, scipy the portable SymEngine path;
+none: load and derive only)
+and simulate T seconds (default 1) of the n-rod chain (--pipeline) or of the 7-joint Franka Emika Panda
+read from example-robot-data's URDF (--panda; its fingers removed: a mimic joint). Each repeat runs the
+model twice: first under a model name never used before (its generated code is new: written, compiled and
+stored in the compile cache, $LAGRANGIAN_CACHE_DIR or ~/.cache/lagrangian, whose integrator kernels are
+compiled already), then the same model again (cached: the generated module or library is loaded from the
+cache). Prints the median CPU and wall seconds of each stage over the repeats.
 """
 
 from __future__ import annotations
 
+import json
+import os
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -129,12 +147,132 @@ def kane(n: int):
     return run
 
 
+#: Run in a fresh process: argv = [kind ("chain" or "urdf"), n or the URDF path, model name, backend, t_end];
+#: prints {stage: [cpu, wall]} as JSON.
+_STAGES = r"""
+import json, sys, time
+clock = lambda: (time.process_time(), time.perf_counter())
+out, c0 = {}, clock()
+def stage(name):
+    global c0
+    c1 = clock()
+    out[name] = [c1[0] - c0[0], c1[1] - c0[1]]
+    c0 = clock()
+kind, what, name, backend, t_end = sys.argv[1:6]
+import lagrangian as lg
+stage("import")
+if kind == "chain":
+    sys.path.insert(0, sys.argv[6])
+    from spatial_chain import chain_text
+    from lagrangian.io import loads_model
+    text = chain_text(int(what))
+    model = loads_model(text.replace('name = "spatial-chain-' + what + '"', 'name = "' + name + '"', 1))
+else:
+    from lagrangian.io._urdf import load_urdf
+    model = load_urdf(what)
+stage("load")
+eqs = lg.derive(model)
+stage("derive")
+traj = None
+if backend != "none":  # (none: load and derive only)
+    lg.compile(eqs, backend)
+stage("compile")
+if backend != "none":
+    traj = lg.simulate(eqs, t_end=float(t_end), backend=backend)
+stage("simulate")
+out["n"] = len(model.q)
+out["energy_drift"] = (float(abs(traj.energy[-1] - traj.energy[0])) if traj is not None and traj.energy is not None
+                       else None)
+print(json.dumps(out))
+"""
+
+STAGE_NAMES = ("import", "load", "derive", "compile", "simulate")
+
+
+def _panda_urdf(folder: Path, name: str) -> Path:
+    """The Panda arm of example-robot-data without its fingers, under the robot name `name`."""
+    import site
+    import xml.etree.ElementTree as ET
+
+    for base in [*site.getsitepackages(), site.getusersitepackages()]:
+        path = Path(base) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / "panda_description"
+        if path.is_dir():
+            break
+    else:
+        raise SystemExit("--panda needs example-robot-data (pip install example-robot-data)")
+    tree = ET.parse(path / "urdf" / "panda.urdf")
+    root = tree.getroot()
+    root.set("name", name)
+    for tag in ("joint", "link"):
+        for el in list(root.findall(tag)):
+            if "finger" in el.get("name"):
+                root.remove(el)
+    out = folder / f"{name}.urdf"
+    tree.write(out)
+    return out
+
+
+def pipeline(kind: str, n: int, repeat: int, backends: list[str], t_end: float) -> dict:
+    """{backend: {"first": [{stage: (cpu, wall)}], "cached": [...]}} over `repeat` fresh models."""
+    folder = Path(tempfile.mkdtemp(prefix="lagrangian-bench-large-"))
+    results: dict = {}
+    for backend in backends:
+        runs: dict = {"first": [], "cached": []}
+        for r in range(repeat):
+            name = f"large_{kind}_{os.getpid()}_{int(time.time() * 1000) % 10**8}_{backend}_{r}"
+            what = str(n) if kind == "chain" else str(_panda_urdf(folder, name))
+            for label in ("first", "cached"):
+                proc = subprocess.run([sys.executable, "-c", _STAGES, kind, what, name, backend, str(t_end),
+                                       str(Path(__file__).resolve().parent)], capture_output=True, text=True)
+                if proc.returncode != 0:
+                    raise SystemExit(f"{kind} {backend} {label} run failed:\n{proc.stderr[-3000:]}")
+                out = json.loads(proc.stdout.strip().splitlines()[-1])
+                runs[label].append(out)
+                print(f"  {backend:>6} {label:>6}: " + ", ".join(f"{s} {out[s][0]:.2f}/{out[s][1]:.2f}"
+                                                             for s in STAGE_NAMES) + "  (cpu/wall s)", flush=True)
+        results[backend] = runs
+    return results
+
+
+def print_pipeline(title: str, results: dict, repeat: int) -> None:
+    print(f"\n{title}: median over {repeat} fresh models, CPU / wall seconds, each run a fresh process")
+    print("| backend | run | " + " | ".join(STAGE_NAMES) + " | total |")
+    print("|---|---|" + "---:|" * (len(STAGE_NAMES) + 1))
+    for backend, runs in results.items():
+        for label, outs in runs.items():
+            cells = []
+            for s in (*STAGE_NAMES, "total"):
+                cpu_s = [sum(o[x][0] for x in STAGE_NAMES) if s == "total" else o[s][0] for o in outs]
+                wall_s = [sum(o[x][1] for x in STAGE_NAMES) if s == "total" else o[s][1] for o in outs]
+                cells.append(f"{statistics.median(cpu_s):.2f} / {statistics.median(wall_s):.2f}")
+            print(f"| {backend} | {label} | " + " | ".join(cells) + " |")
+
+
 def main(argv):
     repeat = 3
     if "--repeat" in argv:
         k = argv.index("--repeat")
         repeat = int(argv[k + 1])
         argv = argv[:k] + argv[k + 2:]
+    backends, t_end = ["numba", "scipy"], 1.0
+    if "--backends" in argv:
+        k = argv.index("--backends")
+        backends = argv[k + 1].split(",")
+        argv = argv[:k] + argv[k + 2:]
+    if "--t-end" in argv:
+        k = argv.index("--t-end")
+        t_end = float(argv[k + 1])
+        argv = argv[:k] + argv[k + 2:]
+    if "--panda" in argv:
+        results = pipeline("urdf", 0, repeat, backends, t_end)
+        print_pipeline(f"Franka Emika Panda (7 joints, URDF), simulate {t_end:g} s", results, repeat)
+        return
+    if "--pipeline" in argv:
+        argv = [a for a in argv if a != "--pipeline"]
+        n = int(argv[0]) if argv else 20
+        results = pipeline("chain", n, repeat, backends, t_end)
+        print_pipeline(f"spatial chain of {n} rods ({3 * n} coordinates), simulate {t_end:g} s", results, repeat)
+        return
     n = int(argv[0]) if argv else 3
     t_ours, text_ours = cpu(ours(n), repeat)
     t_kane, text_kane = cpu(kane(n), repeat)
