@@ -41,7 +41,7 @@ from ..model._constraints import HOLONOMIC
 from ..model._kinematics import to_sympy
 from ._equations import Equations
 from ._search import NUDGE, angle_difference, distinct, gauss_newton, least_squares, wrap_angles
-from ._singular import determinant, factored
+from ._singular import determinant, exact_number, factored
 
 __all__ = ["constraint_singularities", "ConstraintSingularityReport", "ConstraintConfiguration", "DeadPoints"]
 
@@ -523,7 +523,7 @@ def constraint_singularities(equations: Equations, drivers=None) -> ConstraintSi
     hol_names = tuple(con_names[k] for k in hol)
     driver_sets = _driver_sets(eqs, drivers, names, len(hol))
     values = {p: v for p, v in eqs.parameters.items() if v is not None}
-    exact_values = {p: sympy.nsimplify(v) for p, v in values.items()}
+    exact_values = {p: exact_number(v) for p, v in values.items()}
     missing = [p.name for p, v in eqs.parameters.items() if v is None]
     gram = gram_values = None
     if n <= _SYMBOLIC_MAX_N:

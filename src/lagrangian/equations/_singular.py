@@ -7,6 +7,7 @@ moves no mass, and no solver can find q_ddot there.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass, field
 from typing import Mapping
@@ -209,7 +210,22 @@ def _values(eqs: Equations, parameters: Mapping | None = None) -> dict:
                                   + f"; its parameters are {', '.join(names) or 'none'}", key=f"parameters.{k}")
                           for k in unknown])
     values = {p: given.get(p.name, v) for p, v in eqs.parameters.items()}
-    return {p: sympy.nsimplify(v) for p, v in values.items() if v is not None}
+    return {p: exact_number(v) for p, v in values.items() if v is not None}
+
+
+def exact_number(value) -> sympy.Expr:
+    """``sympy.nsimplify(value)``, kept for the next diagnosis (of the same or another model): it takes
+    20 ms for some values (0.0603 -> 603/10000), and the mass matrix's and the constraints' diagnoses of a
+    model ask for the same values (the bicycle's 20 parameters: 0.12 s each time)."""
+    try:
+        return _exact_number(type(value), value)
+    except TypeError:  # not hashable
+        return sympy.nsimplify(value)
+
+
+@functools.lru_cache(maxsize=4096)
+def _exact_number(kind, value) -> sympy.Expr:
+    return sympy.nsimplify(value)
 
 
 def _is_angle(eqs: Equations, q: sympy.Symbol) -> bool:
