@@ -146,3 +146,30 @@ def test_five_rods_conserve_energy():
     E = np.asarray(traj.energy)
     assert np.abs(E - E[0]).max() <= 1e-8 * np.abs(E).max()
     assert np.ptp(traj["qy5"]) > 0.1  # it moved
+
+
+@pytest.mark.parametrize("prescribed", [False, True])
+def test_momenta_from_M_with_written_energy_and_prescribed_motion(prescribed):
+    """p = M q_dot + dT_r/dq_dot - H_r q_dot with [energy] T terms of degree 1 and 2 in q_dot (T_r); with a
+    frame turned by a prescribed angle (w t) p is T*'s gradient: both equal dL/dq_dot at random states."""
+    from lagrangian.equations._derive import KANE_ABOVE
+    from lagrangian.equations._readable import expanded_terms_bound
+
+    m = rods(4)
+    m.parameter("k", 0.7)
+    m.parameter("w", 1.3)
+    m.add_energy(T="k*qx1_dot + k*qy2_dot**2*cos(qz1)/2")
+    if prescribed:
+        m.add_frame("spin", parent="rod4", origin=(0, "l", 0), rotation=[("y", "w*t")])
+        m.add_rigid_body("m", ("iXX", "iYY", "iZZ"), frame="spin", center=(0, "l/2", 0), name="spinner")
+    eqs = lg.derive(m)
+    core = eqs.core
+    assert expanded_terms_bound(core.T, KANE_ABOVE) > KANE_ABOVE  # the Kane form's M and momenta
+    rng = np.random.default_rng(5)
+    values = {se.Symbol(k): se.Float(v) for k, v in {**PARAMS, "k": 0.7, "w": 1.3}.items()}
+    for _ in range(2):
+        point = dict(values)
+        point.update({s: se.Float(v) for s, v in zip((*core.q, *core.qd, core.t), rng.uniform(-2, 2, 2 * eqs.n + 1))})
+        p = np.array([float(e.xreplace(point)) for e in core.p])
+        grad = np.array([float(core.L.diff(v).xreplace(point)) for v in core.qd])
+        assert np.abs(p - grad).max() <= 1e-12 * np.abs(grad).max()
