@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import functools
 import os
+import sys
 import threading
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import _progress
 from ..equations import Equations
 from ._cache import CACHE
 from ._codegen import cache_dir, load_module, model_module, store
@@ -364,9 +366,9 @@ def _with_progress(call, stats, total: int, enabled: bool | None, compiling: boo
     this one draws a progress bar from the outputs done so far (stats[3]), after saying that it
     compiles the integrators while it does (`compiling`: before the first output). The results are
     the same either way."""
-    from .._progress import Progress
-
-    bar = Progress(total, "simulating", enabled=enabled)
+    if enabled is None and not _progress._is_terminal(sys.stderr):  # (as Progress decides: no bar, so no thread)
+        return call()
+    bar = _progress.Progress(total, "simulating", enabled=enabled)
     if not bar.enabled:
         return call()
     if callable(compiling):  # asked only when a bar is drawn (numba's signatures cost tens of microseconds)
@@ -481,16 +483,22 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
 
     status = call() if progress is False else _with_progress(call, stats, len(times), progress,
                                                               lambda: not compiled(kernels().dop853))
-    k = int(stats[3])
+    nfev, nstep, nreject, k, nswitch = stats.tolist()
     if outputs and k > done[0]:  # the rows written where it stopped: their output stage
         d = int(done[0])
         kernels().energies(energy, times[d:k], X[d:k], p, prog.ops, prog.args, prog.starts, prog.nstack, E[d:k], U[d:k],
                            sampling.hold)
     m = int(ev_n[0]) if nev else 0
-    order = np.argsort(ev_t[:m], kind="stable") if m else slice(None)
-    return RawRun(int(status), times[:k], X[:k], float(info[0]), float(info[1]), info[2:].copy(),
-                  int(stats[0]), int(stats[1]), int(stats[2]), ev_t[:m][order], ev_k[:m][order], ev_x[:m][order],
-                  int(stats[4]), hist, U[:k] if outputs else None, E[:k] if outputs else None)
+    if m:
+        order = np.argsort(ev_t[:m], kind="stable")
+        ev_t, ev_k, ev_x = ev_t[:m][order], ev_k[:m][order], ev_x[:m][order]
+    else:
+        ev_t, ev_k, ev_x = ev_t[:0], ev_k[:0], ev_x[:0]
+    if k < len(times):  # (all of them, as a rule: the arrays as they are)
+        times, X, U, E = times[:k], X[:k], U[:k], E[:k]
+    stop_t, stop_measure = info[:2].tolist()
+    return RawRun(int(status), times, X, stop_t, stop_measure, info[2:].copy(), nfev, nstep, nreject, ev_t, ev_k, ev_x,
+                  nswitch, hist, U if outputs else None, E if outputs else None)
 
 
 #: The output arrays of a run without the output stage (the kernel does not touch them).
@@ -537,6 +545,8 @@ def inputs_and_energy(cm: CompiledModel, times, X, p, prog, held=None, run: RawR
     when it has one."""
     times = np.ascontiguousarray(times, dtype=float)
     if run is not None and run.energy is not None and held is None and len(times) <= len(run.energy):
+        if len(times) == len(run.energy):
+            return run.u, run.energy
         return run.u[:len(times)], run.energy[:len(times)]
     m = len(cm.input_names)
     U = np.empty((len(times), m))

@@ -6,20 +6,21 @@ from dataclasses import dataclass
 from decimal import Decimal
 import math
 import numbers
+import os
 from typing import Callable, Mapping
 
 import numpy as np
 import sympy
 
 from ..equations import Equations, derive, singularities
-from .._limits import MAX_ROWS, MAX_STEPS, number_problem
+from .._limits import MAX_EXPONENT, MAX_ROWS, MAX_STEPS, number_problem
 from .._util import did_you_mean, named_values, read_only
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError, Status
 from ..model import Model
 from ._cache import cached, per_equations
 from ._compiled import NumericModel, _NotFinite, _Singular, compile_equations, raise_on_failure
-from ._fast import BACKENDS, CompiledModel
-from ._inputs import Signal, signal_problems
+from ._fast import BACKENDS, CompiledModel, _address, inputs_and_energy, run_dop853, run_variational
+from ._inputs import Signal, programs, signal_problems
 from ._options import SimulationOptions
 from ._solvers import METHODS, Solver, Variational, solver_of
 from ._trajectory import Trajectory, run_trajectory
@@ -418,21 +419,85 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     """
     nm = _as_numeric(system)
     eq = nm.equations
+    key = None
+    if options is None and t_eval is None and events is None and stop_on is None and sample_time is None:
+        key = _checked_key(eq, id(nm), t_end, initial, inputs, params, dt, rtol, atol, method, max_step, backend,
+                           step, progress, constraints)
+        hit = per_equations(eq).get("simulate.checked", _NO_RUNS).get(key) if key is not None else None
+        if hit is not None and hit[0] is nm and all(os.environ.get(v) == value for v, value in hit[4]):
+            return _run_compiled(hit[1], hit[2], hit[3], hit[2].x0)  # the same call as one checked before: run it
     base = options or SimulationOptions.from_model(eq.model)
-    opts = base.merged(
+    merged = base.merged(
         t_end=t_end, initial=initial, inputs=inputs, params=params, dt=dt, t_eval=t_eval, rtol=rtol, atol=atol,
         method=method, max_step=max_step, backend=backend, step=step, events=events, stop_on=stop_on,
-        progress=progress, sample_time=sample_time, constraints=constraints).read_signals()
+        progress=progress, sample_time=sample_time, constraints=constraints)
+    opts = merged.read_signals()
     run = _prepare(nm, opts)
     if eq.is_constrained:
         return _simulate_constrained(nm, run, opts, base.initial)
     fast = _compiled_model(nm, opts.backend, run.solver, run.u_exprs)
     if fast is not None:
+        if key is not None and opts is merged:  # (a model file's CSV inputs are read, and checked, every time)
+            _keep_checked(eq, key, nm, fast, run, opts)
         return _run_compiled(fast, run, opts, run.x0)
     if run.event_exprs:
         raise ModelError("events are watched by the compiled integrators: give inputs as expression strings "
                          "and use backend='auto', 'numba' or 'c'")
     return _simulate_scipy(nm if isinstance(nm, NumericModel) else compile_equations(eq), run, opts)
+
+
+#: The checked calls of simulate() kept per Equations (the newest; see _checked_key).
+_CHECKED_CALLS = 16
+_NO_RUNS: dict = {}
+
+
+class _Uncheckable(Exception):
+    """An argument _checked_key does not key (an array, a function, a symbol as a name...)."""
+
+
+def _argument_key(value):
+    """`value` as part of a key that is equal only for arguments simulate() treats alike: None, a
+    str, a bool, an int, a float (its exact bits: -0.0 is not 0.0) or a dict of str to those."""
+    kind = type(value)
+    if value is None or kind is str:
+        return value
+    if kind is float:
+        return kind, value.hex()
+    if kind is int or kind is bool:
+        return kind, value
+    if kind is dict and all(type(name) is str for name in value):
+        return tuple((name, _argument_key(v)) for name, v in value.items())
+    raise _Uncheckable
+
+
+def _checked_key(eq: Equations, *arguments):
+    """The key of a call of simulate() whose options, once merged with the model file's and checked
+    against the model, can be kept (with the compiled model and the run they give: _keep_checked)
+    and taken again for the same call: the arguments (plain values, see _argument_key), the model
+    file's [simulation] table as it reads now (the limits the checks read from the environment are
+    compared when the call is taken again: _keep_checked). None for arguments it cannot key: such a
+    call takes the whole path."""
+    try:
+        return tuple(map(_argument_key, arguments)), repr(getattr(eq.model, "simulation", None))
+    except _Uncheckable:
+        return None
+
+
+def _keep_checked(eq: Equations, key, nm, fast: CompiledModel, run: _Run, opts: SimulationOptions) -> None:
+    """Keep what the call with `key` checked and found (its numeric model, compiled model, _Run and
+    options) with the values of the limits its checks read from the environment (lagrangian._limits:
+    the output rows, the variational integrator's steps, the exponents of the expressions parsed),
+    for the same call again: the newest _CHECKED_CALLS of them."""
+    limits = [MAX_ROWS]
+    if isinstance(run.solver, Variational):
+        limits.append(MAX_STEPS)
+    if opts.events or any(isinstance(v, str) for v in opts.inputs.values()):
+        limits.append(MAX_EXPONENT)
+    kept = cached(eq, "simulate.checked", dict)
+    kept.pop(key, None)
+    kept[key] = (nm, fast, run, opts, tuple((limit.variable, os.environ.get(limit.variable)) for limit in limits))
+    while len(kept) > _CHECKED_CALLS:
+        kept.pop(next(iter(kept)), None)
 
 
 @dataclass(frozen=True)
@@ -712,8 +777,6 @@ def _compiled_model(nm, backend: str, method: "str | Solver", u_exprs):
 def _input_programs(eq: Equations, u_exprs):
     """The compiled programs of the inputs (expressions of t, the state and the parameters), kept
     for the next run with the same inputs."""
-    from ._inputs import programs
-
     return _last(eq, "simulate.inputs", tuple(u_exprs), lambda: programs(
         u_exprs, eq.t, list(eq.parameters), states=_names(eq).states))
 
@@ -760,9 +823,6 @@ def _run_compiled(fast: CompiledModel, run: _Run, opts: SimulationOptions, x0, c
     after every accepted step (see _codegen_constrained), and its Trajectory has the multipliers and
     the constraint drift; at m = 0 nothing is projected. A failure raises its error with the finite
     output rows reached (SimulationError.partial)."""
-    from ._fast import _address, run_dop853, run_variational
-    from ._inputs import programs
-
     eq = fast.equations
     solver, times, p, event_exprs = run.solver, run.times, run.p, run.event_exprs
     prog = _input_programs(eq, run.u_exprs)
@@ -784,11 +844,11 @@ def _run_compiled(fast: CompiledModel, run: _Run, opts: SimulationOptions, x0, c
         raw = run_dop853(fast, x0, times, p, prog, float(opts.rtol), float(opts.atol), opts.max_step, events=eprog,
                          terminal=terminal, progress=opts.progress, sampling=run.sampling, **projection)
     stats = {"backend": fast.backend, "method": solver.name, "nfev": raw.nfev}
-    error = _compiled_failure(fast, cm, raw, p, x0)
+    error = None if raw.status == 0 and cm is None else _compiled_failure(fast, cm, raw, p, x0)  # (0: SUCCESS)
     if error is not None:
         error.partial = _compiled_trajectory(fast, cm, times, raw, p, prog, run.sampling, stats, failure=error)
         raise error
-    stats.update(nstep=raw.nstep, nreject=raw.nreject)
+    stats["nstep"], stats["nreject"] = raw.nstep, raw.nreject
     if prog.nswitch:
         stats["switches"] = raw.nswitch
     stopped = raw.status == Status.EVENT_STOP
@@ -806,7 +866,7 @@ def _run_compiled(fast: CompiledModel, run: _Run, opts: SimulationOptions, x0, c
             stats["stopped_by"] = names[int(raw.stop_measure)]
             stats["stop_time"] = raw.stop_t
             times = times[: len(raw.t)]
-    if not np.all(np.isfinite(raw.x)):
+    if not np.isfinite(raw.x).all():
         raise failure(fast, Status.SOLUTION_NOT_FINITE, None, None, None, p)
     return _compiled_trajectory(fast, cm, times, raw, p, prog, run.sampling, stats, found, stopped=stopped)
 
@@ -844,14 +904,15 @@ def _compiled_trajectory(fast: CompiledModel, cm, times, raw, p, prog, sampling,
     event's stop, whose last rows, from the stopping step's interpolant, are projected here when the
     model has constraints); with `failure` (the run's error), the finite rows before it as a partial
     Trajectory (its status the error's; with constraints, without the last rows where the
-    multipliers cannot be solved for), None without rows."""
-    from ._constrained import ConstraintSingular, multipliers_and_drift
-    from ._fast import inputs_and_energy
+    multipliers cannot be solved for), None without rows. Without constraints, the arrays of the run
+    (its states, inputs and energy) become the Trajectory's as they are (run_trajectory's `fresh`)."""
+    if cm is not None:
+        from ._constrained import ConstraintSingular, multipliers_and_drift
 
     reached = len(times) if failure is None else _finite_rows(raw.x[:len(raw.t)])
     m = len(fast.input_names)
     while reached:
-        t, X = times[:reached], raw.x[:reached]
+        t, X = (times, raw.x) if reached == len(times) == len(raw.x) else (times[:reached], raw.x[:reached])
         held = None
         if sampling is not None:
             held = (sampling.hold, held_inputs(sampling, raw.held[:, :m], t))
@@ -872,7 +933,7 @@ def _compiled_trajectory(fast: CompiledModel, cm, times, raw, p, prog, sampling,
             stats.update(projection="coordinate projection after every step", constraint_drift=drift)
         return run_trajectory(fast.equations, t, X, U, p, energy=energy, stats=stats, events=events,
                               status=raw.status if failure is None else _status(failure), multipliers=Lam,
-                              failure=None if failure is None else str(failure))
+                              failure=None if failure is None else str(failure), fresh=cm is None)
     return None
 
 

@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._util import read_only
+from ..errors import Status
+from ._cache import cached
 
 __all__ = ["Trajectory"]
 
@@ -85,10 +87,10 @@ class Trajectory:
 
     def __post_init__(self):
         object.__setattr__(self, "t", read_only(self.t, float))
-        object.__setattr__(self, "x", read_only(self.x, float))
-        object.__setattr__(self, "u", read_only(np.reshape(self.u, (len(self.t), len(self.input_names))), float))
+        object.__setattr__(self, "x", _frozen(self.x))
+        object.__setattr__(self, "u", _frozen(self.u, (len(self.t), len(self.input_names))))
         if self.energy is not None:
-            object.__setattr__(self, "energy", read_only(self.energy, float))
+            object.__setattr__(self, "energy", _frozen(self.energy))
         if self.multipliers is not None:
             shape = (len(self.t), len(self.multiplier_names))
             object.__setattr__(self, "multipliers", read_only(np.reshape(self.multipliers, shape), float))
@@ -253,27 +255,32 @@ class Trajectory:
 
 
 def run_trajectory(equations, t, x, u, p, *, energy=None, stats: dict, status, message: str | None = None,
-                   events: dict | None = None, failure: str | None = None, multipliers=None) -> Trajectory:
+                   events: dict | None = None, failure: str | None = None, multipliers=None,
+                   fresh: bool = False) -> Trajectory:
     """The one builder of a simulation's Trajectory: the names, the energy's name (``Equations.
     energy_name``; no energy column where it is None), whether it is conserved, the parameters by
     name and ``stats["status"]`` (a :class:`~lagrangian.errors.Status`) from `equations`, the
-    parameter values `p` and the run's `status`; `message` defaults to the status's."""
-    from ..errors import Status
-    from ._cache import cached
-
+    parameter values `p` and the run's `status`; `message` defaults to the status's. `fresh`: `x`,
+    `u` and `energy` are the run's own arrays, which nothing writes to after: the Trajectory takes
+    them as they are, made read-only, instead of read-only copies."""
     status = None if status is None else Status.of(status)  # None: a failed run's rows (see `failure`)
     names = cached(equations, "trajectory.names", lambda: _Names(equations))
     name = names.energy_name
     stats = {**stats, "status": status} if status is not None else dict(stats)
+    energy = None if name is None or energy is None else np.asarray(energy, float)
+    outputs = evaluate_outputs(equations, t, x, u, p)
+    if fresh:
+        x, u = _Own(x), _Own(u)
+        energy = None if energy is None else _Own(energy)
     return Trajectory(
         t=t, x=x, state_names=names.state_names, u=u, input_names=names.input_names,
-        energy=None if name is None or energy is None else np.asarray(energy, float), energy_name=name,
+        energy=energy, energy_name=name,
         conservative=names.conservative, parameters=dict(zip(names.parameter_names, map(float, p))),
         nfev=int(stats.get("nfev", 0)),
         message=message if message is not None else getattr(status, "message", f"status {status}"),
         stats=stats, events=events or {}, model=equations.model, multipliers=multipliers,
         multiplier_names=names.multiplier_names if multipliers is not None else (), failure=failure,
-        outputs=evaluate_outputs(equations, t, x, u, p))
+        outputs=outputs)
 
 
 def evaluate_outputs(equations, t, x, u, p) -> dict[str, np.ndarray]:
@@ -288,6 +295,27 @@ def evaluate_outputs(equations, t, x, u, p) -> dict[str, np.ndarray]:
     values = compile_equations(equations, "scipy").function("outputs", lambda: list(outputs.values()))(
         t, np.reshape(x, (len(t), -1)), np.reshape(u, (len(t), -1)), p)
     return {name: values[:, k] for k, name in enumerate(outputs)}
+
+
+class _Own:
+    """An array handed to a Trajectory by run_trajectory (`fresh`): the run's own, which the
+    Trajectory takes without a copy (see _frozen)."""
+
+    __slots__ = ("array",)
+
+    def __init__(self, array):
+        self.array = array
+
+
+def _frozen(a, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """`a` as a read-only float array (of `shape`, when given): a read-only copy, or the array
+    itself, made read-only, when run_trajectory hands over a run's own (_Own) of that type and shape."""
+    if type(a) is _Own:
+        a = a.array
+        if type(a) is np.ndarray and a.dtype == np.float64 and (shape is None or a.shape == shape):
+            a.setflags(write=False)
+            return a
+    return read_only(a if shape is None else np.reshape(a, shape), float)
 
 
 class _Names:

@@ -1,0 +1,159 @@
+"""simulate()'s output stage (issue 20): a call made again with the same plain arguments takes the
+options, the checks and the compiled model of the first (numeric/_simulate.py, _checked_key), and a
+compiled run hands its own arrays to the Trajectory without copies. Nothing a call sees may change:
+the same numbers as the whole path, every check still made for a call that differs in anything (a
+value's type or sign included), the model's [simulation] table and the limits read as they are now."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import lagrangian as lg
+from lagrangian.numeric import SimulationOptions, _simulate
+from lagrangian.numeric._cache import per_equations
+
+
+@pytest.fixture()
+def eqs():
+    """A fresh snapshot each test (the kept calls live with the Equations object)."""
+    return lg.derive(lg.load("double-pendulum"))
+
+
+def count_prepares(monkeypatch) -> list:
+    calls = []
+    prepare = _simulate._prepare
+
+    def counting(nm, opts):
+        calls.append(opts)
+        return prepare(nm, opts)
+
+    monkeypatch.setattr(_simulate, "_prepare", counting)
+    return calls
+
+
+def test_a_call_made_again_skips_the_checks_and_gives_the_whole_paths_numbers(eqs, monkeypatch):
+    calls = count_prepares(monkeypatch)
+    first = lg.simulate(eqs, 2.0, {"theta2": 0.5}, rtol=1e-8, atol=1e-8)
+    again = lg.simulate(eqs, 2.0, {"theta2": 0.5}, rtol=1e-8, atol=1e-8)
+    assert len(calls) == 1  # the second call was checked before
+    # options= always takes the whole path: merged with the model file's, checked, compiled model looked up
+    whole = lg.simulate(eqs, 2.0, {"theta2": 0.5}, rtol=1e-8, atol=1e-8,
+                        options=SimulationOptions.from_model(eqs.model))
+    assert len(calls) == 2
+    for tr in (again, whole):
+        np.testing.assert_array_equal(tr.t, first.t)
+        np.testing.assert_array_equal(tr.x, first.x)
+        np.testing.assert_array_equal(tr.energy, first.energy)
+        assert tr.stats == first.stats and tr.parameters == first.parameters and tr.message == first.message
+    assert first.x[0].tolist() == [2.0, 0.5, 0.0, 0.0] and len(first.t) == 201
+    assert first.stats["status"] == lg.Status.SUCCESS and first.stats["nstep"] > 0
+    # the energy of the undamped pendulum is conserved to the tolerance
+    assert np.max(np.abs(first.energy - first.energy[0])) < 1e-6
+
+
+def test_each_runs_arrays_are_its_own_and_read_only(eqs):
+    a = lg.simulate(eqs, 1.0, rtol=1e-8, atol=1e-8)
+    b = lg.simulate(eqs, 1.0, rtol=1e-8, atol=1e-8)
+    for name in ("t", "x", "u", "energy"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert not x.flags.writeable and not y.flags.writeable
+        assert x.dtype == np.float64 and x.flags.c_contiguous
+        assert x.size == 0 or not np.shares_memory(x, y), name
+    with pytest.raises(ValueError, match="read-only"):
+        a.x[0, 0] = 1.0
+    assert a.u.shape == (len(a.t), 0) and a.x.shape == (len(a.t), 4)
+
+
+def test_a_trajectory_built_by_hand_still_copies_what_it_is_given():
+    x = np.zeros((3, 2))
+    frozen = np.ones(3)
+    frozen.setflags(write=False)
+    tr = lg.Trajectory(t=np.arange(3.0), x=x, state_names=("q", "q_dot"), energy=frozen, energy_name="energy")
+    x[0, 0] = 5.0
+    assert tr.x[0, 0] == 0.0 and not np.shares_memory(tr.energy, frozen) and not tr.x.flags.writeable
+
+
+@pytest.mark.parametrize("good, bad, message", [
+    ({"initial": {"theta1": 1}}, {"initial": {"theta1": True}},
+     "the value of 'theta1' must be a finite number, got True"),
+    ({"initial": {"theta1": 1.0}}, {"initial": {"theta1": math.nan}},
+     "the value of 'theta1' must be a finite number, got nan"),
+    ({"rtol": 1e-8}, {"rtol": -1e-8}, "rtol must be a positive number, got -1e-08"),
+    ({"params": {"m1": 1.0}}, {"params": {"m1": math.inf}}, "the value of 'm1' must be a finite number, got inf"),
+    ({"t_end": 1}, {"t_end": True}, "t_end must be a number, got True"),
+    ({"inputs": None}, {"inputs": {"F": 1.0}}, "'F' is not an input of the model"),
+    ({"initial": {"theta1": 1.0}}, {"initial": {"theta_1": 1.0}}, "'theta_1' is not a coordinate or velocity"),
+])
+def test_a_call_that_differs_in_anything_is_checked_again(eqs, good, bad, message):
+    lg.simulate(eqs, **{"t_end": 0.5, **good})
+    lg.simulate(eqs, **{"t_end": 0.5, **good})  # kept
+    with pytest.raises(lg.ModelError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        lg.simulate(eqs, **{"t_end": 0.5, **bad})
+
+
+def test_minus_zero_is_not_zero(eqs):
+    plus = lg.simulate(eqs, 0.1, {"theta1_dot": 0.0})
+    minus = lg.simulate(eqs, 0.1, {"theta1_dot": -0.0})
+    assert not np.signbit(plus.x[0, 2]) and np.signbit(minus.x[0, 2])
+
+
+def test_the_models_simulation_table_is_read_as_it_is_now(eqs):
+    assert len(lg.simulate(eqs, dt=0.5).t) == 41  # the model file's t_end = 20
+    eqs.model.simulation["t_end"] = 1.0
+    assert len(lg.simulate(eqs, dt=0.5).t) == 3
+    eqs.model.simulation["initial"]["theta1"] = 0.25
+    assert lg.simulate(eqs, dt=0.5).x[0, 0] == 0.25
+
+
+def test_the_limits_are_read_as_they_are_now(eqs, monkeypatch):
+    assert len(lg.simulate(eqs, 1.0, dt=0.01).t) == 101
+    monkeypatch.setenv("LAGRANGIAN_MAX_ROWS", "100")
+    with pytest.raises(lg.ModelError, match="asks for 101 output rows, too many to keep"):
+        lg.simulate(eqs, 1.0, dt=0.01)
+    monkeypatch.setenv("LAGRANGIAN_MAX_EXPONENT", "2")
+    monkeypatch.setenv("LAGRANGIAN_MAX_ROWS", "1000")
+    model = lg.Model("forced", coordinates=["x"], parameters={"k": 4.0}, inputs=["F"], T="x_dot**2/2",
+                     V="k*x**2/2", Q={"x": "F"})
+    forced = lg.derive(model)
+    lg.simulate(forced, 1.0, inputs={"F": "t**2"})
+    monkeypatch.setenv("LAGRANGIAN_MAX_EXPONENT", "1")
+    with pytest.raises(lg.ModelError, match="exponent too large"):
+        lg.simulate(forced, 1.0, inputs={"F": "t**2"})
+
+
+def test_a_compiled_model_and_its_equations_keep_their_own_calls(eqs):
+    cm = lg.compile(eqs, backend="numba")
+    a = lg.simulate(eqs, 0.5)
+    b = lg.simulate(cm, 0.5)
+    c = lg.simulate(eqs, 0.5)
+    np.testing.assert_array_equal(a.x, b.x)
+    np.testing.assert_array_equal(a.x, c.x)
+    kept = per_equations(eqs)["simulate.checked"]
+    assert [entry[0] for entry in kept.values()].count(cm) == 1
+
+
+def test_the_calls_kept_are_the_newest_few(eqs):
+    for k in range(_simulate._CHECKED_CALLS + 5):
+        lg.simulate(eqs, 0.01 * (k + 1), dt=0.01)
+    kept = per_equations(eqs)["simulate.checked"]
+    assert len(kept) == _simulate._CHECKED_CALLS
+    newest = lg.simulate(eqs, 0.01 * (_simulate._CHECKED_CALLS + 5), dt=0.01)
+    assert len(newest.t) == _simulate._CHECKED_CALLS + 6
+
+
+def test_calls_the_key_cannot_hold_take_the_whole_path(eqs, monkeypatch):
+    calls = count_prepares(monkeypatch)
+    state = np.array([1.0, 0.0, 0.0, 0.0])
+    for _ in range(2):
+        lg.simulate(eqs, 0.1, state)  # an array
+        lg.simulate(eqs, 0.1, {"theta1": np.float32(1.0)})  # a NumPy number
+        lg.simulate(eqs, 0.1, events={"up": "theta1"})  # events, t_eval, stop_on, sample_time, options
+        lg.simulate(eqs, 0.1, t_eval=[0.0, 0.05, 0.1])
+    assert len(calls) == 8
+    # a SciPy run is checked every time
+    lg.simulate(eqs, 0.1, backend="scipy")
+    lg.simulate(eqs, 0.1, backend="scipy")
+    assert len(calls) == 10
