@@ -18,19 +18,20 @@ Measured on the shared 2-core machine (CPU s of the child, median; before: one r
 derive 1.40 -> 2.12 (noise: unchanged code), derive --json 10.35 -> 2.69, report 40.1 -> 18.5, steady 21.2 -> 6.3,
 /api/derive 10.0 -> 1.8, /api/analysis 24.0 -> 11.2 (issue 22, BIKE).
 
-Then (issue 22, STEADY), medians of 3 runs, the two trees alternating run by run (load average 5-6 of 2 cores,
-bytecode cached): before = 4d78069, after = the constrained steady-state residual compiled
-(analysis/_steady_kernel.py), the report of a model too large to expand built from the derived parts (readable
-only where cheap; printed up to 1000 nodes), det M's diagnosis without the readable M:
+Then (issue 22, STEADY), medians, the two trees alternating run by run (bytecode cached): before = 4d78069,
+after = the constrained steady-state residual compiled (analysis/_steady_kernel.py), the report of a model too
+large to expand built from the derived parts (readable only where cheap; printed up to 1000 nodes), det M's
+diagnosis without the readable M. Last runs, load average 2-3 of 2 cores (steady and /api/analysis: 5 runs,
+report: 3); derive, derive --json and /api/derive: 3 runs at load 5-6:
 
 | what          | wall before | CPU before | wall after | CPU after |
 |---------------|------------:|-----------:|-----------:|----------:|
 | derive        |        1.86 |       1.17 |       1.54 |      1.08 |
 | derive --json |        3.92 |       1.54 |       3.36 |      1.45 |
-| report        |       37.27 |      14.91 |      12.70 |      4.96 |
-| steady        |       14.53 |       5.82 |       7.33 |      2.90 |
+| report        |       16.42 |      14.11 |       4.88 |      4.84 |
+| steady        |        8.07 |       5.63 |       3.72 |      2.76 |
 | /api/derive   |        4.24 |       1.68 |       3.89 |      1.53 |
-| /api/analysis |       19.77 |      10.28 |       6.87 |      3.37 |
+| /api/analysis |       10.13 |      10.03 |       3.32 |      3.31 |
 
 (derive and /api/derive: other engineers' work in the same tree, not this change.) Where the CPU goes now, in
 process on the same loaded machine: interpreter and imports 0.45 s, load 0.3 s, derive 0.06 s in every command;
@@ -38,7 +39,7 @@ steady: SymEngine's LLVM compilation of M, f, G and c 0.27 s, SciPy's optimize 0
 kernels 0.45 s, the multi-start search (104 starts, 7300 residual evaluations) 0.5 s; /api/analysis: the report's
 sections 1.9 s (the diagnosis 1.0 s: SciPy's optimize 0.34 s, the constraints' rank search 0.5 s; the SymPy
 forms of the derived C, f and momenta 0.45 s), its HTML 0.5 s; report: that, and the equilibria 1.5 s (what steady
-spends). report and /api/analysis still miss 3 s (/api/analysis by 0.4 s on this loaded machine). As-is
+spends). report and /api/analysis still miss 3 s (/api/analysis by 0.3 s). As-is
 (PYTHONDONTWRITEBYTECODE=1, the same alternation, load 4-5): report 14.58 -> 4.85, steady 5.64 -> 2.94,
 /api/analysis 10.99 -> 3.49 s of CPU.
 """
