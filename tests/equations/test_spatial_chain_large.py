@@ -173,3 +173,39 @@ def test_momenta_from_M_with_written_energy_and_prescribed_motion(prescribed):
         p = np.array([float(e.xreplace(point)) for e in core.p])
         grad = np.array([float(core.L.diff(v).xreplace(point)) for v in core.qd])
         assert np.abs(p - grad).max() <= 1e-12 * np.abs(grad).max()
+
+
+@pytest.mark.slow
+def test_ten_rods_composite_mass_matrix_equals_kane_sum_and_pinocchio():
+    """30 coordinates (COMPOSITE_FROM): derive's M by composite bodies equals Kane's sum over the bodies
+    (the named form's) and Pinocchio's CRBA at random states, and is far smaller (fewer common subexpressions)."""
+    pin = pytest.importorskip("pinocchio", reason="the Pinocchio cross-check needs pip install pin")
+    from lagrangian.equations._derive import COMPOSITE_FROM
+    from lagrangian.equations._named import kane_form
+    from lagrangian.model._kinematics import Kinematics
+
+    n = 10
+    assert 3 * n >= COMPOSITE_FROM
+    eqs = lg.derive(rods(n))
+    core = eqs.core
+    kane_M, _, _ = kane_form(eqs.model, Kinematics(eqs.model.q))
+    pm = _pinocchio_chain(n, pin)
+    data = pm.createData()
+    values = {se.Symbol(k): se.Float(v) for k, v in PARAMS.items()}
+    rng = np.random.default_rng(3)
+    N = eqs.n
+    for _ in range(2):
+        q, qd = rng.uniform(-2, 2, N), rng.uniform(-2, 2, N)
+        point = dict(values)
+        point.update({s: se.Float(v) for s, v in zip((*core.q, *core.qd), np.concatenate([q, qd]))})
+        M = np.array([[float(core.M[i, j].xreplace(point)) for j in range(N)] for i in range(N)])
+        K = np.array([[float(kane_M[i][j].xreplace(point)) for j in range(N)] for i in range(N)])
+        Mp = pin.crba(pm, data, q)
+        Mp = np.triu(Mp) + np.triu(Mp, 1).T
+        assert np.abs(M - K).max() <= 1e-12 * np.abs(K).max()
+        assert np.abs(M - Mp).max() <= 1e-10 * np.abs(Mp).max()
+        p = np.array([float(e.xreplace(point)) for e in core.p])
+        assert np.abs(p - M @ qd).max() <= 1e-12 * np.abs(p).max()
+    lower = [core.M[i, j] for i in range(N) for j in range(i + 1)]
+    kane_lower = [kane_M[i][j] for i in range(N) for j in range(i + 1)]
+    assert 2 * len(se.cse(lower)[0]) < len(se.cse(kane_lower)[0])
