@@ -157,3 +157,30 @@ def test_calls_the_key_cannot_hold_take_the_whole_path(eqs, monkeypatch):
     lg.simulate(eqs, 0.1, backend="scipy")
     lg.simulate(eqs, 0.1, backend="scipy")
     assert len(calls) == 10
+
+
+def test_a_table_the_key_cannot_hold_is_read_every_time(eqs, monkeypatch):
+    calls = count_prepares(monkeypatch)
+    eqs.model.simulation["initial"] = {"theta1": np.float64(0.5)}  # a NumPy number
+    assert lg.simulate(eqs, 0.1).x[0, 0] == 0.5
+    eqs.model.simulation["initial"]["theta1"] = np.float64(0.75)
+    assert lg.simulate(eqs, 0.1).x[0, 0] == 0.75
+    assert len(calls) == 2
+    eqs.model.simulation["initial"] = {"theta1": 0.75}  # plain again
+    again = lg.simulate(eqs, 0.1, [0.75, 0.0, 0.0, 0.0])  # a list is a plain value: kept
+    assert lg.simulate(eqs, 0.1, [0.75, 0.0, 0.0, 0.0]).x.tolist() == again.x.tolist()
+    assert len(calls) == 3
+
+
+def test_merged_options_are_the_dataclass_replace_of_the_model_files():
+    import dataclasses
+
+    base = SimulationOptions.from_model(lg.load("double-pendulum"))
+    merged = base.merged(rtol=1e-6, initial={"theta2": 0.5}, t_end=3)
+    expected = dataclasses.replace(base, rtol=1e-6, t_end=3, initial={"theta1": 2.0, "theta2": 0.5},
+                                   given={"theta2": 0.5})
+    assert merged == expected and type(merged) is SimulationOptions and hash(merged.stop_on) == hash(())
+    assert dict(merged.initial) == {"theta1": 2.0, "theta2": 0.5} and base.rtol == 1e-9 and base.t_end == 20.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        merged.rtol = 1.0
+    assert base.merged(rtol=None) is base

@@ -176,7 +176,12 @@ class SimulationOptions:
                 changes[key] = value
                 if key == "initial":
                     changes["given"] = value
-        return replace(self, **changes) if changes else self
+        if not changes:
+            return self
+        out = object.__new__(type(self))  # replace(self, **changes), without its __init__ of every field
+        out.__dict__.update(self.__dict__)
+        out.__dict__.update(changes)
+        return out
 
     def read_signals(self) -> SimulationOptions:
         """These options with every CSV column the model file names as an input (``[simulation]

@@ -419,14 +419,21 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
     """
     nm = _as_numeric(system)
     eq = nm.equations
+    table = _table_key(eq)
     key = None
-    if options is None and t_eval is None and events is None and stop_on is None and sample_time is None:
-        key = _checked_key(eq, id(nm), t_end, initial, inputs, params, dt, rtol, atol, method, max_step, backend,
-                           step, progress, constraints)
+    if table is not None and options is None and t_eval is None and events is None and stop_on is None and \
+            sample_time is None:
+        key = _checked_key(table, id(nm), t_end, initial, inputs, params, dt, rtol, atol, method, max_step,
+                           backend, step, progress, constraints)
         hit = per_equations(eq).get("simulate.checked", _NO_RUNS).get(key) if key is not None else None
         if hit is not None and hit[0] is nm and all(os.environ.get(v) == value for v, value in hit[4]):
             return _run_compiled(hit[1], hit[2], hit[3], hit[2].x0)  # the same call as one checked before: run it
-    base = options or SimulationOptions.from_model(eq.model)
+    if options is not None:
+        base = options
+    elif table is not None:  # the model file's options, built again only when its [simulation] table changed
+        base = _last(eq, "simulate.options", table, lambda: SimulationOptions.from_model(eq.model))
+    else:
+        base = SimulationOptions.from_model(eq.model)
     merged = base.merged(
         t_end=t_end, initial=initial, inputs=inputs, params=params, dt=dt, t_eval=t_eval, rtol=rtol, atol=atol,
         method=method, max_step=max_step, backend=backend, step=step, events=events, stop_on=stop_on,
@@ -456,8 +463,9 @@ class _Uncheckable(Exception):
 
 
 def _argument_key(value):
-    """`value` as part of a key that is equal only for arguments simulate() treats alike: None, a
-    str, a bool, an int, a float (its exact bits: -0.0 is not 0.0) or a dict of str to those."""
+    """`value` as part of a key that is equal only for values simulate() treats alike: None, a str,
+    a bool, an int, a float (its exact bits: -0.0 is not 0.0), or a dict (of str), list or tuple of
+    those; _Uncheckable for anything else."""
     kind = type(value)
     if value is None or kind is str:
         return value
@@ -467,18 +475,29 @@ def _argument_key(value):
         return kind, value
     if kind is dict and all(type(name) is str for name in value):
         return tuple((name, _argument_key(v)) for name, v in value.items())
+    if kind is list or kind is tuple:
+        return kind, tuple(map(_argument_key, value))
     raise _Uncheckable
 
 
-def _checked_key(eq: Equations, *arguments):
+def _table_key(eq: Equations):
+    """The model file's [simulation] table (``model.simulation``) as it reads now, as a key (see
+    _argument_key); None when it holds anything else (a CSV input, an array...)."""
+    try:
+        return _argument_key(getattr(eq.model, "simulation", None))
+    except _Uncheckable:
+        return None
+
+
+def _checked_key(table, *arguments):
     """The key of a call of simulate() whose options, once merged with the model file's and checked
     against the model, can be kept (with the compiled model and the run they give: _keep_checked)
-    and taken again for the same call: the arguments (plain values, see _argument_key), the model
-    file's [simulation] table as it reads now (the limits the checks read from the environment are
-    compared when the call is taken again: _keep_checked). None for arguments it cannot key: such a
-    call takes the whole path."""
+    and taken again for the same call: the model file's [simulation] table as it reads now (`table`,
+    _table_key's) and the arguments (plain values, see _argument_key); the limits the checks read
+    from the environment are compared when the call is taken again (_keep_checked). None for
+    arguments it cannot key: such a call takes the whole path."""
     try:
-        return tuple(map(_argument_key, arguments)), repr(getattr(eq.model, "simulation", None))
+        return table, tuple(map(_argument_key, arguments))
     except _Uncheckable:
         return None
 
