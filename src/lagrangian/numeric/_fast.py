@@ -14,6 +14,7 @@ import os
 import sys
 import threading
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -314,9 +315,15 @@ def compile_numba(equations: Equations) -> "CompiledModel":
         return per.setdefault("numba", cm)
 
 
-@dataclass(frozen=True)
-class RawRun:
-    """What a compiled integrator returns (internal)."""
+def _empty(*shape, dtype=float) -> np.ndarray:
+    a = np.zeros(shape, dtype)
+    a.setflags(write=False)
+    return a
+
+
+class RawRun(NamedTuple):
+    """What a compiled integrator returns (internal; a named tuple: immutable and quick to make,
+    once per simulate())."""
 
     status: int
     t: np.ndarray  # output times reached
@@ -327,11 +334,11 @@ class RawRun:
     nfev: int
     nstep: int
     nreject: int
-    event_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # event crossings: times,
-    event_k: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # which event,
-    event_x: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # states
+    event_t: np.ndarray = _empty(0)  # event crossings: times,
+    event_k: np.ndarray = _empty(0, dtype=np.int64)  # which event,
+    event_x: np.ndarray = _empty(0, 0)  # states
     nswitch: int = 0  # switches located
-    held: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))  # sampled inputs at the sample times
+    held: np.ndarray = _empty(0, 0)  # sampled inputs at the sample times
     u: np.ndarray | None = None  # the output stage: the inputs at the output times (None: not computed)
     energy: np.ndarray | None = None  # and the Jacobi integral there
 
