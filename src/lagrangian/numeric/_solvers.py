@@ -31,6 +31,8 @@ __all__ = ["DOP853", "METHODS", "SciPyMethod", "Solver", "Variational", "solver_
 #: methods, and "variational" (the compiled midpoint variational integrator, fixed step).
 METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA", "variational")
 SCIPY_METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
+#: The methods by their names in capitals (a name is read in any case).
+_BY_UPPER = {m.upper(): m for m in METHODS}
 
 
 @dataclass(frozen=True)
@@ -153,7 +155,7 @@ def solver_of(method, step=None, problems: list[Problem] | None = None) -> Solve
         if step is not None and isinstance(method, Variational) and method.step is None:
             return Variational(step=step)
         return method
-    name = {m.upper(): m for m in METHODS}.get(str(method).upper(), method)
+    name = _BY_UPPER.get(str(method).upper(), method)
     if name == "DOP853":
         return DOP853()
     if name == "variational":
