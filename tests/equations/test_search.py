@@ -118,6 +118,26 @@ def test_multistart_keeps_each_root_once_modulo_a_turn():
     assert len(search.multistart(solve, starts)) == 5  # without angles every root is kept
 
 
+def test_multistart_solves_a_repeated_start_that_gave_a_root_once():
+    """With angles, a start equal to an earlier one that gave a root is not solved again (its root would
+    be dropped as the same point); one that gave none is (the caller may count its failures); without
+    angles, where every root is kept, every start is solved."""
+    calls = []
+
+    def solve(start):
+        calls.append(float(start[0]))
+        th = round(start[0] / math.pi) * math.pi
+        return np.array([th]) if abs(th - start[0]) < 1.2 else None
+
+    starts = [[0.1], [1.6], [0.1], [3.0], [1.6], [0.1], [3.0]]
+    found = search.multistart(solve, starts, [True])
+    assert [float(z[0]) for z in found] == [0.0, math.pi]
+    assert calls == [0.1, 1.6, 3.0, 1.6]
+    calls.clear()
+    assert len(search.multistart(solve, starts)) == 5
+    assert len(calls) == 7
+
+
 def test_minimize_drives_a_measure_to_zero():
     x, value = search.minimize(lambda x: float((x[0] - 0.25) ** 2), [1.0], method="Nelder-Mead",
                                options={"xatol": 1e-12, "fatol": 1e-30})

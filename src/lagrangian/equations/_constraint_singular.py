@@ -371,6 +371,7 @@ class _Numbers:
         self._g = se.Lambdify(self.q, self.g_exprs or [se.Integer(0)], real=True, cse=True)
         self._G = se.Lambdify(self.q, [e for row in self.G_exprs for e in row], real=True, cse=True)
         self._systems: dict = {}
+        self.assembled: dict = {}  # _assemble's results without held coordinates, by (start, scale)
 
     def g(self, q) -> np.ndarray:
         out = np.asarray(self._g(np.asarray(q, float)), float).ravel()
@@ -403,10 +404,23 @@ class _Numbers:
 
 def _assemble(num: _Numbers, q, held=(), scale=1.0):
     """q moved onto g = 0 by Gauss-Newton steps of the smallest change (equations._search), each at
-    most half the length scale, the `held` indices kept; None where that fails."""
+    most half the length scale, the `held` indices kept; None where that fails. Without `held`, kept
+    per start (a copy returned): the searches of one diagnosis (G's rank, then each set of drivers' dead
+    points) start from the same points."""
     q = np.array(q, float)
     if not num.hol:
         return q
+    if not held:
+        key = (q.tobytes(), float(scale))
+        if key not in num.assembled:
+            num.assembled[key] = _assembled(num, q, (), scale)
+        hit = num.assembled[key]
+        return None if hit is None else hit.copy()
+    return _assembled(num, q, held, scale)
+
+
+def _assembled(num: _Numbers, q: np.ndarray, held, scale: float):
+    """_assemble's solve."""
     free = [i for i in range(num.n) if i not in set(held)]
     if not free:
         return q if np.max(np.abs(num.g(q))) <= 1e-10 * scale else None

@@ -212,12 +212,24 @@ def multistart(solve: Callable[[np.ndarray], np.ndarray | None], starts: Iterabl
                found: list | None = None) -> list[np.ndarray]:
     """The roots `solve` finds from each start (None: none from there), each kept once (:func:`same_point`
     with `angles`; every root kept without `angles`), in the order found; only the first with `first`.
-    `found` (a list) collects them as they come."""
+    `found` (a list) collects them as they come.
+
+    `solve` is a function of its start: with `angles`, a start equal (bit for bit) to an earlier one that
+    gave a root is not solved again, as its root would be the same point and not kept (the equilibria's
+    starts repeat the grid's all-zero and all-pi points: the bicycle's upright start alone took 400
+    evaluations of its residual, twice)."""
     found = [] if found is None else found
+    rooted: set[bytes] = set()  # the starts that gave a root
     for start in starts:
-        z = solve(np.asarray(start, dtype=float))
+        start = np.asarray(start, dtype=float)
+        key = start.tobytes() if angles is not None else None
+        if key is not None and key in rooted:
+            continue
+        z = solve(start)
         if z is None:
             continue
+        if key is not None:
+            rooted.add(key)
         if angles is None or not any(same_point(z, other, angles, tol) for other in found):
             found.append(z)
             if first:
