@@ -218,3 +218,33 @@ def test_every_compiled_run_kept_gives_the_whole_paths_numbers(kind, monkeypatch
         np.testing.assert_allclose(first.u[:, 0], np.cos(3 * t), atol=1e-12)
     else:  # x = cos(2 t)
         np.testing.assert_allclose(first.x[:, 0], np.cos(2 * t), atol=2e-4 if kind == "variational" else 1e-7)
+
+
+def test_the_progress_bar_shows_a_run_that_ended_before_its_first_look(monkeypatch):
+    """The compiled run draws its bar from the main thread while the kernel runs in another: a run
+    that ends before the main thread first looks still shows its last count (it did not: a race
+    that made test_progress_bar_on_a_terminal_and_the_same_results fail now and then)."""
+    import io
+    import threading
+
+    import lagrangian._progress as P
+    from lagrangian.numeric._fast import _with_progress
+
+    stream = io.StringIO()
+
+    class Immediate(P.Progress):  # no 1 s delay, drawn into `stream`
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **{**kwargs, "delay": 0.0, "stream": stream})
+
+    start = threading.Thread.start
+
+    def start_and_finish(self):  # the worker ends before the main thread looks
+        start(self)
+        self.join()
+
+    monkeypatch.setattr(P, "Progress", Immediate)
+    monkeypatch.setattr(threading.Thread, "start", start_and_finish)
+    stats = np.array([0, 0, 0, 7, 0], np.int64)
+    assert _with_progress(lambda: 0, stats, 7, True) == 0
+    shown = stream.getvalue()
+    assert shown.startswith("\rsimulating [") and " 7/7 " in shown and shown.endswith(" s\n")

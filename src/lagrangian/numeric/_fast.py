@@ -395,9 +395,11 @@ def _with_progress(call, stats, total: int, enabled: bool | None, compiling: boo
     worker = threading.Thread(target=target, daemon=True)
     worker.start()
     with bar:
-        while worker.is_alive():
+        while True:  # the count after the run too, also when it ended before the first look (a short run)
             worker.join(0.1)
             bar.set(int(stats[3]))
+            if not worker.is_alive():
+                break
     if "error" in result:  # pragma: no cover
         raise result["error"]
     return result["status"]
