@@ -178,7 +178,8 @@ def test_momenta_from_M_with_written_energy_and_prescribed_motion(prescribed):
 @pytest.mark.slow
 def test_ten_rods_composite_mass_matrix_equals_kane_sum_and_pinocchio():
     """30 coordinates (COMPOSITE_FROM): derive's M by composite bodies equals Kane's sum over the bodies
-    (the named form's) and Pinocchio's CRBA at random states, and is far smaller (fewer common subexpressions)."""
+    (the named form's) and Pinocchio's CRBA at random states, and is far smaller (fewer common subexpressions);
+    T* from the momenta equals the bodies' and energy is conserved."""
     pin = pytest.importorskip("pinocchio", reason="the Pinocchio cross-check needs pip install pin")
     from lagrangian.equations._derive import COMPOSITE_FROM
     from lagrangian.equations._named import kane_form
@@ -188,7 +189,8 @@ def test_ten_rods_composite_mass_matrix_equals_kane_sum_and_pinocchio():
     assert 3 * n >= COMPOSITE_FROM
     eqs = lg.derive(rods(n))
     core = eqs.core
-    kane_M, _, _ = kane_form(eqs.model, Kinematics(eqs.model.q))
+    kin = Kinematics(eqs.model.q)
+    kane_M, _, _ = kane_form(eqs.model, kin)
     pm = _pinocchio_chain(n, pin)
     data = pm.createData()
     values = {se.Symbol(k): se.Float(v) for k, v in PARAMS.items()}
@@ -206,6 +208,15 @@ def test_ten_rods_composite_mass_matrix_equals_kane_sum_and_pinocchio():
         assert np.abs(M - Mp).max() <= 1e-10 * np.abs(Mp).max()
         p = np.array([float(e.xreplace(point)) for e in core.p])
         assert np.abs(p - M @ qd).max() <= 1e-12 * np.abs(p).max()
+        # T* = q_dot^T M q_dot / 2 (from the momenta) equals T* of the bodies' velocities
+        T_bodies = sum((el.contribute(kin).T for el in eqs.model.elements), se.Integer(0))
+        T_old = float(T_bodies.xreplace(point))
+        assert abs(float(core.T.xreplace(point)) - T_old) <= 1e-12 * abs(T_old)
+        assert abs(float(core.T.xreplace(point)) - qd @ M @ qd / 2) <= 1e-12 * abs(T_old)
+    assert eqs.energy_name == "energy"
+    traj = lg.simulate(eqs, t_end=0.05, backend="scipy", rtol=1e-10, atol=1e-10, initial={"qx1": 0.2, "qy1_dot": 1.0})
+    E = np.asarray(traj.energy)
+    assert np.abs(E - E[0]).max() <= 1e-9 * np.abs(E).max()
     lower = [core.M[i, j] for i in range(N) for j in range(i + 1)]
     kane_lower = [kane_M[i][j] for i in range(N) for j in range(i + 1)]
     assert 2 * len(se.cse(lower)[0]) < len(se.cse(kane_lower)[0])

@@ -74,11 +74,18 @@ def derive(model: Model) -> Equations:
     q, qd, t = kin.q, kin.qd, kin.t
     if expanded_terms_bound(T, KANE_ABOVE) > KANE_ABOVE:
         M, f = _kane_core(snapshot, kin)
-        if len(q) >= COMPOSITE_FROM:
-            M = _composite_mass_matrix(snapshot, kin, kinetic) or M
-        p = _kane_momenta(snapshot, kin, M, kinetic)
-        if p is None:
+        composite = _composite_mass_matrix(snapshot, kin, kinetic) if len(q) >= COMPOSITE_FROM else None
+        if composite is not None:
+            M = composite
+        momenta = _kane_momenta(snapshot, kin, M, kinetic)
+        if momenta is None:
             p = [L.diff(v) for v in qd]
+        else:
+            p, rest = momenta
+            if composite is not None:  # T* = q_dot^T M_b q_dot / 2 + T_r, with M_b q_dot = p - dT_r/dq_dot
+                half = se.Rational(1, 2)
+                T = rest + half * sum((v * (pi - rest.diff(v)) for v, pi in zip(qd, p)), se.Integer(0))
+                L = T - V
     else:
         p = [L.diff(v) for v in qd]
         M, f = _lagrange_core(L, D, Q, p, kin)
@@ -253,14 +260,15 @@ def _ancestors(frames, name) -> set:
     return out
 
 
-def _kane_momenta(model: Model, kin: Kinematics, M, kinetic) -> list | None:
+def _kane_momenta(model: Model, kin: Kinematics, M, kinetic) -> tuple[list, se.Basic] | None:
     """p = dL/dq_dot of a model whose M is in Kane's form, from M: p = M q_dot + dT_r/dq_dot - H_r q_dot,
     with T_r the kinetic co-energy of what is not in Kane's form (the [energy] T, elements other than
     particles and bodies of constant mass) and H_r its Hessian in q_dot (M holds it). The particles and
     bodies in Kane's form have velocities J(q) q_dot when nothing of their motion depends on t, so their
     T* is q_dot^T M_b q_dot / 2 and its gradient M_b q_dot: the same p as differentiating T* (in
     SymEngine, a chain of 20 rods on spherical joints: 60 gradients of T* of its 60 positions take
-    minutes, M q_dot milliseconds). None when a motion depends on t (then p is T*'s gradient)."""
+    minutes, M q_dot milliseconds). Returns (p, T_r), or None when a motion depends on t (then p is T*'s
+    gradient)."""
     from ._named import _massive_kane
 
     q, qd, t = kin.q, kin.qd, kin.t
@@ -285,7 +293,7 @@ def _kane_momenta(model: Model, kin: Kinematics, M, kinetic) -> list | None:
         ri = rest.diff(qd[i])
         pi = ri - sum((ri.diff(qd[j]) * qd[j] for j in range(n)), se.Integer(0)) if ri != 0 else ri
         out.append(sum((M[i, j] * qd[j] for j in range(n)), pi))
-    return out
+    return out, rest
 
 
 def _check_sizes(model: Model, V, D, Q, kin: Kinematics) -> None:
