@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -216,7 +217,8 @@ def _values(eqs: Equations, parameters: Mapping | None = None) -> dict:
 def exact_number(value) -> sympy.Expr:
     """``sympy.nsimplify(value)``, kept for the next diagnosis (of the same or another model): it takes
     20 ms for some values (0.0603 -> 603/10000), and the mass matrix's and the constraints' diagnoses of a
-    model ask for the same values (the bicycle's 20 parameters: 0.12 s each time)."""
+    model ask for the same values (the bicycle's 20 parameters: 0.12 s each time). A float whose value is
+    a rational number is also kept on disk (:func:`_stored_exact_numbers`), for the next process."""
     try:
         return _exact_number(type(value), value)
     except TypeError:  # not hashable
@@ -225,7 +227,83 @@ def exact_number(value) -> sympy.Expr:
 
 @functools.lru_cache(maxsize=4096)
 def _exact_number(kind, value) -> sympy.Expr:
-    return sympy.nsimplify(value)
+    if not (isinstance(value, float) and math.isfinite(value)):
+        return sympy.nsimplify(value)
+    stored = _stored_exact_numbers()
+    key = float(value).hex()
+    hit = stored.get(key)
+    if hit is not None:
+        return sympy.Rational(*hit)
+    out = sympy.nsimplify(value)
+    if isinstance(out, sympy.Rational) and max(abs(out.p), out.q) < _STORED_MAX:
+        stored[key] = (int(out.p), int(out.q))
+        _store_exact_numbers(stored)
+    return out
+
+
+#: The largest numerator or denominator of a stored exact number (a bound on what is read back).
+_STORED_MAX = 10 ** 30
+#: How many exact numbers the file keeps (it is read whole at the first diagnosis of a process).
+_STORED_COUNT = 4096
+#: A larger file is not read (4096 entries of two 30-digit numbers are about 300 KB).
+_STORED_BYTES = 1 << 20
+
+
+def _exact_numbers_path():
+    """The file of stored exact numbers: in $LAGRANGIAN_CACHE_DIR or ~/.cache/lagrangian (the compile
+    cache's folder), named after the SymPy and mpmath versions whose nsimplify gave them."""
+    import os
+    from pathlib import Path
+
+    import mpmath
+
+    folder = Path(os.environ.get("LAGRANGIAN_CACHE_DIR") or Path.home() / ".cache" / "lagrangian")
+    return folder / f"exact-numbers-sympy-{sympy.__version__}-mpmath-{mpmath.__version__}.json"
+
+
+_STORED: dict | None = None
+
+
+def _stored_exact_numbers() -> dict:
+    """{float.hex(): (p, q)}: the values whose ``sympy.nsimplify`` is the rational p/q, as this process
+    read them from the file (or found them since); empty where the file is missing or not what this
+    writes (it is only read as JSON, each entry checked: two integers, q > 0, below _STORED_MAX)."""
+    global _STORED
+    if _STORED is None:
+        import json
+
+        _STORED = {}
+        path = _exact_numbers_path()
+        try:
+            raw = json.loads(path.read_text(encoding="utf-8")) if path.stat().st_size <= _STORED_BYTES else None
+        except (OSError, ValueError, RecursionError):
+            raw = None
+        if isinstance(raw, dict):
+            for k, v in list(raw.items())[:_STORED_COUNT]:
+                if (isinstance(k, str) and isinstance(v, list) and len(v) == 2
+                        and all(type(x) is int and abs(x) < _STORED_MAX for x in v) and v[1] > 0):
+                    try:
+                        float.fromhex(k)
+                    except (ValueError, OverflowError):
+                        continue
+                    _STORED[k] = (v[0], v[1])
+    return _STORED
+
+
+def _store_exact_numbers(stored: dict) -> None:
+    """Write `stored` to the file, atomically; nothing (silently) where that fails: it only saves time."""
+    import json
+
+    from ..io._files import write_atomically
+
+    if len(stored) > _STORED_COUNT:
+        return
+    path = _exact_numbers_path()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomically(path, json.dumps({k: list(v) for k, v in stored.items()}, sort_keys=True))
+    except OSError:
+        pass
 
 
 def _is_angle(eqs: Equations, q: sympy.Symbol) -> bool:
