@@ -119,6 +119,22 @@ def test_xml_attribute_parses_back_to_the_text(text):
     assert element.attrib["v"] == expected
 
 
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet=st.sampled_from("&<>\"'\n\r\tab \u00e9")) | st.text())
+def test_xml_attribute_quotes_as_the_standard_library_does(text):
+    """Written out (xml.sax.saxutils imports urllib.request and ssl: 65 ms at each start), the same text."""
+    from xml.sax.saxutils import quoteattr
+
+    clean = ct._XML_INVALID.sub(" ", text)
+    assert ct.xml_attribute(text) == quoteattr(clean, {"\n": "&#10;", "\r": "&#13;", "\t": "&#9;"})
+
+
+def test_the_code_text_layer_imports_no_network_module():
+    code = "import sys, lagrangian._codetext; print(sorted({'ssl', 'urllib.request'} & set(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.text())
 def test_modelica_string_cannot_end_early(text):

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import keyword
 import re
-from xml.sax.saxutils import quoteattr
 
 __all__ = ["IDENTIFIER", "COMMENT_MAX", "check_identifier", "local_name", "module_identifier", "comment_text",
            "c_string", "c_strings", "modelica_string", "xml_attribute", "plot_text", "without_controls", "RESERVED"]
@@ -150,4 +149,17 @@ _XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff\ud800-\udfff]
 def xml_attribute(text: str) -> str:
     """An XML attribute value of `text`, quoted: the characters XML 1.0 cannot hold (NUL and the
     other control characters) as spaces, then &, <, >, quotes and newlines escaped."""
-    return quoteattr(_XML_INVALID.sub(" ", str(text)), {"\n": "&#10;", "\r": "&#13;", "\t": "&#9;"})
+    return _quoteattr(_XML_INVALID.sub(" ", str(text)))
+
+
+def _quoteattr(data: str) -> str:
+    """``xml.sax.saxutils.quoteattr(data)``, written out: that module imports urllib.request and with it
+    ssl (65 ms at every start of a process that generates code: the bicycle's report and steady)."""
+    for char, entity in (("&", "&amp;"), (">", "&gt;"), ("<", "&lt;"), ("\n", "&#10;"), ("\r", "&#13;"),
+                         ("\t", "&#9;")):
+        data = data.replace(char, entity)
+    if '"' not in data:
+        return f'"{data}"'
+    if "'" not in data:
+        return f"'{data}'"
+    return '"' + data.replace('"', "&quot;") + '"'
