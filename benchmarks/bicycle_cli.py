@@ -42,6 +42,30 @@ forms of the derived C, f and momenta 0.45 s), its HTML 0.5 s; report: that, and
 spends). report and /api/analysis still miss 3 s (/api/analysis by 0.3 s). As-is
 (PYTHONDONTWRITEBYTECODE=1, the same alternation, load 4-5): report 14.58 -> 4.85, steady 5.64 -> 2.94,
 /api/analysis 10.99 -> 3.49 s of CPU.
+
+Then (issue 22, STEADY2), medians of 5 runs, the trees alternating run by run (bytecode cached, load 1.6-4 of
+2 cores): before = this round's tree without STEADY2's three commits, after = with them (the equilibria's
+repeated starts solved once, each constraint-search start assembled once, the exact parameter values kept on
+disk, _codetext without xml.sax.saxutils: no ssl import). The same results: the bicycle's report HTML,
+/api/analysis JSON, steady (text and --json) and check output byte-identical before and after.
+
+| what          | wall before | CPU before | wall after | CPU after |
+|---------------|------------:|-----------:|-----------:|----------:|
+| report        |        4.32 |       4.30 |       4.16 |      4.13 |
+| steady        |        2.48 |       2.46 |       2.48 |      2.46 |
+| /api/analysis |        2.93 |       2.92 |       2.79 |      2.77 |
+
+(An earlier pair of the same alternation at load 4: report 4.79 -> 4.50, /api/analysis 2.91 -> 2.78, steady 2.39
+-> 2.39.) /api/analysis is under 3 s by about 0.2 s; report misses by about 1.1 s. Where the CPU goes now, in
+process: imports 0.42 s, load 0.27 s (the wheels' rolling conditions, model/_wheels.py), derive 0.06 s; the
+report's sections 1.4 s: the diagnosis 0.73 s (SciPy's optimize import 0.33 s, of which 0.23 s is SciPy 1.17's
+array_api_compat running `from numpy import *`, which imports numpy.f2py and numpy.testing; the constraints' rank
+and dead-point searches 0.3 s), C from the Christoffel symbols 0.25 s (always over the printing limit, but the
+Report holds it: rep.expression("C")), the readable forms and SymPy conversions of the rest 0.4 s; HTML 0.40 s
+(SymPy's MathML printer on 217 distinct expressions). report adds the equilibria, 1.27 s: numba's import 0.15 s
+(with yaml, through numba.core.config) and its first dispatch 0.3 s, SymEngine's LLVM compilation of the
+constrained model 0.22 s (numeric/_constrained.py), the multi-start search 0.35 s (7734 evaluations of 7 points,
+39 us each: compiled M, f, G, c 13 us, the saddle-point solves 11 us), the linearization and the ground test.
 """
 
 from __future__ import annotations
