@@ -39,6 +39,7 @@ def test_stored_exact_numbers_are_nsimplify_s(fresh, monkeypatch):
     stored = json.loads(path.read_text())
     assert stored[(0.0603).hex()] == [603, 10000]
     assert stored[(0.3141592653589793).hex()] == [314159265358979, 1000000000000000]  # nsimplify's, not pi/10
+    assert want[6] == 0 and (1e-300).hex() not in stored  # nsimplify's 0 is not the value: not kept
     _new_process(monkeypatch)
     calls = []
     monkeypatch.setattr(_singular.sympy, "nsimplify", lambda v, *a, **k: calls.append(v) or sympy.Integer(7))
@@ -57,6 +58,16 @@ def test_a_stored_file_that_is_not_ours_is_ignored(fresh, text):
     _singular._exact_numbers_path().write_text(text)
     assert _singular.exact_number(0.0603) == sympy.Rational(603, 10000)
     assert _singular._stored_exact_numbers()[(0.0603).hex()] == (603, 10000)  # the file rewritten
+
+
+def test_a_stored_number_changed_on_disk_is_computed_again(fresh, monkeypatch):
+    """An entry that is not the value to 1e-14 (nsimplify's are, to 1e-15) is not used."""
+    _singular._exact_numbers_path().write_text(json.dumps({(0.0603).hex(): [1, 3], (0.3).hex(): [3, 10]}))
+    assert _singular.exact_number(0.0603) == sympy.Rational(603, 10000)
+    assert json.loads(_singular._exact_numbers_path().read_text())[(0.0603).hex()] == [603, 10000]
+    calls = []
+    monkeypatch.setattr(_singular.sympy, "nsimplify", lambda v, *a, **k: calls.append(v) or sympy.Integer(7))
+    assert _singular.exact_number(0.3) == sympy.Rational(3, 10) and not calls  # a good entry is read
 
 
 def test_a_huge_stored_file_is_not_read(fresh, monkeypatch):

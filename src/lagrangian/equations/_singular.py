@@ -232,10 +232,10 @@ def _exact_number(kind, value) -> sympy.Expr:
     stored = _stored_exact_numbers()
     key = float(value).hex()
     hit = stored.get(key)
-    if hit is not None:
+    if hit is not None and _close(hit, value):
         return sympy.Rational(*hit)
     out = sympy.nsimplify(value)
-    if isinstance(out, sympy.Rational) and max(abs(out.p), out.q) < _STORED_MAX:
+    if isinstance(out, sympy.Rational) and max(abs(out.p), out.q) < _STORED_MAX and _close((out.p, out.q), value):
         stored[key] = (int(out.p), int(out.q))
         _store_exact_numbers(stored)
     return out
@@ -247,6 +247,14 @@ _STORED_MAX = 10 ** 30
 _STORED_COUNT = 4096
 #: A larger file is not read (4096 entries of two 30-digit numbers are about 300 KB).
 _STORED_BYTES = 1 << 20
+
+
+def _close(ratio: tuple[int, int], value: float) -> bool:
+    """Whether p/q is `value` to 1e-14 relative (nsimplify's rationals are, to its 1e-15): a stored number
+    changed on disk can move a value by no more than that (else it is computed again)."""
+    from fractions import Fraction
+
+    return abs(Fraction(*ratio) - Fraction(value)) <= Fraction(1, 10 ** 14) * abs(Fraction(value))
 
 
 def _exact_numbers_path():
