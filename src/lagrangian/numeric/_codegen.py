@@ -223,21 +223,76 @@ class _Printer:
 _STEP = se.Function("lg_step")
 
 
+def _atoms(exprs, *types) -> set:
+    """The subexpressions of `exprs` of the given types, each shared subexpression visited once
+    (SymEngine's atoms() walks the tree: exponential in the depth of a spatial chain's positions)."""
+    seen, found, stack = set(), set(), list(exprs)
+    while stack:
+        e = stack.pop()
+        if e in seen:
+            continue
+        seen.add(e)
+        if isinstance(e, types):
+            found.add(e)
+        stack.extend(e.args)
+    return found
+
+
+def _tree_size(exprs, bound: int) -> int:
+    """The number of nodes of `exprs` written out as trees (each shared subexpression counted
+    every time it occurs), computed over the shared ones once; stops counting past `bound`."""
+    size: dict = {}
+    total = 0
+    for root in exprs:
+        stack = [(root, False)]
+        while stack:
+            e, ready = stack.pop()
+            if e in size:
+                continue
+            if ready:
+                size[e] = min(1 + sum(size[a] for a in e.args), bound + 1)
+            else:
+                stack.append((e, True))
+                stack.extend((a, False) for a in e.args if a not in size)
+        total += size[root]
+        if total > bound:
+            break
+    return total
+
+
 def _steps(e):
     """`e` with each Piecewise((a, lhs < rhs), (b, True)) written b + (a - b) lg_step(rhs - lhs)
     (lg_step(x) = 1 for x > 0, else 0), which every target language computes: the one-sided
     springs' potentials and forces (model/_elements.Spring) are such Piecewise. Other Piecewise are
-    left as they are (the code generator then refuses them: the SciPy path evaluates them)."""
-    if not e.args or not e.atoms(se.Piecewise):
+    left as they are (the code generator then refuses them: the SciPy path evaluates them). Each
+    shared subexpression is rewritten once; a subexpression without Piecewise is kept as it is."""
+    if not e.args or not _atoms([e], se.Piecewise):
         return e
-    if isinstance(e, se.Piecewise):
-        args = e.args
-        if len(args) == 4 and args[3] == se.true and isinstance(args[1], se.StrictLessThan):
-            lhs, rhs = args[1].args
-            a, b = _steps(args[0]), _steps(args[2])
-            return b + (a - b) * _STEP(_steps(rhs) - _steps(lhs))
-        return e
-    return e.func(*[_steps(a) for a in e.args])
+    memo: dict = {}  # subexpression -> its rewriting, or None where it is kept as it is
+
+    def rewrite(e):
+        if e in memo:
+            return memo[e]
+        out = None
+        if isinstance(e, se.Piecewise):
+            args = e.args
+            if len(args) == 4 and args[3] == se.true and isinstance(args[1], se.StrictLessThan):
+                lhs, rhs = args[1].args
+                a, b = kept(args[0]), kept(args[2])
+                out = b + (a - b) * _STEP(kept(rhs) - kept(lhs))
+        elif e.args:
+            args = e.args
+            new = [rewrite(a) for a in args]
+            if any(n is not None for n in new):
+                out = e.func(*[a if n is None else n for a, n in zip(args, new)])
+        memo[e] = out
+        return out
+
+    def kept(e):
+        out = rewrite(e)
+        return e if out is None else out
+
+    return kept(e)
 
 
 def _header(equations: Equations) -> str:
@@ -261,7 +316,11 @@ def _mass_and_forcing(equations: Equations):
     n = equations.n
     M = [[core.M[i, j] for j in range(n)] for i in range(n)]
     f = list(core.f)
-    if sum(len(str(e)) for e in (*core.M, *f)) <= SIMPLIFY_MAX_CHARS:
+    # every node prints at least one character: past the bound in nodes, the text is too (and
+    # printing a deep chain's expressions as trees would take minutes)
+    parts = (*core.M, *f)
+    if (_tree_size(parts, SIMPLIFY_MAX_CHARS) <= SIMPLIFY_MAX_CHARS
+            and sum(len(str(e)) for e in parts) <= SIMPLIFY_MAX_CHARS):
         import sympy
 
         from ..model._kinematics import to_sympy
@@ -308,9 +367,7 @@ def _split_trig(exprs: list) -> tuple[list, list]:
     per base. An argument +-a +- b of two symbols is expanded by the addition theorems into the
     pairs of a and b, when that needs fewer pairs (a chain's sin(q1 - q2), cos(q1 - q3), ...
     then cost one pair per coordinate, not one per pair of coordinates)."""
-    calls = set()
-    for e in exprs:
-        calls |= {c for c in e.atoms(se.sin, se.cos) if not c.args[0].atoms(se.sin, se.cos)}
+    calls = {c for c in _atoms(exprs, se.sin, se.cos) if not _atoms(c.args, se.sin, se.cos)}
     args = sorted({c.args[0] for c in calls}, key=str)
 
     def pair(a):  # ((c1, s1), (c2, s2)) for a = c1 s1 + c2 s2, c = +-1, s symbols; or None
