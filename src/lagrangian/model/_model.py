@@ -880,15 +880,7 @@ class Model:
     def _wheel_name(self, name) -> tuple[str, str, str | None]:
         """(the wheel's name, wheel 'name' for messages, what is wrong with the name or None): a
         name not given is wheel<k>, the first free one."""
-        taken = {w.name for w in self._wheels}
-        if name is None:
-            k = len(self._wheels) + 1
-            while f"wheel{k}" in taken:
-                k += 1
-            name = f"wheel{k}"
-        why = check_name(name, "wheel")
-        if why is None and name in taken:
-            why = f"two wheels are named '{name}': give each wheel its own name"
+        name, why = _named({w.name for w in self._wheels}, name, "wheel", "wheel")
         return name, f"wheel '{name}'", why
 
     def _wheel_values(self) -> dict:
@@ -953,15 +945,7 @@ class Model:
 
     def _add_constraint(self, expression, name, kind) -> Constraint:
         self._check_mutable()
-        taken = {c.name for c in self._constraints}
-        if name is None:
-            k = len(self._constraints) + 1
-            while f"c{k}" in taken:
-                k += 1
-            name = f"c{k}"
-        why = check_name(name, "constraint")
-        if why is None and name in taken:
-            why = f"two constraints are named '{name}': give each constraint its own name"
+        name, why = _named({c.name for c in self._constraints}, name, "c", "constraint")
         if why is None and f"lambda_{name}" in self._all_names():
             why = (f"constraint '{name}': its multiplier 'lambda_{name}' is already the name of a coordinate, "
                    "parameter or input; rename one of them")
@@ -1369,3 +1353,17 @@ def _rotation_problems(matrix, values, where: str) -> list[Problem]:
                             "successive rotations about axes (rotation = [[\"z\", \"phi\"], [\"x\", \"theta\"]] in a "
                             "model file)", key=where)]
     return []
+
+
+def _named(taken: set, name, prefix: str, kind: str):
+    """(name, what is wrong with it or None): a name not given is <prefix><k>, the first free one
+    counting from len(taken) + 1; a given one must be a valid name not taken."""
+    if name is None:
+        k = len(taken) + 1
+        while f"{prefix}{k}" in taken:
+            k += 1
+        name = f"{prefix}{k}"
+    why = check_name(name, kind)
+    if why is None and name in taken:
+        why = f"two {kind}s are named '{name}': give each {kind} its own name"
+    return name, why
