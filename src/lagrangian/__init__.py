@@ -12,7 +12,7 @@ from .equations import (ConstraintConfiguration, ConstraintSingularityReport, De
                         SingularConfiguration, SingularityReport, constraint_singularities, derive, singularities)
 from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileError, OutputFileError, SimulationError,
                      SingularMassMatrixError, Status, UnknownNameError)
-from .io import load, load_urdf
+from .io import load, load_urdf, write_model
 from .model import Model, ddot, dot, t
 
 from ._version import __version__ as __version__
@@ -63,8 +63,9 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY_NAMES))
 
 __all__ = [
-    "Model", "load", "load_urdf", "derive", "Equations", "LinearSystem", "singularities", "SingularityReport",
-    "SingularConfiguration", "constraint_singularities", "ConstraintSingularityReport", "ConstraintConfiguration",
+    "Model", "load", "load_urdf", "write_model", "derive", "Equations", "LinearSystem", "singularities",
+    "SingularityReport", "SingularConfiguration", "constraint_singularities", "ConstraintSingularityReport",
+    "ConstraintConfiguration",
     "DeadPoints", "equilibria", "Equilibrium", "Equilibria", "steady_motions", "SteadyMotion",
     "SteadyMotions", "linearize", "LinearModel", "modes", "Modes",
     "continuation", "Continuation", "kinematics", "Kinematics", "inverse_dynamics", "InverseDynamics",

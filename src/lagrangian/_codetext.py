@@ -30,7 +30,8 @@ import keyword
 import re
 
 __all__ = ["IDENTIFIER", "COMMENT_MAX", "check_identifier", "local_name", "module_identifier", "comment_text",
-           "c_string", "c_strings", "modelica_string", "xml_attribute", "plot_text", "without_controls", "RESERVED"]
+           "c_string", "c_strings", "modelica_string", "xml_attribute", "plot_text", "without_controls", "RESERVED",
+           "toml_string"]
 
 #: The one rule for a name that enters generated code.
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -135,6 +136,25 @@ def modelica_string(text: str) -> str:
     a NUL) as spaces."""
     text = without_controls(text)
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def toml_string(text: object) -> str:
+    """A TOML basic string of `text` (a model file written by lagrangian): ``"`` and ``\\`` escaped, the
+    control characters TOML does not allow raw (all below U+0020 and DEL) as ``\\uXXXX``, a lone surrogate
+    (no Unicode scalar value: neither TOML nor UTF-8 holds it) as U+FFFD; every other character as itself
+    (JSON's ``\\ud83d\\ude00`` pairs are not TOML)."""
+    out = []
+    for c in str(text):
+        o = ord(c)
+        if c in '"\\':
+            out.append("\\" + c)
+        elif o < 32 or o == 127:
+            out.append(f"\\u{o:04x}")
+        elif 0xD800 <= o <= 0xDFFF:
+            out.append("\ufffd")
+        else:
+            out.append(c)
+    return '"' + "".join(out) + '"'
 
 
 def plot_text(text: object) -> str:

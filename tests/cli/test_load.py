@@ -135,7 +135,14 @@ def test_write_of_an_example_and_of_a_model_file_is_their_own_text(tmp_path, cap
     assert sp.simplify(a.mass_matrix - b.mass_matrix) == sp.zeros(3, 3)
 
 
-def test_a_quaternion_joint_and_frames_written_and_read_back():
+def _written(model, folder) -> str:
+    """The model file lg.write_model writes (the public writer), as text."""
+    path = lg.write_model(model, folder / "written.toml")
+    assert path == folder / "written.toml"
+    return path.read_text(encoding="utf-8")
+
+
+def test_a_quaternion_joint_and_frames_written_and_read_back(tmp_path):
     m = lg.Model("top")
     for k, v in dict(m=1.0, g=9.81, l=0.1, c=0.02).items():
         m.parameter(k, v)
@@ -145,7 +152,7 @@ def test_a_quaternion_joint_and_frames_written_and_read_back():
     m.add_rigid_body("m", [[0.02, 0.001, 0], [0.001, 0.03, 0], [0, 0, 0.025]], frame="ball", center=(0, 0, "l"))
     m.add_rigid_body("m/2", [0.01, 0.01, 0.005], frame="hinge", center=(0, "l/2", 0))
     m.add_gravity("g")
-    text = model_file_text(m)
+    text = _written(m, tmp_path)
     assert 'parametrization = "quaternion"' in text and "initial" not in text  # q0 = 1 comes with the joint
     back = loads_model(text)
     assert back.q == m.q and [c.name for c in back.constraints] == ["ball_norm"]
@@ -156,16 +163,17 @@ def test_a_quaternion_joint_and_frames_written_and_read_back():
         assert np.allclose(Ma, Mb, rtol=1e-13, atol=1e-15) and np.allclose(fa, fb, rtol=1e-13, atol=1e-14)
 
 
-def test_what_the_writer_does_not_write_is_named():
+def test_what_the_writer_does_not_write_is_named(tmp_path):
     m = lg.Model("spring")
     x = m.coordinate("x")
     m.parameter("k", 1.0)
     m.add_particle(1, (x, 0), name="bob")
     m.add_spring("k", length=x, name="s")
     with pytest.raises(lg.ModelError) as info:
-        model_file_text(m)
+        lg.write_model(m, tmp_path / "spring.toml")
     message = str(info.value)
     assert "the particle 'bob' is not written by this writer" in message and "the spring 's'" in message
+    assert not list(tmp_path.iterdir())  # nothing written
 
 
 # ------------------------------------------------------------------------------------------- errors
@@ -294,11 +302,12 @@ def test_floating_base_values_are_checked(arm, capsys):
     assert info.value.code == 2 and "invalid choice: 'quaternions'" in capsys.readouterr().err
 
 
-def test_every_refusal_of_the_writer_is_named():
+def test_every_refusal_of_the_writer_is_named(tmp_path):
     m = lg.Model("mixed", coordinates=["x", "y"], T="x_dot**2/2", parameters={"k": None, "r": 1.0})
     m.add_constraint("x - y", name="tie")
     with pytest.raises(lg.ModelError) as info:
-        model_file_text(m)
+        lg.write_model(m, tmp_path / "mixed.toml")
+    assert not list(tmp_path.iterdir())
     message = str(info.value)
     assert "the constraint 'tie' is not written by this writer: add it as a [[constraints]] table by hand" in message
     assert "explicit energies and forces ([energy], [forces]) are not written by this writer" in message

@@ -7,10 +7,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import stat
 from pathlib import Path
 
-from ..errors import ModelError, OutputFileError
+from ..errors import ModelError
 
 __all__ = ["register", "describe", "check_write", "write_model_file"]
 
@@ -94,32 +93,11 @@ def _model_file_text(model, source: str, kind: str) -> str:
 def check_write(path: str, force: bool) -> None:
     """Refuse (OutputFileError) a --write path before anything is read or computed: a folder, a missing or
     read-only folder, something that is not a regular file, a name without .toml, or an existing file
-    without --force (a symbolic link is then replaced itself, never written through)."""
-    if os.path.isdir(path):
-        raise OutputFileError(f"--write {path}: it is a directory; give a file name such as "
-                              f"{os.path.join(path, 'model.toml')}", path=path)
-    if not path.endswith(".toml"):
-        raise OutputFileError(f"--write {path}: a model file's name ends in .toml (lagrangian load and derive "
-                              f"read it by that); for example --write {Path(path).stem or 'model'}.toml", path=path)
-    try:
-        st = os.lstat(path)
-    except FileNotFoundError:
-        st = None
-    if st is not None:
-        if not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
-            raise OutputFileError(f"--write {path}: it is not a regular file; choose another path", path=path)
-        if not force:
-            what = "a symbolic link" if stat.S_ISLNK(st.st_mode) else "a file"
-            raise OutputFileError(f"--write {path}: {what} is there already and lagrangian load never replaces one "
-                                  "without --force: choose another name, or pass --force to replace it"
-                                  + (" (the link itself, not its target)" if stat.S_ISLNK(st.st_mode) else ""),
-                                  path=path)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise OutputFileError(f"--write {path}: the folder {folder} does not exist; create it or choose another "
-                              "path", path=path)
-    if not os.access(folder, os.W_OK):
-        raise OutputFileError(f"--write {path}: the folder {folder} is not writable; choose another path", path=path)
+    without --force (a symbolic link is then replaced itself, never written through); the checks of
+    lg.write_model (io._write.check_model_path), worded for the command line."""
+    from ..io._write import check_model_path
+
+    check_model_path(path, force, label=f"--write {path}", who="lagrangian load", force_text="--force")
 
 
 def write_model_file(path: str, text: str, force: bool = False) -> None:

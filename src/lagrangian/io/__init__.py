@@ -9,8 +9,9 @@ from pathlib import Path
 from .._util import did_you_mean
 from ..errors import ModelFileError, Problem
 from ..model._expr import parse_expression
+from ._write import write_model
 
-__all__ = ["load", "parse_expression", "load_model_file", "loads_model", "load_urdf"]
+__all__ = ["load", "parse_expression", "load_model_file", "loads_model", "load_urdf", "write_model"]
 
 
 def load_model_file(path):

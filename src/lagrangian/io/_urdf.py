@@ -723,8 +723,7 @@ def model_file_text(model, *, source: str | None = None) -> str:
         For what this writer does not write (other elements, explicit energies, constraints other than a
         quaternion joint's, wheels, parameters without a value), naming each.
     """
-    import json
-
+    from .._codetext import toml_string
     from .._version import __version__
     from ..errors import ModelError
     from ..model._elements import Gravity, RigidBody3D
@@ -763,11 +762,12 @@ def model_file_text(model, *, source: str | None = None) -> str:
     values = model.parameters
     problems += [Problem(f"the parameter '{p}' has no value: give it one before writing the model file",
                          key=f"parameters.{p}") for p, v in values.items() if v is None]
+    sim, initial = _simulation_values(model, problems)
     if problems:
         raise ModelError(problems)
 
     def string(text: str) -> str:
-        return json.dumps(str(text))  # a TOML basic string (JSON's escapes are TOML's)
+        return toml_string(text)  # a TOML basic string (not JSON's: its surrogate pairs are not TOML's)
 
     def value(e) -> str:
         e = sympy.sympify(e)
@@ -865,8 +865,6 @@ def model_file_text(model, *, source: str | None = None) -> str:
         lines += ["", "[gravity]", f"g = {value(gravity.g)}"]
         if gravity.direction is not None:
             lines.append(f"direction = {vector(gravity.direction)}")
-    sim = {k: v for k, v in model.simulation.items() if k in ("t_end", "dt", "rtol", "atol")}
-    initial = {k: v for k, v in (model.simulation.get("initial") or {}).items()}
     for j in joints.values():  # a quaternion joint's default q0 = 1 comes back with the joint
         if j.parametrization == "quaternion" and initial == {j.coordinates[-4].name: 1.0}:
             initial = {}
@@ -875,6 +873,42 @@ def model_file_text(model, *, source: str | None = None) -> str:
         if initial:
             lines.append("initial = { " + ", ".join(f"{k} = {repr(float(v))}" for k, v in initial.items()) + " }")
     return "\n".join(lines) + "\n"
+
+
+def _simulation_values(model, problems) -> tuple[dict, dict]:
+    """The [simulation] values the writer writes (t_end, dt, rtol, atol and the initial values, as floats), each
+    checked: a finite number, and an initial value's name a coordinate or velocity of the model (nothing else
+    reaches the file: a key is written bare, so it must be one of the model's names)."""
+    import numbers
+
+    from .._util import did_you_mean
+
+    def number(v, key):
+        if isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(float(v)):
+            return float(v)
+        problems.append(Problem(f"expected a finite number, got {v!r}: give a number before writing the model "
+                                "file", key=key))
+        return None
+
+    simulation = model.simulation or {}
+    sim = {k: number(simulation[k], f"simulation.{k}") for k in ("t_end", "dt", "rtol", "atol")
+           if simulation.get(k) is not None}
+    states = [q.name for q in model.q] + [q.name for q in model.q_dot]
+    initial = {}
+    given = simulation.get("initial") or {}
+    if not isinstance(given, dict):
+        problems.append(Problem(f"expected a mapping of coordinate and velocity names to numbers, got {given!r}",
+                                key="simulation.initial"))
+        given = {}
+    for k, v in given.items():
+        name = getattr(k, "name", k)
+        if name not in states:
+            problems.append(Problem(f"{str(name)[:80]!r} is not a coordinate or velocity of the model"
+                                    f"{did_you_mean(str(name), states)}: remove it from model.simulation['initial'] "
+                                    "before writing the model file", key="simulation.initial"))
+        else:
+            initial[name] = number(v, f"simulation.initial.{name}")
+    return sim, initial
 
 
 def _comment(text: str) -> str:
