@@ -13,7 +13,7 @@ from .equations import (ConstraintConfiguration, ConstraintSingularityReport, De
 from .errors import (ExpressionError, LagrangianError, ModelError, ModelFileError, OutputFileError, SimulationError,
                      SingularMassMatrixError, Status, UnknownNameError)
 from .io import load, load_urdf, write_model
-from .model import Model, ddot, dot, t
+from .model import Model, ddot, dot, quaternion_rates, t
 
 from ._version import __version__ as __version__
 
@@ -72,7 +72,7 @@ __all__ = [
     "identifiability", "Identifiability", "fit", "FitResult",
     "optimal_motion", "OptimalMotion", "OptimalControlError",
     "report", "Report", "compile", "NumericModel", "CompiledModel", "simulate",
-    "simulate_batch", "BatchResult", "grid", "Trajectory", "Signal", "dot", "ddot", "t",
+    "simulate_batch", "BatchResult", "grid", "Trajectory", "Signal", "dot", "ddot", "t", "quaternion_rates",
     "LagrangianError", "ModelError", "ModelFileError", "ExpressionError", "UnknownNameError",
     "SingularMassMatrixError", "SimulationError", "Status", "OutputFileError",
     "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "exp", "log",

@@ -94,9 +94,9 @@ def test_the_joint_declares_four_coordinates_the_constraint_and_a_regular_mass_m
     I_tip = np.diag([0.02 + 0.01, 0.03 + 0.01, 0.01])  # about the tip: I + m l^2 across the axis
     for q in (np.array([1.0, 0, 0, 0]), _quaternion_xyz(0.3, np.pi / 2, -1.0), _quaternion_xyz(2, -np.pi / 2, 1)):
         Mq = np.array(M(*q), float)
-        # M = 4 G^T I_tip G + (k + 4 m l^2) q q^T (k = 1): the body's inertia about the tip in the tangent
-        # directions; along q the augmented inertia k and the centre's r(q) = R(q) c, homogeneous of degree 2
-        assert np.allclose(Mq, 4 * _G(q).T @ I_tip @ _G(q) + (1 + 4 * 1.0 * 0.1**2) * np.outer(q, q), atol=1e-14)
+        # M = 4 G^T I_tip G + (k + 4 m l^2) q q^T (k = 4/3 tr(I_G) = 0.08): the body's inertia about the tip in the
+        # tangent directions; along q the augmented inertia k and the centre's r(q) = R(q) c, homogeneous of degree 2
+        assert np.allclose(Mq, 4 * _G(q).T @ I_tip @ _G(q) + (0.08 + 4 * 1.0 * 0.1**2) * np.outer(q, q), atol=1e-14)
         assert np.linalg.eigvalsh(Mq).min() > 0.03  # regular at the angles' singular posture too
     # the three-angle joint is singular there
     angles = lg.derive(_top())
@@ -303,3 +303,137 @@ def test_the_element_name_taken_is_refused():
                                          r"name: rename the joint or the element"):
         m.add_joint("ball", "spherical", parametrization="quaternion")
     assert not m.joints and [c.name for c in m.q] == ["x"]
+
+
+# ------------------------------------------------------------------ the augmented inertia's scale k = 4/3 tr(I_G)
+
+def _with_unit_coefficient(model, k):
+    """`model` with its augmented inertia's coefficient replaced by `k` (the value before the scaling: 1)."""
+    from dataclasses import replace
+
+    from lagrangian.model._joints import UnitQuaternion
+
+    model._elements[:] = [replace(e, coefficient=sp.sympify(k)) if isinstance(e, UnitQuaternion) else e
+                          for e in model._elements]
+    return model
+
+
+def test_the_augmented_inertia_is_four_thirds_of_the_trace_of_the_central_inertia_symbolically():
+    model = _top("quaternion")
+    (unit,) = [e for e in model.elements if e.kind == "unit quaternion"]
+    I1, I2, I3 = sp.symbols("I1 I2 I3")
+    assert sp.simplify(unit.coefficient - sp.Rational(4, 3) * (I1 + I2 + I3)) == 0 and unit.bodies == ("body1",)
+    # a second body in the child frame and one hanging below a further joint add theirs; a body in another
+    # branch (below no quaternion joint) adds nothing
+    m = _top("quaternion", gravity=False)
+    m.add_rigid_body(2.0, [[1, 0.5, 0], [0.5, 2, 0], [0, 0, 3]], frame="ball", name="second")
+    m.add_joint("hinge", "revolute", parent="ball", origin=(0, 0, "l"))
+    m.add_rigid_body(1.0, [4, 5, 6], frame="hinge", name="third")
+    m.add_joint("other", "revolute")
+    m.add_rigid_body(1.0, [7, 8, 9], frame="other", name="elsewhere")
+    (unit,) = [e for e in m.elements if e.kind == "unit quaternion"]
+    assert sp.simplify(unit.coefficient - sp.Rational(4, 3) * (I1 + I2 + I3 + 6 + 15)) == 0
+    assert unit.bodies == ("body1", "second", "third")
+    # two quaternion joints in series: each body scales its nearest one
+    c = lg.Model("chain")
+    c.add_joint("a", "spherical", parametrization="quaternion")
+    c.add_rigid_body(1.0, [1, 1, 1], frame="a", name="A")
+    c.add_joint("b", "spherical", parent="a", origin=(0, 0, 1), parametrization="quaternion")
+    c.add_rigid_body(1.0, [2, 2, 2], frame="b", name="B")
+    assert [(e.name, e.coefficient) for e in c.elements if e.kind == "unit quaternion"] == [("a_unit", 4),
+                                                                                             ("b_unit", 8)]
+    # a quaternion joint that carries no body keeps k = 1
+    bare = lg.Model("bare")
+    bare.add_joint("j", "spherical", parametrization="quaternion")
+    assert [e.coefficient for e in bare.elements if e.kind == "unit quaternion"] == [1]
+
+
+@pytest.mark.parametrize("mass, inertia, l", [
+    (1e-3, (1e-6, 2e-6, 1.5e-6), 0.01),    # a small robot link
+    (1e3, (1e4, 2e4, 1.5e4), 0.01),        # a heavy one
+    (1.0, (0.02, 0.03, 0.01), 0.1),
+])
+def test_the_mass_matrix_is_conditioned_as_the_body_s_inertia_for_tiny_and_huge_bodies(mass, inertia, l):
+    values = dict(m=mass, g=9.81, l=l, I1=inertia[0], I2=inertia[1], I3=inertia[2])
+    I_tip = np.array([inertia[0] + mass * l**2, inertia[1] + mass * l**2, inertia[2]])
+    bound = I_tip.max() / I_tip.min()  # cond of the inertia about the joint: M's tangent block is 4 G^T I_tip G
+    rng = np.random.default_rng(11)
+    conds = {}
+    for k in (None, 1):  # scaled, and the old k = 1 (model units)
+        model = _top("quaternion", values=values)
+        if k is not None:
+            _with_unit_coefficient(model, k)
+        eqs = lg.derive(model)
+        M = sp.lambdify(model.q, eqs.mass_matrix.subs(eqs.parameters), "numpy")
+        conds[k] = []
+        for _ in range(5):
+            q = rng.normal(size=4)
+            q /= np.linalg.norm(q)
+            conds[k].append(np.linalg.cond(np.array(M(*q), float)))
+    # along q: k + 4 m l^2 = 4 (mean I_G + m l^2), between the tangent eigenvalues: cond(M) = cond(I_tip)
+    assert max(conds[None]) <= bound * (1 + 1e-9)
+    if l != 0.1:
+        assert min(conds[1]) > 1e4 * bound  # k = 1 in model units: 2e5 for the tiny body, 6e4 for the huge one
+
+
+@pytest.mark.slow
+def test_the_heavy_top_moves_as_with_the_augmented_inertia_in_model_units():
+    # the scale of k changes M along q only: the motion and the multiplier are those of k = 1 (as before)
+    q, qd, _ = _start(0.3, 0.4, -0.2, 1.0, -2.0, 20.0)
+    runs = []
+    for k in (None, 1):
+        model = _top("quaternion")
+        if k is not None:
+            _with_unit_coefficient(model, k)
+        runs.append(lg.simulate(lg.derive(model), t_end=0.6, initial=_initial(q, qd), rtol=1e-13, atol=1e-13))
+    (Qa, Qda), (Qb, Qdb) = _quaternions(runs[0]), _quaternions(runs[1])
+    assert np.max(np.abs(Qa - Qb)) < 1e-11 and np.max(np.abs(Qda - Qdb)) < 1e-10
+
+
+# ------------------------------------------------------------------ lg.quaternion_rates(q, omega)
+
+def test_quaternion_rates_is_the_closed_form_half_q_times_zero_omega():
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        w = rng.normal(size=3) * 3
+        qd = lg.quaternion_rates(q, w)
+        assert qd.shape == (4,)
+        assert np.allclose(qd, _qmul(q, np.concatenate(([0.0], w))) / 2, rtol=0, atol=1e-15)
+        assert abs(q @ qd) < 1e-15 and np.allclose(2 * _G(q) @ qd, w, rtol=0, atol=1e-14)
+    # lists, tuples and integers alike; the documented example
+    assert lg.quaternion_rates((1, 0, 0, 0), [0, 0, 2]).tolist() == [0.0, 0.0, 0.0, 1.0]
+
+
+@pytest.mark.parametrize("q, omega, match", [
+    ([1, 0, 0], [0, 0, 1], r"\[q\]: q \(a quaternion\) has 4 numbers, e\.g\. \[1, 0, 0, 0\], got '\[1, 0, 0\]' "
+                           r"of shape \(3,\)"),
+    ([1, 0, 0, 0], [0, 1], r"\[omega\]: omega \(an angular velocity\) has 3 numbers, e\.g\. \[0, 0, 1\.5\]"),
+    ("1000", [0, 0, 1], r"q \(a quaternion\) has 4 numbers, .* got '1000'"),
+    ([1, 0, 0, 0], "__import__('os')", r"omega \(an angular velocity\) has 3 numbers, .* got \"__import__\('os'\)\""),
+    ([1, 0, 0, float("nan")], [0, 0, 1], r"q \(a quaternion\) must be finite numbers, got \[1\.0, 0\.0, 0\.0, nan\]"),
+    ([1, 0, 0, 0], [0, float("inf"), 1], r"omega \(an angular velocity\) must be finite numbers"),
+    ([1, 0, 0, 0], None, r"omega \(an angular velocity\) has 3 numbers, .* got 'None'"),
+    ([[1, 0, 0, 0]], [0, 0, 1], r"got '\[\[1, 0, 0, 0\]\]' of shape \(1, 4\)"),
+    (np.zeros(10**6), [0, 0, 1], r"q \(a quaternion\) has 4 numbers, .* of shape \(1000000,\)"),
+])
+def test_quaternion_rates_problems(q, omega, match):
+    with pytest.raises(ModelError, match=match):
+        lg.quaternion_rates(q, omega)
+
+
+@pytest.mark.slow
+def test_a_free_body_started_with_quaternion_rates_turns_at_omega():
+    values = dict(m=1.0, g=0.0, l=0.0, I1=0.03, I2=0.04, I3=0.05)
+    q0 = _quaternion_xyz(0.4, -0.7, 1.2)
+    w0 = np.array([1.0, -2.0, 3.0])
+    traj = lg.simulate(lg.derive(_top("quaternion", gravity=False, values=values)), t_end=0.2,
+                       initial=_initial(q0, lg.quaternion_rates(q0, w0)), rtol=1e-12, atol=1e-12)
+    Q, Qd = _quaternions(traj)
+    assert np.allclose(Q[0], q0, rtol=0, atol=1e-15)
+    assert np.allclose(2 * _G(Q[0]) @ Qd[0], w0, rtol=0, atol=1e-13)  # the body's angular velocity at t = 0
+    # and Euler's equations' first step: the angular momentum in world axes is that of w0 all along
+    L = [np.array(_R(*q), float) @ np.diag([0.03, 0.04, 0.05]) @ (2 * _G(q) @ qd) for q, qd in zip(Q, Qd)]
+    L0 = np.array(_R(*q0), float) @ np.diag([0.03, 0.04, 0.05]) @ w0
+    assert np.max(np.abs(np.array(L) - L0)) < 1e-10

@@ -50,14 +50,35 @@ angular velocity in its own axes is omega = 2 G(q) q_dot with
 (Nikravesh's G; the same as the vector of R^T R' on the unit sphere, and linear in q_dot). Every
 orientation, +-pi/2 of any angle included, is a regular point. Since omega does not see the
 direction q_dot ~ q (G q = 0), T alone leaves M singular there, and the compiled solve factors M
-(LDL^T) before it meets the constraint; so the joint adds the term T_n = k (q . q_dot)^2 / 2,
-k = 1 (the "augmented inertia" of Nikravesh), which is zero with its gradient on the constraint
+(LDL^T) before it meets the constraint; so the joint adds the term T_n = k (q . q_dot)^2 / 2
+(the "augmented inertia" of Nikravesh), which is zero with its gradient on the constraint
 manifold (q . q_dot = 0 there): its Lagrange terms are k (q_dot . q_dot + q . q_ddot) q, along the
 constraint's gradient and zero where the constraint's second derivative holds, so the motion and
-the multiplier are unchanged, and M = 4 G^T I G + k q q^T (+ translations) is regular. Initial
-state: q0 = 1, the others 0 (the joint frame's axes), unless given; initial rates are
-q_dot = G(q)^T omega / 2 for an angular velocity omega in the child's axes. Default coordinate
-names ``<name>_q0`` .. ``<name>_q3`` (floating: ``<name>_x``, ``<name>_y``, ``<name>_z`` first).
+the multiplier are unchanged, and M = 4 G^T I G + k q q^T (+ translations) is regular.
+
+The value of k: on the unit sphere G G^T = E (3x3) and G q = 0, so the rows of G and q are an
+orthonormal basis of R^4, and the 4x4 block 4 G^T I G + k q q^T has the eigenvalues 4 I_1, 4 I_2,
+4 I_3 (I_i the principal inertias about the joint; eigenvectors G^T e_i) and k (eigenvector q).
+For a sphere centred on the joint (I = I_s E) it is 4 I_s E_4, isotropic, exactly when k = 4 I_s:
+so k = 4 x the mean principal inertia = 4/3 tr(I_G), summed over the rigid bodies whose nearest
+quaternion joint above them (in the tree of frames) is this one, I_G each body's central inertia
+(symbolic in the parameters where they are symbols; k = 1 while the joint carries no body). A
+centre of mass at c from the joint adds 4 m |c|^2 along q (r = R(q) c is homogeneous of degree 2
+in q) as it adds 4 m |c|^2 to two of the tangent eigenvalues, so the block's condition number is
+that of the body's inertia about the joint (the units and the size of the body drop out: M of a
+1e-6 kg m^2 link is as well conditioned as that of a 1e4 kg m^2 one); k = 1 in model units made
+it 1e6 times worse for the small link.
+
+Initial state, one rule (:func:`quaternion_start`, used by simulate, the constrained runs of the
+CLI and the playground, and check): a joint whose components are not given starts at the identity
+(1, 0, 0, 0), the joint frame's axes; where any component is given (by the caller, else by the
+model file), the others not given are 0, and the quaternion is scaled to unit length (the nearest
+point of the constraint); an all-zero (or non-finite) quaternion is an error naming the joint.
+Initial rates: those given, else from the joint's initial angular velocity ``omega`` (the child's
+angular velocity relative to the joint frame, in the child's own axes, body axes) as
+q_dot = G(q)^T omega / 2 = q (x) (0, omega) / 2 (:func:`quaternion_rates`), else 0. Default
+coordinate names ``<name>_q0`` .. ``<name>_q3`` (floating: ``<name>_x``, ``<name>_y``, ``<name>_z``
+first).
 
 Default coordinate names: revolute and prismatic ``<name>``; cylindrical ``<name>_angle``,
 ``<name>_slide``; universal ``<name>_1``, ``<name>_2``; spherical ``<name>_1`` .. ``<name>_3``; planar
@@ -96,7 +117,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._model import Model
 
 __all__ = ["Joint", "JOINT_TYPES", "PARAMETRIZATIONS", "RotationalDamper", "UnitQuaternion", "add_joint",
-           "coordinate_count", "default_coordinates", "quaternion_matrix", "quaternion_rate", "singular_angle"]
+           "coordinate_count", "default_coordinates", "quaternion_matrix", "quaternion_rate", "quaternion_rates",
+           "scale_unit_quaternion", "singular_angle"]
 
 #: The joint types and their numbers of coordinates.
 JOINT_TYPES = {"revolute": 1, "prismatic": 1, "cylindrical": 2, "universal": 2, "spherical": 3, "planar": 3,
@@ -217,14 +239,74 @@ def quaternion_rate(e) -> tuple:
             2 * (-q3 * d0 + q2 * d1 - q1 * d2 + q0 * d3))
 
 
+def _vector_of(value, n: int, what: str, example: str):
+    """`value` as n finite floats, or ModelError naming `what` and an example."""
+    import numpy as np
+
+    if isinstance(value, (str, bytes)) or value is None:
+        arr = None
+    else:
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            arr = None
+    if arr is None or arr.shape != (n,):
+        shape = "" if arr is None else f" of shape {arr.shape}"
+        raise ModelError([Problem(f"{what} has {n} numbers, e.g. {example}, got {str(value)[:80]!r}{shape}",
+                                  key=what.split()[0])])
+    if not np.all(np.isfinite(arr)):
+        raise ModelError([Problem(f"{what} must be finite numbers, got {arr.tolist()}", key=what.split()[0])])
+    return arr
+
+
+def quaternion_rates(q, omega):
+    """The quaternion rates q_dot of the angular velocity `omega`: q_dot = q (x) (0, omega) / 2 = G(q)^T omega / 2.
+
+    Parameters
+    ----------
+    q : array_like, shape (4,)
+        A unit quaternion (q0, q1, q2, q3), q0 the scalar part: a quaternion joint's ``<name>_q0`` ..
+        ``<name>_q3``.
+    omega : array_like, shape (3,)
+        The angular velocity in the rotated (child, body) axes: for a joint, the child frame's angular
+        velocity relative to the joint frame, in the child's own axes (rad/s).
+
+    Returns
+    -------
+    numpy.ndarray, shape (4,)
+        q_dot, tangent to the unit sphere (q . q_dot = 0); omega = 2 G(q) q_dot gives omega back.
+
+    Raises
+    ------
+    ModelError
+        q or omega of the wrong length, not numbers, or not finite.
+
+    Examples
+    --------
+    >>> lg.quaternion_rates([1, 0, 0, 0], [0, 0, 2.0])  # turning at 2 rad/s about z
+    array([0., 0., 0., 1.])
+    """
+    import numpy as np
+
+    q0, q1, q2, q3 = _vector_of(q, 4, "q (a quaternion)", "[1, 0, 0, 0]")
+    w = _vector_of(omega, 3, "omega (an angular velocity)", "[0, 0, 1.5]")
+    G = np.array([[-q1, q0, q3, -q2], [-q2, -q3, q0, q1], [-q3, q2, -q1, q0]])
+    return G.T @ w / 2
+
+
 @dataclass(frozen=True)
 class UnitQuaternion(Element):
     """The augmented inertia of a quaternion joint's coordinates: T = k (q . q_dot)^2 / 2, zero with its
-    gradient on the unit sphere, so that M is regular and the motion unchanged (see the module docstring)."""
+    gradient on the unit sphere, so that M is regular and the motion unchanged (see the module docstring).
+
+    k = 4/3 sum tr(I_b) over the rigid bodies `bodies` whose nearest quaternion joint above them is this one
+    (:func:`scale_unit_quaternion`), I_b a body's central inertia: 4 times their mean principal inertia,
+    symbolic where the inertias are; 1 (model units) while no body is there."""
 
     name: str
     coordinates: tuple = ()
     coefficient: sympy.Expr = sympy.Integer(1)
+    bodies: tuple = ()
     kind = "unit quaternion"
 
     def expressions(self) -> dict[str, sympy.Expr]:
@@ -233,6 +315,30 @@ class UnitQuaternion(Element):
     def contribute(self, kin):
         s = sum((kin.se(c) * kin.se(dot(c)) for c in self.coordinates), kin.se(sympy.Integer(0)))
         return Contribution(T=kin.se(self.coefficient) * s * s / 2)
+
+
+def scale_unit_quaternion(model: "Model", body) -> None:
+    """Add the rigid body `body` (in space, about to be added to `model`) to the augmented inertia of the
+    nearest quaternion joint above its frame, if any: k = 4/3 sum tr(I_b) of its bodies' central inertias
+    (see the module docstring). A body fixed in the world, or below no quaternion joint, changes nothing."""
+    from dataclasses import replace
+
+    quaternions = {j.child: j for j in getattr(model, "_joints", {}).values() if j.parametrization == "quaternion"}
+    if not quaternions:
+        return
+    frame = body.frame
+    while frame in model._frames and frame not in quaternions:
+        frame = model._frames[frame].parent
+    joint = quaternions.get(frame)
+    if joint is None:
+        return
+    e = tuple(joint.coordinates[-4:])
+    for i, element in enumerate(model._elements):
+        if isinstance(element, UnitQuaternion) and tuple(element.coordinates) == e:
+            trace = sympy.Rational(4, 3) * sum((body.inertia[k][k] for k in range(3)), sympy.Integer(0))
+            k = trace if not element.bodies else element.coefficient + trace
+            model._elements[i] = replace(element, coefficient=k, bodies=element.bodies + (body.name,))
+            return
 
 
 @dataclass(frozen=True)

@@ -574,6 +574,9 @@ class Model:
                          if center_frame in (None, frame) and not isinstance(center, str) else None)
                 e = RigidBody3D(name, e.mass, self._central_inertia(e, inertia_about, where, local), e.position,
                                 e.frame, e.factors, e.shape)
+            from ._joints import scale_unit_quaternion
+
+            scale_unit_quaternion(self, e)  # a quaternion joint's augmented inertia from its bodies
         self._elements.append(e)
         return e
 
