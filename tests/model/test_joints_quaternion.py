@@ -437,3 +437,156 @@ def test_a_free_body_started_with_quaternion_rates_turns_at_omega():
     L = [np.array(_R(*q), float) @ np.diag([0.03, 0.04, 0.05]) @ (2 * _G(q) @ qd) for q, qd in zip(Q, Qd)]
     L0 = np.array(_R(*q0), float) @ np.diag([0.03, 0.04, 0.05]) @ w0
     assert np.max(np.abs(np.array(L) - L0)) < 1e-10
+
+
+# ------------------------------------------------------------------ the initial angular velocity: omega
+
+_TOP_FILE = '''name = "top"
+[parameters]
+m = 1.0
+g = 9.81
+l = 0.1
+I1 = 0.02
+I2 = 0.03
+I3 = 0.01
+[[joints]]
+name = "ball"
+type = "spherical"
+parametrization = "quaternion"
+{joint}
+[[bodies]]
+mass = "m"
+frame = "ball"
+inertia = ["I1", "I2", "I3"]
+center = ["0", "0", "l"]
+[gravity]
+g = "g"
+[simulation]
+t_end = 0.05
+{simulation}
+'''
+
+
+def _start_of(traj):
+    Q, Qd = _quaternions(traj)
+    return Q[0], Qd[0]
+
+
+@pytest.mark.slow
+def test_omega_in_the_joint_table_starts_the_body_turning_at_omega_in_its_own_axes():
+    q0 = _quaternion_xyz(0.3, 1.2, -0.4)
+    initial = "initial = { " + ", ".join(f"ball_q{i} = {float(v)!r}" for i, v in enumerate(q0)) + " }"
+    model = loads_model(_TOP_FILE.format(joint="omega = [1.5, -2.0, 20.0]", simulation=initial))
+    assert model.joints["ball"].omega == (1.5, -2.0, 20.0)
+    traj = lg.simulate(lg.derive(model), rtol=1e-12, atol=1e-12)
+    q, qd = _start_of(traj)
+    assert np.allclose(q, q0, rtol=0, atol=1e-15)
+    assert np.allclose(qd, _qmul(q0, [0.0, 1.5, -2.0, 20.0]) / 2, rtol=0, atol=1e-14)  # q (x) (0, omega) / 2
+    assert np.allclose(2 * _G(q) @ qd, [1.5, -2.0, 20.0], rtol=0, atol=1e-13)  # the body's omega at t = 0
+    # the same joint in Python; a quaternion given by the caller turns at omega from there
+    py = lg.Model("top")
+    for k, v in VALUES.items():
+        py.parameter(k, v)
+    py.add_joint("ball", "spherical", parametrization="quaternion", omega=(1.5, -2.0, 20.0))
+    py.add_rigid_body("m", ["I1", "I2", "I3"], frame="ball", center=(0, 0, "l"))
+    py.add_gravity("g")
+    traj = lg.simulate(lg.derive(py), t_end=0.05, initial={"ball_q0": 0.0, "ball_q3": 1.0})
+    q, qd = _start_of(traj)
+    assert q.tolist() == [0.0, 0.0, 0.0, 1.0] and np.allclose(2 * _G(q) @ qd, [1.5, -2.0, 20.0], atol=1e-13)
+    # rates given (by the caller or the file) are kept instead of omega
+    traj = lg.simulate(lg.derive(py), t_end=0.05, initial={"ball_q1_dot": 0.5})
+    q, qd = _start_of(traj)
+    assert np.allclose(qd, [0, 0.5, 0, 0], atol=1e-15)
+
+
+def test_omega_is_written_and_read_back(tmp_path):
+    model = loads_model(_TOP_FILE.format(joint="omega = [0, 1, 20]", simulation=""))
+    back = lg.load(str(lg.write_model(model, tmp_path / "top.toml")))
+    assert back.joints["ball"].omega == (0.0, 1.0, 20.0)
+
+
+@pytest.mark.parametrize("joint, match", [
+    ("omega = [0, 1]", r"\[joints\[0\]\.omega\].*expected the initial angular velocity as 3 numbers \[wx, wy, wz\] "
+                       r"\(rad/s, in the child's own axes\), got \[0, 1\]"),
+    ("omega = [0, 1, 2, 3]", r"expected the initial angular velocity as 3 numbers"),
+    ('omega = ["__import__(\'os\')", 0, 0]', r"expected the initial angular velocity as 3 numbers .* got "
+                                             r"\[\"__import__\('os'\)\", 0, 0\]"),
+    ('omega = "20"', r"expected the initial angular velocity as 3 numbers .* got '20'"),
+    ("omega = [true, 0, 0]", r"expected the initial angular velocity as 3 numbers"),
+    ("omega = [nan, 0, 0]", r"the initial angular velocity must be finite numbers, got \[nan, 0, 0\]"),
+    ("omega = [0, 0, inf]", r"must be finite numbers"),
+    ('omeag = [0, 0, 1]', r"\[joints\[0\]\.omeag\].*did you mean 'omega'"),
+])
+def test_omega_problems(joint, match):
+    message = _problems(_TOP_FILE.format(joint=joint, simulation=""))
+    assert re.search(match, message, flags=re.DOTALL), message
+
+
+def test_omega_on_a_joint_of_three_angles_or_a_hinge_is_refused():
+    m = lg.Model("m")
+    with pytest.raises(ModelError, match=r"\[joint 'ball'\.omega\]: omega is the initial angular velocity of a "
+                                         r"quaternion joint .* or give the coordinates' rates in the initial values"):
+        m.add_joint("ball", "spherical", omega=[0, 0, 1])
+    with pytest.raises(ModelError, match=r"omega is the initial angular velocity of a quaternion joint"):
+        m.add_joint("hinge", "revolute", omega=[0, 0, 1])
+    assert not m.joints and not m.q
+
+
+# ------------------------------------------------------------------ the initial quaternion: one rule
+
+def test_an_all_zero_quaternion_is_one_clear_error_in_simulate_check_and_the_cli(tmp_path, capsys):
+    from lagrangian.cli import main
+
+    eqs = lg.derive(_top("quaternion"))
+    expected = (r"\[initial\]: the initial quaternion of joint 'ball' \(ball_q0 = 0; the components not given are 0\) "
+                r"is zero, which is no rotation: give a unit quaternion, e\.g\. ball_q0 = 1 for the joint frame's "
+                r"axes, or ball_q0 = 0, ball_q3 = 1 for a half turn about z \(leave all four out for the identity\)")
+    with pytest.raises(ModelError, match=expected):
+        lg.simulate(eqs, t_end=0.01, initial={"ball_q0": 0})
+    with pytest.raises(ModelError, match=r"\[initial\.ball_q1\]: the value of 'ball_q1' must be a finite number"):
+        lg.simulate(eqs, t_end=0.01, initial={"ball_q1": float("nan"), "ball_q2": 1.0})
+    path = tmp_path / "top.toml"
+    path.write_text(_TOP_FILE.format(joint="", simulation="initial = { ball_q0 = 0.0 }"))
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(expected, err) and "Traceback" not in err
+    path.write_text(_TOP_FILE.format(joint="", simulation=""))
+    assert main(["simulate", str(path), "--initial", "ball_q0=0"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("lagrangian simulate: error:") and re.search(expected, err)
+
+
+def test_unset_components_and_a_non_unit_quaternion():
+    from lagrangian.model._joints import quaternion_start
+
+    model = _top("quaternion")
+    assert quaternion_start(model, {}) == ({"ball_q0": 1.0, "ball_q1": 0.0, "ball_q2": 0.0, "ball_q3": 0.0}, [])
+    assert quaternion_start(model, {"ball_q0": 1.0}, {"ball_q2": 1})[0] == {"ball_q0": 0.0, "ball_q1": 0.0,
+                                                                            "ball_q2": 1.0, "ball_q3": 0.0}
+    values, notes = quaternion_start(model, {"ball_q1": 3.0, "ball_q3": -4.0})
+    assert values == {"ball_q0": 0.0, "ball_q1": 0.6, "ball_q2": 0.0, "ball_q3": -0.8}
+    assert notes == ["The initial quaternion of joint 'ball' (ball_q1 = 3, ball_q3 = -4; the components not given "
+                     "are 0) has length 5: it was scaled to unit length, (0, 0.6, 0, -0.8)."]
+    with pytest.raises(ModelError, match=r"ball_q0 = 'x'.* is not finite"):
+        quaternion_start(model, {}, {"ball_q0": "x"})
+
+
+@pytest.mark.slow
+def test_check_and_simulate_start_from_the_same_state():
+    # q0 alone, not a unit: before, the consistent-state search gave an arbitrary axis, and check another
+    text = _TOP_FILE.format(joint="", simulation="initial = { ball_q0 = 0.5, ball_q2 = 0.5, ball_q1_dot = 0.3 }")
+    eqs = lg.derive(loads_model(text))
+    report = lg.constraint_singularities(eqs)
+    traj = lg.simulate(eqs, rtol=1e-12, atol=1e-12)
+    q, qd = _start_of(traj)
+    r = np.sqrt(0.5)
+    assert np.allclose(q, [r, 0, r, 0], rtol=0, atol=1e-15)
+    assert [report.initial[f"ball_q{i}"] for i in range(4)] == pytest.approx(q.tolist(), abs=1e-15)
+    assert any("has length 0.707107: it was scaled to unit length, (0.707107, 0, 0.707107, 0)" in n
+               for n in report.notes)
+    assert abs(q @ qd) < 1e-14 and qd[1] == pytest.approx(0.3, abs=1e-15)  # tangent rates kept
+    # the same from the caller's values, and from a whole state array
+    traj = lg.simulate(eqs, initial={"ball_q0": 2.0, "ball_q2": 2.0}, rtol=1e-12, atol=1e-12)
+    assert np.allclose(_start_of(traj)[0], [r, 0, r, 0], rtol=0, atol=1e-15)
+    traj = lg.simulate(eqs, initial=[0, 0, 0, 3.0, 0, 0, 0, 0], rtol=1e-12, atol=1e-12)
+    assert _start_of(traj)[0].tolist() == [0.0, 0.0, 0.0, 1.0]

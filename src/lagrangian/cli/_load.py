@@ -131,6 +131,8 @@ def describe(model, source: str, kind: str) -> dict:
             entry["parametrization"] = j.parametrization
             if j.sequence is not None:
                 entry["sequence"] = j.sequence
+            if getattr(j, "omega", None) is not None:
+                entry["omega"] = list(j.omega)
         if any(p is not None for p in j.limits):
             entry["limits"] = [None if p is None else [_number(p[0]), _number(p[1])] for p in j.limits]
         for what in ("damping", "friction"):
@@ -175,6 +177,8 @@ def _text(info: dict) -> str:
             parts.append(f"axis {j['axis']}")
         if "parametrization" in j:
             parts.append(j["parametrization"] + (f" {j['sequence']}" if "sequence" in j else ""))
+        if "omega" in j:
+            parts.append(f"initial omega {j['omega']} (rad/s, child axes)")
         if j["coordinates"]:
             parts.append(f"coordinates {', '.join(j['coordinates'])}")
         if "limits" in j:

@@ -660,9 +660,16 @@ def _initial(eqs: Equations, num: _Numbers, names, notes):
     """The model's initial configuration moved onto the constraints as a simulation does (the
     independent coordinates held), and the length scale of the model's numbers."""
     given = {str(k): float(v) for k, v in (eqs.model.simulation.get("initial") or {}).items() if str(k) in names}
+    held = [names.index(str(k)) for k in eqs.model.simulation.get("independent", ()) if str(k) in names]
+    if getattr(eqs.model, "joints", None):  # quaternion joints start as a simulation does (the one rule)
+        from ..model._joints import quaternion_start
+
+        start, quaternion_notes = quaternion_start(eqs.model, eqs.model.simulation.get("initial"))
+        given.update({k: v for k, v in start.items() if k in names})
+        held += [names.index(k) for k in start if k in names and names.index(k) not in held]
+        notes.extend(quaternion_notes)
     q = np.array([given.get(k, 0.0) for k in names])
     scale = max([1.0, *np.abs(q), *(abs(float(v)) for v in eqs.parameters.values() if v is not None)])
-    held = [names.index(str(k)) for k in eqs.model.simulation.get("independent", ()) if str(k) in names]
     assembled = _assemble(num, q, held, scale)
     if assembled is None and held:
         assembled = _assemble(num, q, (), scale)

@@ -19,6 +19,7 @@
     friction = "F"                   # optional: Coulomb friction, Q = -F sign(q_dot)
     sequence = "xyz"                 # spherical and floating joints: the angle sequence, or
     parametrization = "quaternion"   #   four Euler parameters with a unit-norm constraint (no singular posture)
+    omega = [0, 0, 20]               # a quaternion joint: its initial angular velocity (rad/s, the child's axes)
 
 A joint's coordinates are declared by the joint (``coordinates = [...]`` at the top of the file may
 list them too, to fix their order; it may be left out when joints declare them all). Joints are
@@ -38,7 +39,7 @@ __all__ = ["JOINT_KEYS", "declare_joint_coordinates", "read_joints"]
 
 #: The keys of a [[joints]] table.
 JOINT_KEYS = ("name", "type", "parent", "child", "origin", "rotation", "matrix", "rpy", "axis", "coordinates",
-              "limits", "limit_stiffness", "damping", "friction", "sequence", "parametrization")
+              "limits", "limit_stiffness", "damping", "friction", "sequence", "parametrization", "omega")
 
 
 def _names(table: Mapping[str, Any]) -> list[str]:
@@ -108,7 +109,7 @@ def build_joint(reader, entry, parent: str | None = None) -> bool:
         return False
     kwargs: dict[str, Any] = {}
     before = len(reader.problems)
-    for k in ("parent", "child", "axis", "coordinates", "sequence", "parametrization"):
+    for k in ("parent", "child", "axis", "coordinates", "sequence", "parametrization", "omega"):
         if k in table:
             kwargs[k] = table[k]
     if parent is not None:
@@ -147,7 +148,7 @@ def build_joint(reader, entry, parent: str | None = None) -> bool:
     if "limits" in table:
         kwargs["limits"] = _limits(reader, table["limits"], f"{key}.limits")
     if len(reader.problems) > before or any(v is None for k, v in kwargs.items()
-                                            if k not in ("sequence", "parametrization")):
+                                            if k not in ("sequence", "parametrization", "omega")):
         entry.ok = False
         if isinstance(table.get("child", name), str):
             reader.frame_names.setdefault(table.get("child", name), None)

@@ -835,6 +835,8 @@ def model_file_text(model, *, source: str | None = None) -> str:
             lines.append(f"axis = {axis_text(j.axes[0])}")
         elif j.parametrization == "quaternion":
             lines.append('parametrization = "quaternion"')
+            if getattr(j, "omega", None) is not None:
+                lines.append("omega = [" + ", ".join(repr(float(w)) for w in j.omega) + "]")
         elif j.sequence is not None:
             lines.append(f"sequence = {string(j.sequence)}")
         if j.coordinates:

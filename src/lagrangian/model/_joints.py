@@ -118,6 +118,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["Joint", "JOINT_TYPES", "PARAMETRIZATIONS", "RotationalDamper", "UnitQuaternion", "add_joint",
            "coordinate_count", "default_coordinates", "quaternion_matrix", "quaternion_rate", "quaternion_rates",
+           "quaternion_start",
            "scale_unit_quaternion", "singular_angle"]
 
 #: The joint types and their numbers of coordinates.
@@ -159,6 +160,9 @@ class Joint:
         The angle sequence of a spherical or floating joint (None with a quaternion).
     parametrization : str
         ``"angles"`` or, for a spherical or floating joint, ``"quaternion"``.
+    omega : tuple of 3 floats or None
+        A quaternion joint's initial angular velocity: the child's relative to the joint frame, in the
+        child's own axes (body axes), rad/s; the initial rates are q_dot = G(q)^T omega / 2 unless given.
     """
 
     name: str
@@ -175,6 +179,7 @@ class Joint:
     sequence: str | None = None
     limit_stiffness: sympy.Expr | None = None
     parametrization: str = "angles"
+    omega: tuple | None = None
 
     @property
     def motion(self) -> tuple[Factor, ...]:
@@ -257,6 +262,74 @@ def _vector_of(value, n: int, what: str, example: str):
     if not np.all(np.isfinite(arr)):
         raise ModelError([Problem(f"{what} must be finite numbers, got {arr.tolist()}", key=what.split()[0])])
     return arr
+
+
+def _number_text(value) -> str:
+    try:
+        return f"{float(value):.6g}"
+    except (TypeError, ValueError):
+        return repr(value)[:40]
+
+
+def quaternion_start(model: "Model", model_values, caller_values=None) -> tuple[dict[str, float], list[str]]:
+    """The initial components (and rates) of every quaternion joint of `model` by the one rule (see the module
+    docstring): (values by coordinate and velocity name, which a start keeps as given; notes).
+
+    Parameters
+    ----------
+    model : Model
+    model_values : mapping of str to float
+        The model's own initial values (``model.simulation["initial"]``).
+    caller_values : mapping of str to float, optional
+        The values the caller gave (simulate's `initial`, the CLI's --initial, the playground's sliders),
+        which replace the model's for a joint where they name any of its components.
+
+    Raises
+    ------
+    ModelError
+        A quaternion that is zero or not finite, naming the joint, its values and the fix.
+    """
+    import numpy as np
+
+    out: dict[str, float] = {}
+    notes: list[str] = []
+    problems: list[Problem] = []
+    model_values = {getattr(k, "name", k): v for k, v in (model_values or {}).items()}
+    caller_values = {getattr(k, "name", k): v for k, v in (caller_values or {}).items()}
+    for j in getattr(model, "_joints", {}).values():
+        if j.parametrization != "quaternion":
+            continue
+        names = [c.name for c in j.coordinates[-4:]]
+        rates = [f"{c}_dot" for c in names]
+        source = next((v for v in (caller_values, model_values) if any(c in v for c in names)), None)
+        if source is None:
+            q = np.array([1.0, 0.0, 0.0, 0.0])
+        else:
+            try:
+                q = np.array([float(source.get(c, 0.0)) for c in names])
+            except (TypeError, ValueError):
+                q = np.full(4, np.nan)
+            norm = float(np.linalg.norm(q)) if np.all(np.isfinite(q)) else math.nan
+            given = ", ".join(f"{c} = {_number_text(source[c])}" for c in names if c in source)
+            if not norm > 0 or not math.isfinite(norm):
+                what = "zero, which is no rotation" if norm == 0 else "not finite"
+                problems.append(Problem(
+                    f"the initial quaternion of joint '{j.name}' ({given}; the components not given are 0) is "
+                    f"{what}: give a unit quaternion, e.g. {names[0]} = 1 for the joint frame's axes, or "
+                    f"{names[0]} = 0, {names[3]} = 1 for a half turn about z (leave all four out for the identity)",
+                    key="initial"))
+                continue
+            if abs(norm - 1.0) > 1e-12:
+                notes.append(f"The initial quaternion of joint '{j.name}' ({given}; the components not given are "
+                             f"0) has length {norm:.6g}: it was scaled to unit length, "
+                             f"({', '.join(f'{v:.6g}' for v in q / norm)}).")
+                q = q / norm
+        out.update(zip(names, (float(v) for v in q)))
+        if j.omega is not None and not any(r in v for v in (caller_values, model_values) for r in rates):
+            out.update(zip(rates, (float(v) for v in quaternion_rates(q, j.omega))))
+    if problems:
+        raise ModelError(problems)
+    return out, notes
 
 
 def quaternion_rates(q, omega):
@@ -401,7 +474,7 @@ def _types_text() -> str:
 def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, child: str | None = None,
               origin=(0, 0, 0), rotation=None, axis=None, coordinates=None, limits=None, damping=None,
               friction=None, sequence: str | None = None, limit_stiffness=None,
-              parametrization: str | None = None) -> Joint:
+              parametrization: str | None = None, omega=None) -> Joint:
     """Add a joint to `model` (:meth:`Model.add_joint` documents the arguments). All or nothing: on a
     problem, nothing is added and one ModelError lists every problem found."""
     from .._util import did_you_mean
@@ -577,6 +650,20 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
         if f"{name}_unit" in {e.name for e in model._elements}:
             problem("parametrization", f"a quaternion joint adds the element '{name}_unit', but an element has "
                                        "that name: rename the joint or the element")
+    omega_t = None
+    if omega is not None:
+        if not quaternion:
+            problem("omega", "omega is the initial angular velocity of a quaternion joint (parametrization = "
+                             "\"quaternion\" of a spherical or floating joint): give that, or give the coordinates' "
+                             "rates in the initial values ([simulation] initial)")
+        elif not (isinstance(omega, (list, tuple)) and len(omega) == 3 and all(
+                isinstance(w, numbers.Real) and not isinstance(w, bool) for w in omega)):
+            problem("omega", "expected the initial angular velocity as 3 numbers [wx, wy, wz] (rad/s, in the "
+                             f"child's own axes), got {repr(omega)[:80]}")
+        elif not all(math.isfinite(float(w)) for w in omega):
+            problem("omega", f"the initial angular velocity must be finite numbers, got {list(omega)}")
+        else:
+            omega_t = tuple(float(w) for w in omega)
     if problems:
         raise ModelError(problems)
 
@@ -585,7 +672,7 @@ def add_joint(model: "Model", name: str, type: str, *, parent: str = WORLD, chil
     symbols = {c.name: c for c in model._coordinates}
     q = tuple(symbols[c.name if isinstance(c, sympy.Symbol) else c] for c in names)
     joint = Joint(name, type, parent, child, q, tuple(o), factors, axes, limits_t, damping_t, friction_t, seq,
-                  k_limit, "quaternion" if quaternion else "angles")
+                  k_limit, "quaternion" if quaternion else "angles", omega_t)
     model._frames[child] = joint.frame()
     if quaternion:
         e = q[-4:]

@@ -476,7 +476,8 @@ class Model:
 
     def add_joint(self, name: str, type: str, *, parent: str = WORLD, child: str | None = None, origin=(0, 0, 0),
                   rotation=None, axis=None, coordinates=None, limits=None, damping=None, friction=None,
-                  sequence: str | None = None, limit_stiffness=None, parametrization: str | None = None):
+                  sequence: str | None = None, limit_stiffness=None, parametrization: str | None = None,
+                  omega=None):
         """A joint from the frame `parent` to a new frame `child` (default: the joint's name), with its
         coordinates (declared here unless declared before) and its dampers and friction.
 
@@ -511,6 +512,10 @@ class Model:
             A spherical or floating joint's rotation: ``"angles"`` (default: the three angles of
             `sequence`) or ``"quaternion"`` (four Euler parameters ``<name>_q0`` .. ``<name>_q3`` with the
             unit-norm constraint ``<name>_norm``: no singular posture; see :mod:`lagrangian.model._joints`).
+        omega : 3 numbers, optional
+            A quaternion joint's initial angular velocity [wx, wy, wz] (rad/s): the child's relative to
+            the joint frame, in the child's own axes (body axes); the initial rates are
+            q_dot = q (x) (0, omega) / 2 (:func:`lagrangian.quaternion_rates`) unless rates are given.
 
         Returns
         -------
@@ -520,7 +525,8 @@ class Model:
 
         return add_joint(self, name, type, parent=parent, child=child, origin=origin, rotation=rotation, axis=axis,
                          coordinates=coordinates, limits=limits, damping=damping, friction=friction,
-                         sequence=sequence, limit_stiffness=limit_stiffness, parametrization=parametrization)
+                         sequence=sequence, limit_stiffness=limit_stiffness, parametrization=parametrization,
+                         omega=omega)
 
     # ------------------------------------------------------------------- bodies
     def add_rigid_body(self, mass, inertia, position=None, angle=None, *, frame: str | None = None,

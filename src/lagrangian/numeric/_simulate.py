@@ -1060,6 +1060,15 @@ def _consistent_guess(eq: Equations, x0, initial, model_initial) -> tuple[np.nda
                 x0[names.index(k)] = v
     elif initial is None:
         fixed = set(given_initial_names(eq.model))
+    if getattr(eq.model, "joints", None):  # quaternion joints start by the one rule (model._joints.quaternion_start)
+        from ..model._joints import quaternion_start
+
+        caller = None if initial is None else {k: x0[i] for i, k in enumerate(names) if not isinstance(
+            initial, Mapping) or k in {getattr(c, "name", c) for c in initial}}
+        start, _ = quaternion_start(eq.model, model_initial, caller)
+        for k, v in start.items():
+            x0[names.index(k)] = v
+        fixed |= set(start)
     return x0, fixed
 
 
