@@ -40,6 +40,7 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
+from ..equations._lambdify import lambdify
 from ..errors import ModelError
 from ..model._constraints import VELOCITY
 
@@ -52,7 +53,7 @@ def _hessians(equations: Equations, cm):
     n = equations.n
     exprs = [core.g[k].diff(a).diff(b) for k in cm.holonomic for a in core.q for b in core.q]
     params = [se.Symbol(p.name) for p in equations.parameters]
-    f = se.Lambdify([core.t, *core.q, *core.qd, *params], exprs or [se.Integer(0)], cse=True, real=True)
+    f = lambdify([core.t, *core.q, *core.qd, *params], exprs or [se.Integer(0)])
     k = len(cm.holonomic)
     return lambda t, x, p: np.asarray(f(np.concatenate(([t], x, p))), float).ravel()[:k * n * n].reshape(k, n, n)
 

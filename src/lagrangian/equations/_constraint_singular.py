@@ -40,6 +40,7 @@ from ..errors import ModelError
 from ..model._constraints import HOLONOMIC
 from ..model._kinematics import to_sympy
 from ._equations import Equations
+from ._lambdify import lambdify
 from ._search import NUDGE, angle_difference, distinct, gauss_newton, least_squares, wrap_angles
 from ._singular import determinant, exact_number, factored
 
@@ -368,8 +369,8 @@ class _Numbers:
         self.q = list(core.q)
         self.g_exprs = [se.sympify(core.g[k]).subs(subs) for k in self.hol]
         self.G_exprs = [[se.sympify(core.G[k, j]).subs(subs) for j in range(self.n)] for k in range(self.m)]
-        self._g = se.Lambdify(self.q, self.g_exprs or [se.Integer(0)], real=True, cse=True)
-        self._G = se.Lambdify(self.q, [e for row in self.G_exprs for e in row], real=True, cse=True)
+        self._g = lambdify(self.q, self.g_exprs or [se.Integer(0)])
+        self._G = lambdify(self.q, [e for row in self.G_exprs for e in row])
         self._systems: dict = {}
         self.assembled: dict = {}  # _assemble's results without held coordinates, by (start, scale)
 
@@ -391,7 +392,7 @@ class _Numbers:
             F.append(sum((v * v for v in y), se.Integer(0)) - 1)
             z = self.q + y
             J = [se.diff(f, v) for f in F for v in z]
-            fn = se.Lambdify(z, F + J, real=True, cse=True)
+            fn = lambdify(z, F + J)
             size, width = len(F), len(z)
 
             def evaluate(zz, fn=fn, size=size, width=width):

@@ -21,6 +21,7 @@ from .._util import did_you_mean
 from ..errors import ModelError, Problem
 from ..model._elements import Particle, RigidBody, RigidBody3D
 from ._equations import Equations
+from ._lambdify import lambdify
 from ._readable import trigonometric_polynomial
 from ._search import minimize, multistart, wrap_angle, wrap_angles
 
@@ -599,7 +600,7 @@ def _numeric_mass_matrix(eqs: Equations, values: dict):
     values = {se.Symbol(p.name): float(v) for p, v in values.items()}
     n = eqs.n
     entries = [core.M[i, j].subs(values).subs({core.t: 0}) for i in range(n) for j in range(n)]
-    f = se.Lambdify(list(core.q), entries, cse=True, real=True)
+    f = lambdify(list(core.q), entries)
     return lambda x: np.asarray(f(np.asarray(x, float)), dtype=float).reshape(n, n)
 
 

@@ -20,6 +20,7 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
+from ..equations._lambdify import lambdify
 from ..equations._singular import inertia_measure, scaled_cholesky
 from ..errors import ModelError
 from ._cache import cached
@@ -142,7 +143,7 @@ class NumericContract(Protocol):
 
 def _evaluator_of(args, exprs):
     """The one SymEngine evaluator of every group of expressions (common subexpressions shared)."""
-    return se.Lambdify(args, list(exprs) or [se.Integer(0)], cse=True, real=True)
+    return lambdify(args, list(exprs) or [se.Integer(0)])
 
 
 def _flat(matrix, rows: int, cols: int) -> list:

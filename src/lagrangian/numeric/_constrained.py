@@ -29,6 +29,7 @@ import numpy as np
 import symengine as se
 
 from ..equations import Equations
+from ..equations._lambdify import lambdify
 from ..equations._search import NUDGE, STEP_ROUND_OFF, gauss_newton
 from ..errors import ModelError, Problem, SimulationError
 from ..model._constraints import HOLONOMIC
@@ -223,12 +224,12 @@ def constrained_model(equations: Equations, nm) -> ConstrainedModel:
     args = [core.t, *state, *inputs, *params]
     M = [core.M[i, j] for i in range(n) for j in range(n)]
     G = [core.G[k, j] for k in range(m) for j in range(n)]
-    parts = se.Lambdify(args, M + list(core.f) + G + list(core.c), cse=True, real=True)
+    parts = lambdify(args, M + list(core.f) + G + list(core.c))
     kinds = [c.kind for c in equations.model.constraints]
     hol = [k for k, kind in enumerate(kinds) if kind == HOLONOMIC]
-    position = se.Lambdify([core.t, *state, *params], [core.g[k] for k in hol]
-                           + [core.G[k, j] for k in hol for j in range(n)] or [se.Integer(0)], cse=True, real=True)
-    velocity = se.Lambdify([core.t, *state, *params], list(core.w) + G + M, cse=True, real=True)
+    position = lambdify([core.t, *state, *params], [core.g[k] for k in hol]
+                        + [core.G[k, j] for k in hol for j in range(n)] or [se.Integer(0)])
+    velocity = lambdify([core.t, *state, *params], list(core.w) + G + M)
     cm = ConstrainedModel(equations, nm, parts, position, velocity, np.array(hol, int))
     _CACHE[equations] = cm
     return cm
