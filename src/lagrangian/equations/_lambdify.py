@@ -10,12 +10,13 @@ for bit (loaded, not compiled anew). Functions that compile in under 10 ms are n
 
 The key of an entry is a SHA-256 of what defines the function exactly: the argument names and the
 expressions after SymEngine's common-subexpression elimination as text (linear in the size of the
-shared expression, where the expressions printed whole can be exponential), with SymEngine's
-version, the machine and its processor's features (the code is native). Where that text would not
-define the function exactly, nothing is kept and the call compiles as before: a float whose printed
-form is not its value (SymEngine prints 15 digits), a name that is not an identifier, or one that the
-elimination's own names (x0, x1, ...) could be mistaken for. Without LLVM (the lambda backend), or
-where the folder cannot be written, the call is SymEngine's as it is.
+shared expression, where the expressions printed whole can be exponential; each float written by its
+exact value, as SymEngine prints 15 digits), with SymEngine's version, the machine and its
+processor's features (the code is native). Where that text would not define the function exactly,
+nothing is kept and the call compiles as before: a name that is not an identifier, or one that the
+text's own names (x0, x1, ... of the elimination, _float_... of the floats) could be mistaken for.
+Without LLVM (the lambda backend), or where the folder cannot be written, the call is SymEngine's as
+it is.
 
 An entry is read only when it is a regular file of this user's, not writable by others, whose header
 (the function's shape and the SHA-256 of the code) is what this call expects: machine code from the
@@ -43,6 +44,8 @@ __all__ = ["lambdify"]
 _FORMAT = "lagrangian-lambdify-1"
 #: The names SymEngine's cse gives the subexpressions.
 _CSE_NAME = re.compile(r"x\d+\Z")
+#: The prefix of the names that stand for the floats in the text of the key.
+_FLOAT = "_float_"
 #: An entry larger than this is not read (the bicycle's largest: about 50 KB).
 _MAX_BYTES = 64 << 20
 #: A function that compiled in less CPU time than this (seconds) is not kept: loading it would save
@@ -69,7 +72,8 @@ def lambdify(args, exprs):
 
 def _definition(args, exprs) -> str | None:
     """The text that defines the function (argument names; the common subexpressions and the reduced
-    expressions, one a line), or None where it would not define it exactly (see the module)."""
+    expressions, one a line; each float by its exact hexadecimal value), or None where it would not define
+    it exactly (see the module)."""
     try:
         reps, reduced = se.cse(exprs)
     except (RuntimeError, TypeError, ValueError):
@@ -83,13 +87,18 @@ def _definition(args, exprs) -> str | None:
     for e in parts:
         free |= {str(s) for s in e.free_symbols}
         floats |= e.atoms(se.RealDouble)
-    # every name is an argument's, an identifier that the elimination's names cannot be taken for
+    # every name is an argument's, an identifier that the elimination's names and the floats' cannot be
+    # taken for
     if not (free - {str(s) for s, _ in reps} <= set(names)
-            and all(n.isidentifier() and not _CSE_NAME.match(n) for n in names)):
+            and all(n.isidentifier() and not _CSE_NAME.match(n) and not n.startswith(_FLOAT) for n in names)):
         return None
-    for v in floats:
-        if float(str(v)) != float(v):
-            return None
+    if any(float(v) == 0.0 for v in floats):  # 0.0 and -0.0 are one key of the mapping below
+        return None
+    exact = {v: se.Symbol(_FLOAT + float(v).hex().replace("-", "m").replace("+", "p").replace(".", "_"))
+             for v in floats}
+    if exact:
+        reps = [(s, e.xreplace(exact)) for s, e in reps]
+        reduced = [e.xreplace(exact) for e in reduced]
     lines = [json.dumps(names)]
     lines += [f"{s}={e}" for s, e in reps]
     lines += [str(e) for e in reduced]
