@@ -288,7 +288,7 @@ def test_the_constraint_name_taken_is_refused_before_anything_is_added():
 
 
 def test_the_check_finds_no_singular_configuration_on_the_unit_sphere():
-    # det M = 64 I3 (I1 + m l^2)(I2 + m l^2)(4 m l^2 + 1) |q|^8 vanishes only at q = 0, off the constraint
+    # det M = 256/3 I3 (I1 + m l^2)(I2 + m l^2)(I1 + I2 + I3 + 3 m l^2) |q|^8 (k = 4/3 tr I_G) vanishes only at q = 0
     report = lg.singularities(lg.derive(_top("quaternion")))
     assert not report.singular and "ball_q0**2 + ball_q1**2 + ball_q2**2 + ball_q3**2" in str(report.det_mass_matrix)
     angles = lg.singularities(lg.derive(_top()))
@@ -590,3 +590,20 @@ def test_check_and_simulate_start_from_the_same_state():
     assert np.allclose(_start_of(traj)[0], [r, 0, r, 0], rtol=0, atol=1e-15)
     traj = lg.simulate(eqs, initial=[0, 0, 0, 3.0, 0, 0, 0, 0], rtol=1e-12, atol=1e-12)
     assert _start_of(traj)[0].tolist() == [0.0, 0.0, 0.0, 1.0]
+
+
+def test_the_playground_starts_a_quaternion_by_the_same_rule():
+    import json
+
+    from lagrangian.serve._tasks import simulate_task
+    from lagrangian.errors import LagrangianError
+
+    text = _TOP_FILE.format(joint="omega = [0, 0, 3]", simulation="initial = { ball_q0 = 1.0 }")
+    reply = simulate_task(json.dumps({"model": text, "t_end": 0.01, "initial": {"ball_q1": 2.0}}).encode())
+    columns = json.loads(reply.body)["columns"]
+    q = np.array([columns[f"ball_q{i}"][0] for i in range(4)])
+    qd = np.array([columns[f"ball_q{i}_dot"][0] for i in range(4)])
+    assert reply.status == 200 and q.tolist() == [0.0, 1.0, 0.0, 0.0]  # the file's q0 = 1 replaced as a whole
+    assert np.allclose(2 * _G(q) @ qd, [0, 0, 3], rtol=0, atol=1e-13)
+    with pytest.raises(LagrangianError, match=r"the initial quaternion of joint 'ball' \(ball_q0 = 0; .*\) is zero"):
+        simulate_task(json.dumps({"model": text, "t_end": 0.01, "initial": {"ball_q0": 0.0}}).encode())

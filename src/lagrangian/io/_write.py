@@ -98,10 +98,10 @@ def write_model(model, path: str | os.PathLike, *, force: bool = False) -> Path:
 
     Examples
     --------
-    >>> arm = lg.load("robot-arm-3-joints")
-    >>> lg.write_model(arm, "arm.toml")  # doctest: +SKIP
-    PosixPath('arm.toml')
-    >>> lg.derive(lg.load("arm.toml"))  # doctest: +SKIP
+    >>> arm = lg.load_urdf("ur5_robot.urdf")  # doctest: +SKIP
+    >>> lg.write_model(arm, "ur5.toml")  # doctest: +SKIP
+    PosixPath('ur5.toml')
+    >>> eqs = lg.derive(lg.load("ur5.toml"))  # the same equations  # doctest: +SKIP
     """
     from ..model._model import Model
     from ._files import write_atomically
