@@ -547,9 +547,13 @@ def test_an_all_zero_quaternion_is_one_clear_error_in_simulate_check_and_the_cli
         lg.simulate(eqs, t_end=0.01, initial={"ball_q1": float("nan"), "ball_q2": 1.0})
     path = tmp_path / "top.toml"
     path.write_text(_TOP_FILE.format(joint="", simulation="initial = { ball_q0 = 0.0 }"))
-    assert main(["check", str(path)]) == 2
-    err = capsys.readouterr().err
-    assert re.search(expected, err) and "Traceback" not in err
+    in_file = r"top\.toml:23 \[simulation\.initial\]" + expected[len(r"\[initial\]"):]
+    for command in ("check", "load"):  # the model file's own values: refused when it is read, with its line
+        assert main([command, str(path)]) == 2
+        err = capsys.readouterr().err
+        assert re.search(in_file, err) and "Traceback" not in err, err
+    with pytest.raises(ModelFileError, match=r"\[simulation\.initial\]: the initial quaternion of joint 'ball'"):
+        loads_model(_TOP_FILE.format(joint="", simulation="initial = { ball_q0 = 0, ball_q2 = 0.0 }"))
     path.write_text(_TOP_FILE.format(joint="", simulation=""))
     assert main(["simulate", str(path), "--initial", "ball_q0=0"]) == 2
     err = capsys.readouterr().err

@@ -1792,6 +1792,14 @@ class _Reader:
         if defaults:
             out["initial"] = {**defaults, **given}
         self.model.simulation = out
+        if "initial" in out and any(j.parametrization == "quaternion" for j in self.model.joints.values()):
+            from ..model._joints import quaternion_start  # an all-zero quaternion: refused here, named
+
+            try:
+                quaternion_start(self.model, out["initial"])
+            except ModelError as exc:
+                for p in exc.problems:
+                    self.problem("simulation.initial", p.message)
 
     def read_initial(self, value: object) -> dict[str, float] | None:
         if not isinstance(value, dict):
