@@ -12,6 +12,7 @@ import sympy
 from sympy.printing.conventions import split_super_sub
 from sympy.printing.latex import LatexPrinter
 from sympy.printing.mathml import MathMLPresentationPrinter
+from sympy.printing.printer import Printer
 from sympy.printing.pretty.pretty_symbology import greek_unicode
 
 __all__ = ["Partial", "TimeDerivative", "Rotation", "Given", "ConstraintForce", "latex", "mathml", "too_large",
@@ -199,8 +200,35 @@ class _Latex(LatexPrinter):
         return main
 
 
+#: The MathML of the symbols printed so far, by (name, style): at most _SYMBOLS_KEPT of them.
+_SYMBOLS: dict[tuple[str, str], str] = {}
+_SYMBOLS_KEPT = 4096
+
+
 class _MathML(MathMLPresentationPrinter):
+    def doprint(self, expr):
+        """SymPy's doprint, with the printed tree written out by :func:`_xml` instead of minidom's
+        ``toxml`` (the same text: a quarter of the bicycle's printing time went to minidom's writer)."""
+        node = Printer._print(self, expr)
+        parts: list[str] = []
+        if not _xml(node, parts, type(self.dom.createTextNode(""))):
+            return super().doprint(expr)
+        return "".join(parts).encode("ascii", "xmlcharrefreplace").decode()
+
     def _print_Symbol(self, sym, style="plain"):
+        """A symbol's MathML (a function of its name and style), made once per process and given as a raw
+        text node: the bicycle's report prints 4000 symbols, each a name split, looked up and built anew."""
+        key = (sym.name, style)
+        text = _SYMBOLS.get(key)
+        if text is None:
+            node = self._symbol_node(sym, style)
+            parts: list[str] = []
+            text = "".join(parts) if _xml(node, parts, type(self.dom.createTextNode(""))) else node.toxml()
+            if len(_SYMBOLS) < _SYMBOLS_KEPT:
+                _SYMBOLS[key] = text
+        return self.dom.createTextNode(text)
+
+    def _symbol_node(self, sym, style="plain"):
         base, accent = _split_name(sym.name)
         name, supers, subs = split_super_sub(base)
         dom = self.dom
@@ -248,6 +276,46 @@ class _MathML(MathMLPresentationPrinter):
         if style == "bold":
             x.setAttribute("mathvariant", "bold")
         return x
+
+
+#: Characters minidom escapes in an attribute's value (which ones depends on the Python version).
+_ESCAPED = re.compile(r"[&<>\"\r\n\t]")
+
+
+def _xml(node, out: list, raw: type) -> bool:
+    """Append to `out` what ``node.toxml()`` writes for the tree SymPy's MathML printer makes: elements
+    (their attributes in order, ``<tag/>`` when empty) and its unescaped text nodes (of class `raw`).
+    False (`out` then incomplete) where the tree holds anything else, or an attribute value minidom
+    would escape: the caller writes it with minidom then."""
+    if node.nodeType == node.TEXT_NODE:
+        if type(node) is not raw:
+            return False
+        if node.data:
+            out.append(node.data)
+        return True
+    if node.nodeType != node.ELEMENT_NODE:
+        return False
+    try:
+        attrs = node._attrs  # minidom's own (None until an attribute is set): node.attributes would make it
+    except AttributeError:
+        return False
+    out.append("<" + node.tagName)
+    if attrs:
+        for name, attr in attrs.items():
+            value = attr.value
+            if _ESCAPED.search(value):
+                return False
+            out.append(f' {name}="{value}"')
+    children = node.childNodes
+    if not children:
+        out.append("/>")
+        return True
+    out.append(">")
+    for child in children:
+        if not _xml(child, out, raw):
+            return False
+    out.append(f"</{node.tagName}>")
+    return True
 
 
 _ENTITY = re.compile(r"&([A-Za-z][A-Za-z0-9]*);")

@@ -1,0 +1,78 @@
+"""The report's MathML written without minidom's writer, and each symbol's MathML made once: the same
+text as SymPy's printer with minidom's ``toxml`` and the symbols built anew (issue 22: a quarter of the
+bicycle's printing time was minidom's writer)."""
+
+from __future__ import annotations
+
+from xml.dom.minidom import Document
+
+import pytest
+import sympy
+from sympy.printing.mathml import MathMLPresentationPrinter
+
+import lagrangian as lg
+from lagrangian.reporting import _printing
+from lagrangian.reporting._printing import ConstraintForce, Partial, Rotation, TimeDerivative, _xml, mathml
+
+
+class _Reference(_printing._MathML):
+    """SymPy's doprint (minidom's toxml) and each symbol built anew: what the report printed before."""
+
+    doprint = MathMLPresentationPrinter.doprint
+    _print_Symbol = _printing._MathML._symbol_node
+
+
+def _reference(expr) -> str:
+    text = _printing._numeric_entities(_Reference().doprint(expr))
+    return text.replace("<mo>-</mo>", "<mo>&#x2212;</mo>")
+
+
+a, b, theta, q1_dot, x_ddot = sympy.symbols("a b theta q1_dot x_ddot")
+EXPRESSIONS = [
+    a, theta, q1_dot, x_ddot, sympy.Symbol("lambda_front_contact"), sympy.Symbol("m_1^2"), sympy.Symbol("ell"),
+    -a * sympy.sin(theta) / (1 + b ** 2), sympy.sqrt(a) * q1_dot ** 3 - sympy.Rational(3, 7),
+    sympy.Matrix([[a, -b], [sympy.cos(theta), 0]]), sympy.Lt(a, b), sympy.Eq(a, b - 1), sympy.Float(0.1, 6) * a,
+    Partial(sympy.Symbol("L"), q1_dot), TimeDerivative(a * q1_dot), Rotation("z", theta) * Rotation("x", a),
+    ConstraintForce(2), sympy.Tuple(sympy.Eq(a, 1), sympy.Eq(b, sympy.pi / 2)), sympy.Symbol("Q_1"),
+    sympy.Integer(-3), sympy.Symbol("x") * sympy.Symbol("y"), sympy.exp(-a) * sympy.log(b),
+]
+
+
+@pytest.mark.parametrize("expr", EXPRESSIONS, ids=range(len(EXPRESSIONS)))
+def test_the_same_text_as_minidom(expr):
+    _printing._SYMBOLS.clear()
+    first = mathml(expr)
+    assert first == _reference(expr)
+    assert mathml(expr) == first  # the symbols' kept MathML
+
+
+@pytest.mark.parametrize("example", ["cart-pendulum", "double-pendulum", "four-bar", "rolling-disk"])
+def test_every_expression_of_a_report_prints_as_before(example):
+    rep = lg.report(example, equilibria=False)
+    exprs = [p for block in rep.math_blocks() for p in block.parts()
+             if _printing.too_large(p, rep.max_nodes) is None]
+    assert exprs
+    for expr in exprs:
+        assert mathml(expr) == _reference(expr)
+
+
+def test_what_the_writer_does_not_know_goes_to_minidom():
+    doc = Document()
+    el = doc.createElement("mi")
+    el.setAttribute("title", 'a "quoted" & <odd> value')  # minidom escapes it (how depends on the version)
+    el.appendChild(doc.createTextNode("x"))
+    assert _xml(el, [], type(doc.createTextNode(""))) is False  # a Text that is not SymPy's raw text, too
+    plain = doc.createElement("mrow")
+    plain.appendChild(doc.createComment("no"))
+    assert _xml(plain, [], type(doc.createTextNode(""))) is False
+    empty = doc.createElement("mspace")
+    empty.setAttribute("width", "1em")
+    out: list = []
+    assert _xml(empty, out, type(doc.createTextNode(""))) is True
+    assert "".join(out) == empty.toxml() == '<mspace width="1em"/>'
+
+
+def test_a_symbol_whose_name_is_markup_is_escaped_as_before():
+    name = sympy.Symbol("a<b>&c")
+    _printing._SYMBOLS.clear()
+    assert mathml(name) == _reference(name)
