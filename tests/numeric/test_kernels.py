@@ -118,3 +118,55 @@ def test_the_output_stage_covers_the_rows_before_an_event_stop():
     p = cm.parameter_values
     E = [cm.energy(t, x, [], p) for t, x in zip(tr.t, tr.x)]
     assert np.allclose(tr.energy, E, rtol=1e-14, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", ["double-pendulum", "cart-pendulum", "mck", "kepler"])
+def test_energy_rows_gives_the_energy_of_each_row_bit_for_bit(name):
+    # the generated energy_rows (the output stage's energy, vectorized over the rows) against the energy
+    # row by row: the same operations in the same order, so the same numbers; a row with an angle past the
+    # sin/cos polynomial's bound (1e5) or not finite is left to the energy (libm's sin and cos)
+    eqs = lg.derive(lg.load(name))
+    cm = compile_numba(eqs)
+    assert cm.energy_rows_address != 0
+    rng = np.random.default_rng(3)
+    n, m = cm.n, len(cm.input_names)
+    X = rng.uniform(-3.0, 3.0, (203, 2 * n))
+    X[7, 0], X[100, n - 1], X[150, n], X[151, n] = 2e5, -3e7, np.nan, np.inf  # (energy: a function of q_dot)
+    times = np.linspace(0.0, 2.0, len(X))
+    prog = constant_programs(np.full(m, 0.7))
+    p = cm.parameter_values
+    E = {}
+    for er in (cm.energy_rows_address, 0):
+        E[er] = np.empty(len(X))
+        U = np.empty((len(X), m))
+        kernels().energies((cm.energy_address, er), times, X, p, prog.ops, prog.args, prog.starts, prog.nstack,
+                           E[er], U, np.zeros(max(1, m), np.int64))
+        assert np.all(U == 0.7)
+    assert np.array_equal(E[cm.energy_rows_address], E[0], equal_nan=True)
+    assert np.isfinite(E[0][7]) and np.isfinite(E[0][100]) and np.isnan(E[0][150])
+    assert E[0][5] == pytest.approx(cm.energy(times[5], X[5], np.full(m, 0.7), p), rel=1e-15)
+
+
+def test_the_output_stage_in_blocks_of_rows_equals_the_energy_row_by_row():
+    # dop853 evaluates the outputs' energy OUTPUT_BLOCK rows at a time (and the rest at the end): every
+    # count of rows, fewer than a block, a block and some, gives the energy of each row
+    from lagrangian.numeric._kernels_numba import OUTPUT_BLOCK
+
+    eqs = lg.derive(lg.load("double-pendulum"))
+    cm = compile_numba(eqs)
+    p = cm.parameter_values
+    x0 = np.array([2.0, 2.5, 0.0, 0.0])
+    for rows in (2, OUTPUT_BLOCK - 1, OUTPUT_BLOCK, OUTPUT_BLOCK + 1, 3 * OUTPUT_BLOCK + 5):
+        times = np.linspace(0.0, 2.0, rows)
+        raw = run_dop853(cm, x0, times, p, constant_programs([]), 1e-9, 1e-9)
+        E = [cm.energy(t, x, [], p) for t, x in zip(times, raw.x)]
+        assert raw.status == 0 and np.array_equal(raw.energy, E)
+
+
+def test_a_larger_model_has_no_energy_rows():
+    # past ENERGY_ROWS_MAX coordinates the energy is a small part of a run: no energy_rows (compiled for
+    # nothing), the kernels call the energy row by row
+    from lagrangian.numeric._codegen import ENERGY_ROWS_MAX, numba_source
+
+    assert "def energy_rows(" not in numba_source(lg.derive(lg.load(f"pendulum-chain-{ENERGY_ROWS_MAX + 1}")))
+    assert "def energy_rows(" in numba_source(lg.derive(lg.load(f"pendulum-chain-{ENERGY_ROWS_MAX}")))

@@ -30,7 +30,7 @@ __all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "33"
+GENERATOR_VERSION = "34"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",
@@ -613,6 +613,8 @@ def numba_source(equations: Equations, part: str = "main") -> str:
         # evaluates the energy at every output (a 20 s double pendulum's 2001: 82 -> 56 us of its run)
         lines, exprs, _ = pr.trig_block([h])
         out += lines + [f"    return {exprs[0]}"]
+        if n <= ENERGY_ROWS_MAX:
+            out += _energy_rows(equations, pr, h)
     elif part.startswith("lanes"):
         out += _rhs_lanes(equations, pr, Mlow, f, int(part[5:]))
     else:
@@ -629,6 +631,51 @@ def numba_source(equations: Equations, part: str = "main") -> str:
         out += lines
         out += _stores(n, exprs, ("pm", "F"))
     return "\n".join(out) + "\n"
+
+
+#: The largest model (coordinates) whose main module has energy_rows (the output stage's energy, vectorized
+#: over the output rows: a 20 s double pendulum's 2001 rows 58 -> 11 us; a larger model's energy is a small
+#: part of its run, and would only lengthen its one compilation).
+ENERGY_ROWS_MAX = 6
+
+
+def _energy_rows(equations: Equations, pr: _Printer, h) -> list[str]:
+    """The cfunc energy_rows: the Jacobi integral h at `count` output rows at once, written as one loop
+    over the rows with no branch in it, so that numba vectorizes it (SIMD across the rows); the same
+    operations as the energy's, in the same order (the same numbers: no contraction into fused
+    multiply-adds), with sin and cos by the polynomial alone, so that a row where an argument of sin or
+    cos exceeds SINCOS_BOUND is NaN: the kernels evaluate that row by energy."""
+    n = equations.n
+    nu, npar = len(equations.inputs), len(equations.parameters)
+    ind = " " * 8
+    out = ["", "", '@cfunc(types.void(_P, _P, _P, _P, _P, types.int64), cache=True, error_model="numpy")',
+           "def energy_rows(t_, x_, u_, p_, e_, count):",
+           f'    """e[k] = the Jacobi integral at row k: t[k], x[k * {2 * n} + i]'
+           + (f", u[k * {nu} + i]" if nu else "") + " (row-major, as",
+           "    the output arrays) and p; NaN where an argument of sin or cos exceeds the polynomial's bound",
+           f'    ({SINCOS_BOUND!r}: evaluate that row by energy)."""',
+           "    t = carray(t_, (count,))", f"    x = carray(x_, (count * {2 * n},))", "    e = carray(e_, (count,))"]
+    if nu:
+        out.append(f"    u = carray(u_, (count * {nu},))")
+    if npar:
+        out.append(f"    p = carray(p_, ({npar},))")
+    row = {"x": 2 * n, "u": nu}
+    inner = []
+    for local, acc, _ in pr.locals:  # the parameters before the loop, the row's t, x and u in it
+        if acc.startswith("p["):
+            out.append(f"    {local} = {acc}")
+        else:
+            inner.append(f"{ind}{local} = " + ("t[k]" if acc == "t" else re.sub(
+                r"^([xu])\[(\d+)\]$", lambda m: f"{m[1]}[k * {row[m[1]]} + {m[2]}]", acc)))
+    out.append("    for k in range(count):")
+    lines, exprs, nbases = pr.trig_block([h], ind, lanes=True)
+    out += inner + lines
+    if nbases:
+        big = ", ".join(f"abs(b{k})" for k in range(nbases)) + (", 0.0" if nbases == 1 else "")
+        out.append(f"{ind}e[k] = ({exprs[0]}) if max({big}) <= {SINCOS_BOUND!r} else math.nan")
+    else:
+        out.append(f"{ind}e[k] = {exprs[0]}")
+    return out
 
 
 def _rhs_lanes(equations: Equations, pr: _Printer, Mlow: list, f: list, lanes: int) -> list[str]:

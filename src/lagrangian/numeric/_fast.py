@@ -66,6 +66,7 @@ class CompiledModel:
     rhs_c: object = field(repr=False)
     energy_c: object = field(repr=False)
     project_c: object = field(default=None, repr=False)  # a constrained model's projection
+    energy_rows_c: object = field(default=None, repr=False)  # the energy at many rows at once (numba, small models)
 
     @property
     def n(self) -> int:
@@ -165,6 +166,12 @@ class CompiledModel:
         return _address(self.energy_c)
 
     @functools.cached_property
+    def energy_rows_address(self) -> int:
+        """The address of the generated energy_rows (the energy at many output rows at once, vectorized;
+        see _codegen.ENERGY_ROWS_MAX), 0 where there is none (the kernels then call energy row by row)."""
+        return 0 if self.energy_rows_c is None else _address(self.energy_rows_c)
+
+    @functools.cached_property
     def mass_forcing_address(self) -> int:
         return _address(self.mass_forcing_c)
 
@@ -240,8 +247,8 @@ class CompiledModel:
         m = len(self.input_names)
         prog = constant_programs(u[:m])
         out, U = np.empty(1), np.empty((1, m))
-        kernels().energies(self.energy_address, np.array([t]), x[None, :], p, prog.ops, prog.args, prog.starts,
-                           prog.nstack, out, U, np.zeros(max(1, m), np.int64))
+        kernels().energies((self.energy_address, 0), np.array([t]), x[None, :], p, prog.ops, prog.args,
+                           prog.starts, prog.nstack, out, U, np.zeros(max(1, m), np.int64))
         return float(out[0])
 
 
@@ -310,7 +317,8 @@ def compile_numba(equations: Equations) -> "CompiledModel":
     values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
     cm = CompiledModel(equations, "numba", equations.state_names, tuple(u.name for u in equations.inputs),
                        tuple(p.name for p in equations.parameters), values, str(path), key,
-                       module.rhs, module.energy, getattr(module, "project", None))
+                       module.rhs, module.energy, getattr(module, "project", None),
+                       getattr(module, "energy_rows", None))
     with _LOCK:
         return per.setdefault("numba", cm)
 
@@ -474,10 +482,10 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
     info = np.zeros(2 + 2 * n)
     stats = np.zeros(5, dtype=np.int64)
     if outputs:
-        U, E, energy = np.empty((len(times), m)), np.empty(len(times)), cm.energy_address
+        U, E, energy = np.empty((len(times), m)), np.empty(len(times)), (cm.energy_address, cm.energy_rows_address)
     else:
-        U, E, energy = _NO_OUTPUTS[0], _NO_OUTPUTS[1], 0
-    model = (cm.rhs_address, n, int(project), int(nwork), energy)
+        U, E, energy = _NO_OUTPUTS[0], _NO_OUTPUTS[1], (0, 0)
+    model = (cm.rhs_address, n, int(project), int(nwork), *energy)
     program = (prog.ops, prog.args, prog.starts, max(prog.nstack, events.nstack))
     control = (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), float(first_step))  # see MIN_RTOL
     watched = (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
@@ -537,7 +545,7 @@ def run_batch(rc: int, rcl: int | None, n: int, lanes: int, X0, times, P, prog, 
     INFO, STATS and STATUS_: in blocks of `lanes` runs evaluated together (rcl, the address of
     rhs_lanes), or one run at a time (rcl None; `project`, `nwork`: a constrained model's
     projection address and work size, see run_dop853)."""
-    model = (rc, n, int(project), int(nwork), 0)
+    model = (rc, n, int(project), int(nwork), 0, 0)
     program = (prog.ops, prog.args, prog.starts, prog.nstack)
     control = (0.0, float(rtol), float(atol), float(max_step), 0.0)
     if rcl:
@@ -563,7 +571,7 @@ def inputs_and_energy(cm: CompiledModel, times, X, p, prog, held=None, run: RawR
     if held is not None:
         hold, U[:] = held
     energy = np.empty(len(times))
-    kernels().energies(cm.energy_address, times, np.ascontiguousarray(X, dtype=float),
+    kernels().energies((cm.energy_address, cm.energy_rows_address), times, np.ascontiguousarray(X, dtype=float),
                        _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts, prog.nstack,
                        energy, U, hold)
     return U, energy

@@ -15,6 +15,9 @@ per call), with fixed signatures,
     rhs(t, x*, u*, p*, dx*, work*) -> double  dx = [q_dot, q_ddot]; returns the inertia measure
                                               of M (-1.0 when f is not finite)
     energy(t, x*, u*, p*) -> double           the Jacobi integral
+    energy_rows(t*, x*, u*, p*, e*, count)    the Jacobi integral at `count` output rows (t[k], x and u
+                                              row-major, p) at once, vectorized; NaN in a row whose sin
+                                              or cos it leaves to energy (a small model's, numba only)
     mass_forcing(t, x*, u*, p*, M*, f*)      M row-major (n x n), f (n)
     lagrange_parts(t, x*, u*, p*, pm*, F*)   pm = dL/dq_dot, F = dL/dq - dD/dq_dot + Q
     rhs_lanes(t*, x*, u*, p*, dx*, work*, L) rhs of L states (lane-major arrays) at once
@@ -154,6 +157,15 @@ def _en(typingctx, addr, t, x, u, p):
     def codegen(context, builder, signature, args):
         return _call(builder, args[0], ir.DoubleType(), args[1:])
     return _D(types.intp, _D, _PD, _PD, _PD), codegen
+
+
+@intrinsic
+def _er(typingctx, addr, t, x, u, p, e, count):
+    """energy_rows(t, x, u, p, e, count), the model function at `addr`."""
+    def codegen(context, builder, signature, args):
+        _call(builder, args[0], ir.VoidType(), args[1:])
+        return context.get_dummy_value()
+    return types.void(types.intp, _PD, _PD, _PD, _PD, _PD, types.int64), codegen
 
 
 @intrinsic
@@ -451,31 +463,45 @@ def mass_forcing(mf, n, t, x, u, p):
 
 
 # -------------------------------------------------------------------------------- output stage
+#: Output rows whose output stage (inputs and energy) dop853 evaluates together, by energy_rows (a call per
+#: step, ~4 rows of a 20 s double pendulum output every 0.01 s, would leave the vectorized loop mostly idle).
+OUTPUT_BLOCK = 64
+
+
 @njit(cache=True)
-def energies(en, times, X, p, ops, args, starts, nstack, out, U, hold):
-    """The Jacobi integral and the inputs at each row of (times, X); the sampled inputs
-    (hold[i] = 1) are read from U, where the caller put their held values."""
+def energies(energy, times, X, p, ops, args, starts, nstack, out, U, hold):
+    """The Jacobi integral and the inputs at each row of (times, X); energy = (the address of the
+    model's energy, of its energy_rows or 0); the sampled inputs (hold[i] = 1) are read from U, where
+    the caller put their held values."""
+    en, er = energy
     stack = np.empty(nstack)
     u = np.empty(max(1, starts.shape[0] - 1))
     modes = np.empty(max(1, ops.shape[0]))
-    _outputs(en, 0, times.shape[0], times, X, p, ops, args, starts, stack, u, modes, U, out, hold)
+    _outputs(en, er, 0, times.shape[0], times, X, p, ops, args, starts, stack, u, modes, U, out, hold)
 
 
-@njit(cache=True)
-def _outputs(en, lo, hi, times, X, p, ops, args, starts, stack, u, modes, U, E, hold):
+@njit(cache=True, inline="always")
+def _outputs(en, er, lo, hi, times, X, p, ops, args, starts, stack, u, modes, U, E, hold):
     """The output stage of the rows lo .. hi - 1 of a run: U[k, i] = input i at (times[k], X[k])
     (a sampled input, hold[i] = 1, is read from U[k, i], where the caller put its held value) and
-    E[k] = the Jacobi integral there (en: the energy's address). Returns hi."""
+    E[k] = the Jacobi integral there (en: the energy's address; er: energy_rows's, which evaluates
+    the rows at once, or 0: row by row). Returns hi."""
     m = starts.shape[0] - 1
+    nx = X.shape[1]
+    if m:
+        for k in range(lo, hi):
+            xk = X[k]
+            for i in range(m):
+                if hold[i]:
+                    u[i] = U[k, i]
+                else:
+                    u[i] = _run(ops, args, starts[i], starts[i + 1], times[k], xk, u, p, stack, modes, True)
+                    U[k, i] = u[i]
+    if er != 0 and hi > lo:
+        _er(er, _ptr(times, lo), _ptr(X, lo * nx), _ptr(U, lo * m), _ptr(p, 0), _ptr(E, lo), hi - lo)
     for k in range(lo, hi):
-        xk = np.ascontiguousarray(X[k])
-        for i in range(m):
-            if hold[i]:
-                u[i] = U[k, i]
-            else:
-                u[i] = _run(ops, args, starts[i], starts[i + 1], times[k], xk, u, p, stack, modes, True)
-                U[k, i] = u[i]
-        E[k] = _en(en, times[k], _ptr(xk, 0), _ptr(u, 0), _ptr(p, 0))
+        if er == 0 or E[k] != E[k]:  # (NaN: a row energy_rows leaves to energy)
+            E[k] = _en(en, times[k], _ptr(X, k * nx), _ptr(U, k * m), _ptr(p, 0))
     return hi
 
 
@@ -527,11 +553,12 @@ def _dense(t, h, y, F, tq, out):
     _dense_at(t, h, y, F, tq, out, 0, 1)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dense_row(t, h, y, F, tq, X, j):
     """_dense into the row X[j] of a 2-d array, written through its indices (the same numbers as
     _dense(..., X[j]), without the view of the row, whose reference counting costs an output
-    of a small model as much as its interpolation)."""
+    of a small model as much as its interpolation); inlined (numba's inline="always"): a call
+    passes its two 2-d arrays field by field."""
     s = (tq - t) / h
     s1 = 1.0 - s
     for i in range(X.shape[1]):
@@ -575,23 +602,41 @@ def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, st
     if nin:
         eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
     _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 15 * nx), _ptr(work, 0))
-    for i in range(nx):
+    for i in range(nx):  # (K's column read once: a store into F makes the compiler read K again, for all it
+        k0 = K[0, i]     # knows they overlap; the same sums in the same order)
+        k5 = K[5, i]
+        k6 = K[6, i]
+        k7 = K[7, i]
+        k8 = K[8, i]
+        k9 = K[9, i]
+        k10 = K[10, i]
+        k11 = K[11, i]
+        k12 = K[12, i]
+        k13 = K[13, i]
+        k14 = K[14, i]
+        k15 = K[15, i]
         dy = ynew[i] - y[i]
+        f3 = h * (D3_0 * k0 + D3_5 * k5 + D3_6 * k6 + D3_7 * k7 + D3_8 * k8 + D3_9 * k9 + D3_10 * k10 + D3_11 * k11
+                  + D3_12 * k12 + D3_13 * k13 + D3_14 * k14 + D3_15 * k15)
+        f4 = h * (D4_0 * k0 + D4_5 * k5 + D4_6 * k6 + D4_7 * k7 + D4_8 * k8 + D4_9 * k9 + D4_10 * k10 + D4_11 * k11
+                  + D4_12 * k12 + D4_13 * k13 + D4_14 * k14 + D4_15 * k15)
+        f5 = h * (D5_0 * k0 + D5_5 * k5 + D5_6 * k6 + D5_7 * k7 + D5_8 * k8 + D5_9 * k9 + D5_10 * k10 + D5_11 * k11
+                  + D5_12 * k12 + D5_13 * k13 + D5_14 * k14 + D5_15 * k15)
+        f6 = h * (D6_0 * k0 + D6_5 * k5 + D6_6 * k6 + D6_7 * k7 + D6_8 * k8 + D6_9 * k9 + D6_10 * k10 + D6_11 * k11
+                  + D6_12 * k12 + D6_13 * k13 + D6_14 * k14 + D6_15 * k15)
         F[0, i] = dy
-        F[1, i] = h * K[0, i] - dy
-        F[2, i] = 2.0 * dy - h * (K[12, i] + K[0, i])
-        F[3, i] = h * (D3_0 * K[0, i] + D3_5 * K[5, i] + D3_6 * K[6, i] + D3_7 * K[7, i] + D3_8 * K[8, i]
-            + D3_9 * K[9, i] + D3_10 * K[10, i] + D3_11 * K[11, i] + D3_12 * K[12, i] + D3_13 * K[13, i]
-            + D3_14 * K[14, i] + D3_15 * K[15, i])
-        F[4, i] = h * (D4_0 * K[0, i] + D4_5 * K[5, i] + D4_6 * K[6, i] + D4_7 * K[7, i] + D4_8 * K[8, i]
-            + D4_9 * K[9, i] + D4_10 * K[10, i] + D4_11 * K[11, i] + D4_12 * K[12, i] + D4_13 * K[13, i]
-            + D4_14 * K[14, i] + D4_15 * K[15, i])
-        F[5, i] = h * (D5_0 * K[0, i] + D5_5 * K[5, i] + D5_6 * K[6, i] + D5_7 * K[7, i] + D5_8 * K[8, i]
-            + D5_9 * K[9, i] + D5_10 * K[10, i] + D5_11 * K[11, i] + D5_12 * K[12, i] + D5_13 * K[13, i]
-            + D5_14 * K[14, i] + D5_15 * K[15, i])
-        F[6, i] = h * (D6_0 * K[0, i] + D6_5 * K[5, i] + D6_6 * K[6, i] + D6_7 * K[7, i] + D6_8 * K[8, i]
-            + D6_9 * K[9, i] + D6_10 * K[10, i] + D6_11 * K[11, i] + D6_12 * K[12, i] + D6_13 * K[13, i]
-            + D6_14 * K[14, i] + D6_15 * K[15, i])
+        F[1, i] = h * k0 - dy
+        F[2, i] = 2.0 * dy - h * (k12 + k0)
+        F[3, i] = f3
+        F[4, i] = f4
+        F[5, i] = f5
+        F[6, i] = f6
+
+
+#: _dense_coefficients inlined where every step with an output computes it (numba's inline="always": a call
+#: passes its 20 arrays field by field, ~35 ns a step), called where a switch or an event needs it (inlined
+#: there too, it would add seconds to the kernels' one compilation per machine).
+_dense_coefficients_inline = njit(cache=True, inline="always")(_dense_coefficients.py_func)
 
 
 @njit(cache=True)
@@ -612,9 +657,10 @@ def _rms(a, b):
 def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
     """Integrate x' = f(t, x, u, p) from (t0, x0) with DOP853; X_out[j] = x(t_out[j]).
 
-    The problem comes as tuples (see _kernels.py): model = (rhs, n, project, nwork, energy), the
-    addresses of the model's functions (project: a constrained model's projection, or 0; nwork: the
-    size of the work array its rhs needs, 0: the default n * n + 2 n; energy: 0 for no output stage);
+    The problem comes as tuples (see _kernels.py): model = (rhs, n, project, nwork, energy,
+    energy_rows), the addresses of the model's functions (project: a constrained model's projection, or
+    0; nwork: the size of the work array its rhs needs, 0: the default n * n + 2 n; energy: 0 for no
+    output stage; energy_rows: 0 where the model has none);
     prog = (ops, args, starts, nstack), the inputs' programs; control = (t0, rtol, atol, max_step,
     first_step); events = (ops, args, starts, terminal, ev_t, ev_k, ev_x, ev_n); sampling = (hold,
     samples, which, hist); out = (X_out, info, stats, U_out, E_out, done).
@@ -627,7 +673,8 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
 
     The output stage: with an energy address, U_out[j] and E_out[j] receive the inputs and the
     Jacobi integral at each output (t_out[j], X_out[j]), evaluated in the loop as the outputs are
-    written (projected first), without a second pass; done[0] counts them (the rows written where
+    written (projected first), OUTPUT_BLOCK rows at a time with energy_rows (row by row without),
+    without a second pass; done[0] counts them (the rows written where
     a run stops, at an event or a failure, are left to the caller: energies; the sampled inputs'
     values are the caller's, who then passes no energy address).
 
@@ -646,7 +693,7 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
     the switches live, under the error control alone. Sampled inputs (hold[i] = 1) are
     evaluated at the times `samples` (those with which[s, i]) and held in between; no step
     crosses a sample time; hist[s] receives the held values at samples[s]."""
-    rc, n, proj, nwork, en = model
+    rc, n, proj, nwork, en, er = model
     ops, args, starts, nstack = prog
     t0, rtol, atol, max_step, first_step = control
     eops, eargs, estarts, eterm, ev_t, ev_k, ev_x, ev_n = events
@@ -1009,8 +1056,8 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
         g_new = rnew - EVENT_RATIO
         event = g_old >= 0.0 and g_new <= 0.0 and g_old != g_new
         if not dense and (event or (j < nout and t_out[j] < tnew)):
-            _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, modes, live,
-                                hold, held)
+            _dense_coefficients_inline(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, modes,
+                                       live, hold, held)
             nfev += 3
             dense = True
         t_stop = np.inf
@@ -1121,18 +1168,9 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
             code = _rc(proj, tnew, _ptr(ynew, 0), _ptr(u, 0), _ptr(p, 0), _ptr(work, 0), _ptr(drift, 0))
             if code != PROJECTION_MET:
                 return _projection_failed(code, tnew, ynew, info, stats, nfev, nstep, nrej, j)
-        if en != 0:  # the output stage of this step's outputs, written out here (a call per step costs more)
-            for jj in range(done[0], j):
-                if nin:
-                    xk = X_out[jj]
-                    for i in range(nin):
-                        if hold[i]:
-                            uo[i] = U_out[jj, i]
-                        else:
-                            uo[i] = _run(ops, args, starts[i], starts[i + 1], t_out[jj], xk, uo, p, stack, mo, True)
-                            U_out[jj, i] = uo[i]
-                E_out[jj] = _en(en, t_out[jj], _ptr(X_out, jj * nx), _ptr(uo, 0), _ptr(p, 0))
-            done[0] = j
+        if en != 0 and (er == 0 or j - done[0] >= OUTPUT_BLOCK or j == nout):  # the output stage of the rows
+            done[0] = _outputs(en, er, done[0], j, t_out, X_out, p, ops, args, starts, stack, uo, mo, U_out, E_out,
+                               hold)
         stats[3] = j  # outputs done so far: read by a progress bar while this runs without the GIL
         if si < ns and tnew >= samples[si]:  # a sample instant: new held inputs, a new f there
             _sample(tnew, ynew, p, ops, args, starts, stack, u, modes, hold, held, which, hist, si)
@@ -1173,14 +1211,14 @@ def _single_run(model, x0, t_out, p, prog, control, X_out, info, stats):
     events = (np.zeros(1, np.int64), np.zeros(1), np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(1),
               np.zeros(1, np.int64), np.zeros((1, 2 * n)), np.zeros(1, np.int64))
     sampling = (np.zeros(max(1, nin), np.int64), np.zeros(0), np.zeros((1, 1), np.int64), np.zeros((1, max(1, nin))))
-    return dop853(model, x0, t_out, p, prog, control, events, sampling,  # model: its energy address 0
+    return dop853(model, x0, t_out, p, prog, control, events, sampling,  # model: its energy addresses 0
                   (X_out, info, stats, np.zeros((1, 1)), np.zeros(1), np.zeros(1, np.int64)))
 
 
 @njit(cache=True, parallel=True)
 def dop853_batch(model, X0, t_out, P, prog, control, X_out, INFO, STATS, STATUS):
     """dop853 for each row of X0 (initial states) and P (parameters), in parallel; model = (rhs, n,
-    project, nwork, 0) as dop853 takes it; X_out, INFO, STATS and STATUS: a row per run. (The result
+    project, nwork, 0, 0) as dop853 takes it; X_out, INFO, STATS and STATUS: a row per run. (The result
     arrays come one by one, not as a tuple: numba's parallel loops lose the writes to an array
     unpacked from a tuple argument.)"""
     for b in prange(X0.shape[0]):
