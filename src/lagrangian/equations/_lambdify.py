@@ -6,7 +6,7 @@ all for its report, paid again by every process. :func:`lambdify` is that call, 
 machine code it made (SymEngine's own ``dumps``, what pickling an LLVMDouble stores) in the compile
 cache's folder ($LAGRANGIAN_CACHE_DIR or ~/.cache/lagrangian, ``lambdify/``), so that the next
 process loads the same code instead of compiling it again: the same function, the same numbers bit
-for bit (loaded, not compiled anew). Functions that compile in under 10 ms are not kept.
+for bit (loaded, not compiled anew). Small functions (compiled in about 10 ms or less) are not kept.
 
 The key of an entry is a SHA-256 of what defines the function exactly: the argument names and the
 expressions after SymEngine's common-subexpression elimination as text (linear in the size of the
@@ -33,7 +33,6 @@ import platform
 import re
 import stat
 import sys
-import time
 from pathlib import Path
 
 import symengine as se
@@ -48,9 +47,10 @@ _CSE_NAME = re.compile(r"x\d+\Z")
 _FLOAT = "_float_"
 #: An entry larger than this is not read (the bicycle's largest: about 50 KB).
 _MAX_BYTES = 64 << 20
-#: A function that compiled in less CPU time than this (seconds) is not kept: loading it would save
-#: little, and the folder would fill with the small functions of every model met.
-_WORTH_KEEPING = 0.01
+#: A function whose text (see _definition) is shorter than this is not kept: it compiles in about 10 ms
+#: or less (about 6 us a character, the bicycle's), loading it would save little, and the folder would
+#: fill with the small functions of every model met.
+_WORTH_KEEPING = 2000
 
 
 def lambdify(args, exprs):
@@ -63,9 +63,8 @@ def lambdify(args, exprs):
         hit = _load(path, len(args), len(exprs))
         if hit is not None:
             return hit
-    start = time.process_time()
     f = se.Lambdify(args, exprs, cse=True, real=True)
-    if path is not None and type(f).__name__ == "LLVMDouble" and time.process_time() - start >= _WORTH_KEEPING:
+    if path is not None and type(f).__name__ == "LLVMDouble" and len(text) >= _WORTH_KEEPING:
         _store(path, f)
     return f
 
