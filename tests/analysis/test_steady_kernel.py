@@ -104,3 +104,30 @@ def test_the_factorizations_equal_numpys():
     assert np.allclose(Q @ R, B, atol=1e-13) and np.allclose(Q.T @ Q, np.eye(m), atol=1e-13)
     assert np.allclose(np.abs(np.diag(R)), np.abs(np.diag(np.linalg.qr(B)[1])), atol=1e-13)
     assert np.allclose(np.triu(R), R)
+
+
+def test_the_batch_evaluated_point_by_point_is_the_call_of_the_compiled_functions():
+    """SteadyState._batch: after its first call, SymEngine's unsafe_eval into a buffer, the same numbers
+    bit for bit as calling the function on the batch (the residual and its Jacobian at random shapes);
+    a batch of another width goes to the call again (which refuses it)."""
+    eqs = lg.derive(lg.load("rolling-disk"))
+    ev, setting = _evaluator(eqs, {})
+    rng = np.random.default_rng(5)
+    points = []
+    for _ in range(20):
+        q = np.zeros(eqs.n)
+        q[ev.shape] = rng.uniform(-1.5, 1.5, len(ev.shape))
+        points.append(q)
+    fast = [ev(setting, q) for q in points]
+    assert len(ev._sizes) == 2  # the constraints' and the saddle-point parts' functions
+    plain = _evaluator(lg.derive(lg.load("rolling-disk")), {})[0]
+    plain._batch = lambda fun, A: np.asarray(fun(A), float).reshape(len(A), -1)
+    for q, (r, J) in zip(points, fast):
+        r0, J0 = plain(setting, q)
+        assert np.array_equal(r, r0, equal_nan=True) and np.array_equal(J, J0, equal_nan=True)
+    A = rng.uniform(-1, 1, (3, 1 + 2 * eqs.n + len(eqs.inputs) + len(eqs.parameters)))
+    f = ev.cm._parts
+    assert np.array_equal(ev._batch(f, A), np.asarray(f(A), float).reshape(3, -1))
+    wider = np.hstack((A, A))  # not a point a row: refused by the call, never read past by unsafe_eval
+    with pytest.raises(ValueError, match="len\\(args\\)"):
+        ev._batch(f, wider)

@@ -180,6 +180,7 @@ class SteadyState:
         self._given = np.array(list(self.given), dtype=np.int64)
         self._given_values = np.array(list(self.given.values()), dtype=float)
         self._constraints_fun = compile_equations(equations)._group("constraints").fun
+        self._sizes: dict[int, tuple[int, int]] = {}  # the compiled functions' (inputs, outputs) a point, checked
         self._last = None
 
     def state(self, setting: Setting, q: np.ndarray) -> np.ndarray:
@@ -231,14 +232,31 @@ class SteadyState:
 
         cm = self.cm
         n, m, k = cm.n, cm.m, len(A)
-        C = np.asarray(self._constraints_fun(A), float).reshape(k, -1)
+        C = self._batch(self._constraints_fun, A)
         bad = np.zeros(k, dtype=np.bool_)
         w = free_rates(C, A, self._free, n, m, bad)
-        P = np.asarray(cm._parts(A), float).reshape(k, -1)
+        P = self._batch(cm._parts, A)
         rows = np.empty((k, len(self.held) + len(cm.holonomic) + m))
         scale = np.empty(k)
         steady_rows(P, w, C[:, m * n:m * n + m], self._held, self._hol, n, m, SINGULAR_RATIO, bad, rows, scale)
         return rows, C[:, :m * n].reshape(k, m, n), scale
+
+    def _batch(self, fun, A: np.ndarray) -> np.ndarray:
+        """``fun(A)`` as a (len(A), outputs) array, for a SymEngine Lambdify `fun` of the arguments that are A's
+        columns: after the first call (which checks that each row of A is one point of `fun`), by its
+        ``unsafe_eval`` into a new buffer, the same compiled code point by point without the checks and
+        the broadcasting of its call (8 of the 50 us an evaluation of the bicycle's residual took)."""
+        k = len(A)
+        known = self._sizes.get(id(fun))
+        if known is None or known[0] != A.shape[1] or not A.flags.c_contiguous or A.dtype != np.float64:
+            out = np.asarray(fun(A), float)
+            if A.ndim == 2 and out.ndim == 2 and out.shape[0] == k and hasattr(fun, "unsafe_eval"):
+                self._sizes[id(fun)] = (A.shape[1], out.shape[1])
+            return out.reshape(k, -1)
+        size = known[1]
+        out = np.empty(k * size)
+        fun.unsafe_eval(A, out, k)
+        return out.reshape(k, size)
 
     def meets_constraints(self, setting: Setting, q: np.ndarray) -> bool:
         """Whether q meets the holonomic constraints, g(q) = 0 to round-off of the coordinates (a
