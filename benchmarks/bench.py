@@ -53,7 +53,7 @@ sys.path.insert(0, str(HERE))
 
 import lagrangian as lg  # noqa: E402
 from lagrangian.numeric import _codegen  # noqa: E402
-from lagrangian.numeric._fast import compile_numba, run_dop853  # noqa: E402
+from lagrangian.numeric._fast import compile_numba, kernels, run_dop853  # noqa: E402
 from lagrangian.numeric._inputs import constant_programs  # noqa: E402
 from derive_chain import cpu  # noqa: E402
 
@@ -288,12 +288,32 @@ def batch(quick: bool) -> None:
 
 
 # ---------------------------------------------------------------------------- output stage
+def _rhs_call_ns(cm, x0, p, count: int = 200_000) -> float:
+    """Nanoseconds per call of the model's compiled rhs from compiled code (as the kernels call it)."""
+    from numba import njit
+
+    k = kernels()
+    call, ptr = k._rc, k._ptr
+
+    @njit
+    def loop(rc, x, p, count):
+        dx, work, u, xs, s = np.empty(x.shape[0]), np.empty(x.shape[0] ** 2), np.empty(1), x.copy(), 0.0
+        for j in range(count):
+            xs[0] = x[0] + j * 1e-9
+            s += call(rc, 0.0, ptr(xs, 0), ptr(u, 0), ptr(p, 0), ptr(dx, 0), ptr(work, 0)) + dx[-1]
+        return s
+
+    loop(cm.rhs_address, x0, p, 10)
+    return statistics.median(cpu(lambda: loop(cm.rhs_address, x0, p, count), 1) for _ in range(5)) / count * 1e9
+
+
 def output_stage(quick: bool) -> None:
     """The double pendulum of the model file (20 s, the model's output every 0.01 s: 2001 points and
     the energy column) at rtol = atol = 1e-8: the integration alone (the compiled DOP853 to t = 20,
-    no outputs) against `simulate()` end to end. The aim (issue 20): end to end at most 1.3x the
-    integration."""
-    header("Output stage: a 20 s double pendulum at rtol = atol = 1e-8, median wall time")
+    no outputs) against `simulate()` end to end, and where the difference goes. The aim (issue 20):
+    end to end at most 1.3x the integration."""
+    header("Output stage: a 20 s double pendulum at rtol = atol = 1e-8, wall time (median [quartiles] of "
+           "interleaved rounds)")
     eqs = lg.derive(lg.load("double-pendulum"))
     cm = compile_numba(eqs)
     p = cm.parameter_values
@@ -301,6 +321,13 @@ def output_stage(quick: bool) -> None:
     prog = constant_programs([])
     ends = np.array([0.0, 20.0])
     grid = np.linspace(0.0, 20.0, 2001)
+    X = run_dop853(cm, x0, grid, p, prog, 1e-8, 1e-8).x
+    E = np.empty(len(grid))
+
+    def energies(rows: int):
+        kernels().energies((cm.energy_address, rows), grid, X, p, prog.ops, prog.args, prog.starts, prog.nstack, E,
+                           np.empty((len(grid), 0)), np.zeros(1, np.int64))
+
     runs = {
         "integration alone (run_dop853 to t = 20)": lambda: run_dop853(cm, x0, ends, p, prog, 1e-8, 1e-8),
         "integration with the 2001 outputs, no energy": lambda: run_dop853(cm, x0, grid, p, prog, 1e-8, 1e-8,
@@ -310,33 +337,47 @@ def output_stage(quick: bool) -> None:
         # every call new (a parameter sweep: m1 differs in the last bits): the options merged and checked each time
         "simulate() end to end, a call not made before": lambda: lg.simulate(
             eqs, rtol=1e-8, atol=1e-8, params={"m1": 1.0 + 1e-12 * next(sweep)}),
+        "the energy of the 2001 rows, energy_rows (vectorized)": lambda: energies(cm.energy_rows_address),
+        "the energy of the 2001 rows, energy row by row": lambda: energies(0),
     }
     sweep = itertools.count()
     tr = lg.simulate(eqs, rtol=1e-8, atol=1e-8)
     assert len(tr.t) == 2001 and tr.energy is not None
-    reps = 200 if quick else 1000
-    medians = {}
-    for _ in range(3):  # interleaved rounds: a noisy machine slows all of them alike
+    rounds, reps = (5, 40) if quick else (15, 60)
+    times: dict[str, list] = {label: [] for label in runs}
+    for _ in range(rounds):  # interleaved rounds: a noisy machine slows all of them alike
         for label, fn in runs.items():
             fn()
-            medians.setdefault(label, []).append(wall(fn, reps // 3))
-    print("| run | median |")
-    print("|---|---:|")
-    for label, values in medians.items():
-        medians[label] = min(values)
-        print(f"| {label} | {medians[label] * 1e3:.3f} ms |")
-    alone, dense, outputs, end, new = medians.values()
+            times[label].append(wall(fn, reps))
+    print("| run | median | quartiles |")
+    print("|---|---:|---:|")
+    med = {}
+    for label, values in times.items():
+        med[label] = statistics.median(values)
+        q1, _, q3 = statistics.quantiles(values, n=4)
+        print(f"| {label} | {med[label] * 1e3:.3f} ms | [{q1 * 1e3:.3f}, {q3 * 1e3:.3f}] |")
+    alone, dense, outputs, end, new, e_rows, e_one = med.values()
     print(f"\nend to end / integration alone: {end / alone:.2f} (aim: at most 1.3)")
-    # where the rest goes: DOP853's order-7 interpolant costs 3 more evaluations of the rhs in every step
-    # with an output inside it (all of them here: about 4 outputs a step) and the interpolation of each
-    # output; the energy one call of the generated energy per output; the rest is Python: a call made
-    # again with the same arguments (as here) takes the options, checks and compiled model of the first
-    # (numeric/_simulate.py, _checked_key), so what is left is the key, the run's arrays and the
-    # Trajectory, which takes them without copies (~0.04 ms; 0.13-0.16 ms before, measured alternately); a
-    # call not made before merges and checks everything (~0.15 ms, as before)
-    print(f"dense output (3 more stages a step, interpolation): {(dense - alone) * 1e3:.3f} ms; energy column: "
-          f"{(outputs - dense) * 1e3:.3f} ms; Python around the run: {(end - outputs) * 1e3:.3f} ms "
-          f"({(new - outputs) * 1e3:.3f} ms for a call not made before)")
+    # where the rest goes, measured
+    a = run_dop853(cm, x0, ends, p, prog, 1e-8, 1e-8)
+    b = run_dop853(cm, x0, grid, p, prog, 1e-8, 1e-8)
+    rhs_ns = _rhs_call_ns(cm, x0, p)
+    extra = b.nfev - a.nfev
+    print(f"steps: {b.nstep} accepted, {b.nreject} rejected (the same with and without outputs); right-hand sides: "
+          f"{a.nfev} alone (12 a step tried), {b.nfev} with the outputs ({extra / b.nstep:.2f} more a step: the "
+          f"interpolant's 3 stages; every step holds an output, {len(grid) / b.nstep:.1f} on average); one rhs "
+          f"{rhs_ns:.1f} ns from compiled code")
+    print(f"dense output: {(dense - alone) * 1e6:.1f} us = the 3 stages' rhs {extra * rhs_ns / 1e3:.1f} us + the "
+          f"stages' states, the interpolant's coefficients (7 x 2n a step) and the {len(grid)} rows "
+          f"{(dense - alone) * 1e6 - extra * rhs_ns / 1e3:.1f} us")
+    print(f"energy column: {(outputs - dense) * 1e6:.1f} us in the run (its arrays included); the energy of the rows "
+          f"alone: {e_rows * 1e6:.1f} us by energy_rows, {e_one * 1e6:.1f} us row by row")
+    # the rest is Python: a call made again with the same arguments (as here) takes the options, checks and
+    # compiled model of the first (numeric/_simulate.py, _checked_key), so what is left is the key, the run's
+    # arrays and the Trajectory, which takes them without copies; a call not made before merges and checks
+    # everything
+    print(f"Python around the run: {(end - outputs) * 1e6:.1f} us ({(new - outputs) * 1e6:.1f} us for a call not "
+          f"made before)")
     RESULTS["output"] = (alone, end)
 
 

@@ -170,3 +170,18 @@ def test_a_larger_model_has_no_energy_rows():
 
     assert "def energy_rows(" not in numba_source(lg.derive(lg.load(f"pendulum-chain-{ENERGY_ROWS_MAX + 1}")))
     assert "def energy_rows(" in numba_source(lg.derive(lg.load(f"pendulum-chain-{ENERGY_ROWS_MAX}")))
+
+
+def test_the_interpolants_coefficients_written_out_in_dop853_are_the_functions_lines():
+    # dop853 has _dense_coefficients' lines written out where a step with outputs needs them (a call, or
+    # numba's inlining, costs a sixth of the output stage): the two must stay the same text
+    from pathlib import Path
+
+    from lagrangian.numeric import _kernels
+
+    text = (Path(_kernels.__file__).with_name("_kernels_numba.py")).read_text(encoding="utf-8")
+    start = text.index("def _dense_coefficients(")
+    body = text[text.index("    # stage 13\n", start):text.index("\n\n\n", start)]
+    written = "\n".join(("        " + line) if line.strip() else line for line in body.split("\n"))
+    dop = text[text.index("def dop853("):text.index("def _single_run(")]
+    assert len(body.splitlines()) > 50 and written in dop

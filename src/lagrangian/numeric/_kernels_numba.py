@@ -575,29 +575,30 @@ def _dense_row(t, h, y, F, tq, X, j):
 @njit(cache=True)
 def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, modes, live, hold,
                         held):
-    """The three extra stages and the coefficients F of the order-7 interpolant."""
+    """The three extra stages and the coefficients F of the order-7 interpolant (where a switch or an event
+    needs them; dop853 has these lines written out where a step with outputs computes them)."""
     nx = 2 * n
     nin = starts.shape[0] - 1
     # stage 13
     for i in range(nx):
-        xs[i] = y[i] + h * (A13_0 * K[0, i] + A13_6 * K[6, i] + A13_7 * K[7, i] + A13_8 * K[8, i] + A13_9 * K[9, i]
-                            + A13_10 * K[10, i] + A13_11 * K[11, i] + A13_12 * K[12, i])
+        xs[i] = y[i] + h * (A13_0 * K[0, i] + A13_6 * K[6, i] + A13_7 * K[7, i] + A13_8 * K[8, i]
+                            + A13_9 * K[9, i] + A13_10 * K[10, i] + A13_11 * K[11, i] + A13_12 * K[12, i])
     ts = t + C13 * h
     if nin:
         eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
     _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 13 * nx), _ptr(work, 0))
     # stage 14
     for i in range(nx):
-        xs[i] = y[i] + h * (A14_0 * K[0, i] + A14_5 * K[5, i] + A14_6 * K[6, i] + A14_7 * K[7, i] + A14_10 * K[10, i]
-                            + A14_11 * K[11, i] + A14_12 * K[12, i] + A14_13 * K[13, i])
+        xs[i] = y[i] + h * (A14_0 * K[0, i] + A14_5 * K[5, i] + A14_6 * K[6, i] + A14_7 * K[7, i]
+                            + A14_10 * K[10, i] + A14_11 * K[11, i] + A14_12 * K[12, i] + A14_13 * K[13, i])
     ts = t + C14 * h
     if nin:
         eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
     _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 14 * nx), _ptr(work, 0))
     # stage 15
     for i in range(nx):
-        xs[i] = y[i] + h * (A15_0 * K[0, i] + A15_5 * K[5, i] + A15_6 * K[6, i] + A15_7 * K[7, i] + A15_8 * K[8, i]
-                            + A15_12 * K[12, i] + A15_13 * K[13, i] + A15_14 * K[14, i])
+        xs[i] = y[i] + h * (A15_0 * K[0, i] + A15_5 * K[5, i] + A15_6 * K[6, i] + A15_7 * K[7, i]
+                            + A15_8 * K[8, i] + A15_12 * K[12, i] + A15_13 * K[13, i] + A15_14 * K[14, i])
     ts = t + C15 * h
     if nin:
         eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
@@ -616,13 +617,17 @@ def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, st
         k14 = K[14, i]
         k15 = K[15, i]
         dy = ynew[i] - y[i]
-        f3 = h * (D3_0 * k0 + D3_5 * k5 + D3_6 * k6 + D3_7 * k7 + D3_8 * k8 + D3_9 * k9 + D3_10 * k10 + D3_11 * k11
+        f3 = h * (D3_0 * k0 + D3_5 * k5 + D3_6 * k6 + D3_7 * k7
+                  + D3_8 * k8 + D3_9 * k9 + D3_10 * k10 + D3_11 * k11
                   + D3_12 * k12 + D3_13 * k13 + D3_14 * k14 + D3_15 * k15)
-        f4 = h * (D4_0 * k0 + D4_5 * k5 + D4_6 * k6 + D4_7 * k7 + D4_8 * k8 + D4_9 * k9 + D4_10 * k10 + D4_11 * k11
+        f4 = h * (D4_0 * k0 + D4_5 * k5 + D4_6 * k6 + D4_7 * k7
+                  + D4_8 * k8 + D4_9 * k9 + D4_10 * k10 + D4_11 * k11
                   + D4_12 * k12 + D4_13 * k13 + D4_14 * k14 + D4_15 * k15)
-        f5 = h * (D5_0 * k0 + D5_5 * k5 + D5_6 * k6 + D5_7 * k7 + D5_8 * k8 + D5_9 * k9 + D5_10 * k10 + D5_11 * k11
+        f5 = h * (D5_0 * k0 + D5_5 * k5 + D5_6 * k6 + D5_7 * k7
+                  + D5_8 * k8 + D5_9 * k9 + D5_10 * k10 + D5_11 * k11
                   + D5_12 * k12 + D5_13 * k13 + D5_14 * k14 + D5_15 * k15)
-        f6 = h * (D6_0 * k0 + D6_5 * k5 + D6_6 * k6 + D6_7 * k7 + D6_8 * k8 + D6_9 * k9 + D6_10 * k10 + D6_11 * k11
+        f6 = h * (D6_0 * k0 + D6_5 * k5 + D6_6 * k6 + D6_7 * k7
+                  + D6_8 * k8 + D6_9 * k9 + D6_10 * k10 + D6_11 * k11
                   + D6_12 * k12 + D6_13 * k13 + D6_14 * k14 + D6_15 * k15)
         F[0, i] = dy
         F[1, i] = h * k0 - dy
@@ -631,12 +636,6 @@ def _dense_coefficients(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, st
         F[4, i] = f4
         F[5, i] = f5
         F[6, i] = f6
-
-
-#: _dense_coefficients inlined where every step with an output computes it (numba's inline="always": a call
-#: passes its 20 arrays field by field, ~35 ns a step), called where a switch or an event needs it (inlined
-#: there too, it would add seconds to the kernels' one compilation per machine).
-_dense_coefficients_inline = njit(cache=True, inline="always")(_dense_coefficients.py_func)
 
 
 @njit(cache=True)
@@ -1056,8 +1055,66 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
         g_new = rnew - EVENT_RATIO
         event = g_old >= 0.0 and g_new <= 0.0 and g_old != g_new
         if not dense and (event or (j < nout and t_out[j] < tnew)):
-            _dense_coefficients_inline(rc, n, t, h, y, ynew, K, F, xs, p, ops, args, starts, stack, u, work, modes,
-                                       live, hold, held)
+            # _dense_coefficients written out (the same lines: tests/numeric/test_kernels.py compares them): a call
+            # passes its 20 arrays field by field, numba's inline="always" adds a reference count per array and
+            # step (30 atomic operations); 114 -> 98 us of the 20 s double pendulum's 2001 outputs
+            # stage 13
+            for i in range(nx):
+                xs[i] = y[i] + h * (A13_0 * K[0, i] + A13_6 * K[6, i] + A13_7 * K[7, i] + A13_8 * K[8, i]
+                                    + A13_9 * K[9, i] + A13_10 * K[10, i] + A13_11 * K[11, i] + A13_12 * K[12, i])
+            ts = t + C13 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 13 * nx), _ptr(work, 0))
+            # stage 14
+            for i in range(nx):
+                xs[i] = y[i] + h * (A14_0 * K[0, i] + A14_5 * K[5, i] + A14_6 * K[6, i] + A14_7 * K[7, i]
+                                    + A14_10 * K[10, i] + A14_11 * K[11, i] + A14_12 * K[12, i] + A14_13 * K[13, i])
+            ts = t + C14 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 14 * nx), _ptr(work, 0))
+            # stage 15
+            for i in range(nx):
+                xs[i] = y[i] + h * (A15_0 * K[0, i] + A15_5 * K[5, i] + A15_6 * K[6, i] + A15_7 * K[7, i]
+                                    + A15_8 * K[8, i] + A15_12 * K[12, i] + A15_13 * K[13, i] + A15_14 * K[14, i])
+            ts = t + C15 * h
+            if nin:
+                eval_inputs(ts, xs, p, ops, args, starts, stack, u, modes, live, hold, held)
+            _rc(rc, ts, _ptr(xs, 0), _ptr(u, 0), _ptr(p, 0), _ptr(K, 15 * nx), _ptr(work, 0))
+            for i in range(nx):  # (K's column read once: a store into F makes the compiler read K again, for all it
+                k0 = K[0, i]     # knows they overlap; the same sums in the same order)
+                k5 = K[5, i]
+                k6 = K[6, i]
+                k7 = K[7, i]
+                k8 = K[8, i]
+                k9 = K[9, i]
+                k10 = K[10, i]
+                k11 = K[11, i]
+                k12 = K[12, i]
+                k13 = K[13, i]
+                k14 = K[14, i]
+                k15 = K[15, i]
+                dy = ynew[i] - y[i]
+                f3 = h * (D3_0 * k0 + D3_5 * k5 + D3_6 * k6 + D3_7 * k7
+                          + D3_8 * k8 + D3_9 * k9 + D3_10 * k10 + D3_11 * k11
+                          + D3_12 * k12 + D3_13 * k13 + D3_14 * k14 + D3_15 * k15)
+                f4 = h * (D4_0 * k0 + D4_5 * k5 + D4_6 * k6 + D4_7 * k7
+                          + D4_8 * k8 + D4_9 * k9 + D4_10 * k10 + D4_11 * k11
+                          + D4_12 * k12 + D4_13 * k13 + D4_14 * k14 + D4_15 * k15)
+                f5 = h * (D5_0 * k0 + D5_5 * k5 + D5_6 * k6 + D5_7 * k7
+                          + D5_8 * k8 + D5_9 * k9 + D5_10 * k10 + D5_11 * k11
+                          + D5_12 * k12 + D5_13 * k13 + D5_14 * k14 + D5_15 * k15)
+                f6 = h * (D6_0 * k0 + D6_5 * k5 + D6_6 * k6 + D6_7 * k7
+                          + D6_8 * k8 + D6_9 * k9 + D6_10 * k10 + D6_11 * k11
+                          + D6_12 * k12 + D6_13 * k13 + D6_14 * k14 + D6_15 * k15)
+                F[0, i] = dy
+                F[1, i] = h * k0 - dy
+                F[2, i] = 2.0 * dy - h * (k12 + k0)
+                F[3, i] = f3
+                F[4, i] = f4
+                F[5, i] = f5
+                F[6, i] = f6
             nfev += 3
             dense = True
         t_stop = np.inf
