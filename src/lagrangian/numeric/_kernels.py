@@ -9,12 +9,13 @@ the status codes, the thresholds, the opcodes of the input programs, and the lay
 tuples the integrators take their problem in (plain tuples, unpacked by name in the kernels:
 numba types a tuple as fast as its fields, a NamedTuple costs its dispatcher about 6 us a call),
 
-    Model     (rhs, n, project, nwork, energy)    addresses of the model's functions (project: a
-                                                  constrained model's projection, 0: none, which
+    Model     (rhs, n, project, nwork, energy,    addresses of the model's functions (project: a
+               energy_rows)                       constrained model's projection, 0: none, which
                                                   returns its result code as a double; nwork:
                                                   its rhs's work size, 0: n * n + 2 n; energy: 0
-                                                  for no output stage) and the number n of
-                                                  coordinates
+                                                  for no output stage; energy_rows: the energy at
+                                                  many output rows at once, 0: none) and the
+                                                  number n of coordinates
     Program   (ops, args, starts, nstack)         the inputs' (or events') postfix programs
     Control   (t0, rtol, atol, max_step, first_step)
     Events    (ops, args, starts, terminal, t, k, x, count)   event programs and their crossings
