@@ -68,8 +68,26 @@ def _version() -> str:
     return __version__
 
 
+def _freeze_at_exit() -> None:
+    """Have the objects a command leaves frozen (``gc.freeze``) when the process exits, once per process:
+    Python's collections at shutdown then do not walk them. A command that built large symbolic
+    expressions leaves millions (the bicycle's report: 0.5 s of CPU after its last line, of 4). Nothing
+    else changes: the exit handlers run, the files and streams are flushed and closed as before."""
+    global _FREEZE_REGISTERED
+    if not _FREEZE_REGISTERED:
+        import atexit
+        import gc
+
+        atexit.register(gc.freeze)
+        _FREEZE_REGISTERED = True
+
+
+_FREEZE_REGISTERED = False
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status."""
+    _freeze_at_exit()
     parser = _parser(argv)
     args = parser.parse_args(argv)
     if args.command is None:
