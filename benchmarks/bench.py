@@ -392,7 +392,7 @@ _PROBE = textwrap.dedent("""
     model = lg.load(sys.argv[1])
     eqs = lg.derive(model)
     t2 = time.perf_counter()
-    fresh = not (_codegen.cache_dir() / f"lagrangian_{_codegen.model_key(eqs, 'numba-main')}.py").exists()
+    fresh = not (_codegen.cache_dir() / f"lagrangian_index_{_codegen.fingerprint(eqs, 'numba-main')}.txt").exists()
     if fresh:
         text = _codegen.numba_source(eqs)
     t3 = time.perf_counter()
