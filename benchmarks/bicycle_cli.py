@@ -6,7 +6,9 @@ Run:  python benchmarks/bicycle_cli.py [--repeat N] [--only derive,report,...]  
 Each command runs in a fresh process (interpreter start, imports, load, the work, the output); printed:
 the median wall time and the median CPU time (user + system of the child: the fair number on a shared
 machine) of N runs, and whether it is under the target. The playground's calls run the server's own
-task functions (serve/_tasks.py: what the HTTP handler calls) in a fresh process, without the HTTP layer.
+task functions (serve/_tasks.py: what the HTTP handler calls) in a fresh process, without the HTTP layer,
+whose objects are frozen at exit (gc.freeze: a worker of the playground serves many requests and never tears
+down after one; the command line does the same since REPORT3, see below).
 
 The processes read their bytecode from a private cache (PYTHONPYCACHEPREFIX in a temporary folder,
 written by one run of each command before the timed ones), as an installed package's are: pip compiles
@@ -66,6 +68,36 @@ Report holds it: rep.expression("C")), the readable forms and SymPy conversions 
 (with yaml, through numba.core.config) and its first dispatch 0.3 s, SymEngine's LLVM compilation of the
 constrained model 0.22 s (numeric/_constrained.py), the multi-start search 0.35 s (7734 evaluations of 7 points,
 39 us each: compiled M, f, G, c 13 us, the saddle-point solves 11 us), the linearization and the ground test.
+
+Then (issue 22, REPORT3), medians of 5 runs, the two trees alternating run by run (bytecode cached, the compile
+cache warm: the runs after a first one), on the shared 2-core machine at load 4.5-5 (which inflates every
+number by 10-20 %): before = this round's tree without REPORT3's commits, after = with them (SymEngine's LLVM
+code kept on disk, equations/_lambdify.py: 0.39 s of compilation in the report, 0.25 s in steady, now loaded
+in about 0.1 s; the MathML written without minidom's writer and each symbol's made once: 0.5 -> 0.33 s; the
+steady residual's batches by SymEngine's unsafe_eval: about 8 of 50 us per evaluation; the CLI's objects
+frozen at exit, gc.freeze: Python's collections at shutdown walked them for 0.5 s of CPU after the report's
+last line). CPU s of the child, median (min-max):
+
+| what                      | CPU before        | CPU after         | wall before | wall after |
+|---------------------------|------------------:|------------------:|------------:|-----------:|
+| report                    | 4.41 (4.31-4.84)  | 3.69 (3.56-3.77)  |        4.55 |       3.91 |
+| steady                    | 2.86 (2.76-2.95)  | 2.33 (2.15-2.39)  |        3.93 |       3.54 |
+| /api/analysis (as before) | 3.60 (3.22-3.70)  | 3.34 (2.90-3.52)  |        5.34 |       4.51 |
+| /api/analysis (frozen)    | 3.19 (3.15-3.32)  | 3.07 (2.89-3.38)  |        4.80 |       4.50 |
+
+"/api/analysis (frozen)" is the task as this script now runs it (its objects frozen at exit, as a worker never
+tears down after a request); "as before" without that. The same outputs: the bicycle's report (HTML and
+Markdown), /api/analysis JSON, steady (text and --json), equilibria --json and check byte-identical before and
+after, with the compile cache cold and warm. This script alone at the end (load 4.3-4.7, 5 runs): derive 1.02,
+report 3.84, steady 2.19, /api/analysis 2.47 s of CPU. A first run (the compile cache empty, e.g. a new
+LAGRANGIAN_CACHE_DIR) compiles what later runs load: about 0.45 s more for the report (0.37 s of LLVM
+compilation, 0.08 s of the keys' common-subexpression elimination) and 0.3 s for steady, besides the exact
+parameter values' nsimplify (STEADY2). report still misses 3 s: in process (load 4-5) imports 0.35 s, load
+0.27 s, derive 0.06 s, the sections 0.65 s (the Coriolis matrix made readable 0.23 s, the SymPy conversions of
+the derived forms 0.27 s, readable forms 0.3 s), the diagnoses 0.64 s (SciPy's optimize and linalg imported
+0.3 s, the constraints' rank and dead-point searches 0.3 s), the equilibria 0.93 s (numba: import 0.17 s, its
+first dispatch, the typing and target registries, 0.23 s, the cached kernels 0.07 s; the multi-start search
+0.4 s: 7806 evaluations, each 33 us of compiled code and 15-20 us of Python and dispatch), HTML 0.3 s.
 """
 
 from __future__ import annotations
@@ -84,9 +116,10 @@ from pathlib import Path
 TARGET = 3.0
 
 _TASK = """
-import sys
+import atexit, gc, sys
 from importlib import resources
 from lagrangian.serve import _tasks
+atexit.register(gc.freeze)  # a worker of the playground serves many requests: it never tears down after one
 text = (resources.files("lagrangian.examples") / "whipple-bicycle.toml").read_bytes()
 reply = getattr(_tasks, sys.argv[1])(text)
 assert reply.status == 200, reply.status
