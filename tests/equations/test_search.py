@@ -167,3 +167,37 @@ def test_each_search_uses_the_one_module_and_wraps_no_angle_of_its_own(path):
     assert "% (2 * np.pi)" not in source and "scipy.optimize" not in source and "from scipy.optimize" not in source
     defined = {node.name for node in ast.walk(tree) if isinstance(node, ast.FunctionDef)}
     assert not defined & {"_wrap", "wrap_angles", "same_point", "_distinct"}
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_least_squares_by_leastsq_is_least_squares_iterate_for_iterate(seed, monkeypatch):
+    """Where SciPy's least_squares(method="lm") calls MINPACK with diag=None (SciPy >= 1.16), the search calls it
+    through leastsq: the same answer bit for bit (a system with more rows than unknowns, one with fewer, padded,
+    and one singular at its root), and None where least_squares raises (a start or its residuals not finite)."""
+    from lagrangian.equations import _search
+
+    if not _search._lm_diag_none():
+        pytest.skip("SciPy before 1.16: least_squares scales by diag=1, and is called itself")
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(5, 3))
+
+    def over(z):  # 5 rows, 3 unknowns, nonlinear
+        return np.tanh(A @ z) + 0.1 * z.sum() ** 2 - 0.3, (1 - np.tanh(A @ z) ** 2)[:, None] * A + 0.2 * z.sum()
+
+    def under(z):  # 2 rows, 3 unknowns: padded
+        return np.array([z[0] ** 2 + z[1] - 1.0, np.sin(z[2]) * z[0]]), np.array(
+            [[2 * z[0], 1.0, 0.0], [np.sin(z[2]), 0.0, z[0] * np.cos(z[2])]])
+
+    def singular(z):  # (z0 - 1)^2 = 0: linear convergence to round-off
+        return np.array([(z[0] - 1.0) ** 2, z[1] - 2.0]), np.array([[2 * (z[0] - 1.0), 0.0], [0.0, 1.0]])
+
+    for fun, k, rows in ((over, 3, 5), (under, 3, 2), (singular, 2, 2)):
+        z0 = rng.uniform(-2, 2, k)
+        fast = _search.least_squares(fun, z0, rows)
+        monkeypatch.setattr(_search, "_lm_diag_none", lambda: False)
+        slow = _search.least_squares(fun, z0, rows)
+        monkeypatch.undo()
+        assert np.array_equal(fast, slow)
+    bad = lambda z: (np.array([np.nan, z[0]]), np.eye(2))  # noqa: E731
+    assert _search.least_squares(bad, np.zeros(2), 2) is None
+    assert _search.least_squares(singular, np.array([np.inf, 0.0]), 2) is None

@@ -23,6 +23,7 @@ The tolerances are named once, here; each search states which it uses.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterable, Sequence
 
@@ -146,16 +147,36 @@ def least_squares(fun: Residual, z0, rows: int):
     last: list = [None, None]  # SciPy asks for r and dr/dz at a point separately: one evaluation serves both
 
     def evaluate(z):
-        if last[0] is None or not np.array_equal(last[0], z):
+        if last[0] is None or last[0].shape != np.shape(z) or not (last[0] == z).all():  # np.array_equal
             last[:] = [np.array(z, dtype=float), solve(z)]
         return last[1]
 
     try:
+        if _lm_diag_none():  # least_squares' own call of MINPACK, without its wrappers of each evaluation
+            from scipy.optimize import leastsq
+
+            if not (np.all(np.isfinite(z0)) and np.all(np.isfinite(evaluate(z0)[0]))):
+                return None  # where least_squares raises ValueError (x0, or the residuals there, not finite)
+            return leastsq(lambda z: evaluate(z)[0], z0, Dfun=lambda z: evaluate(z)[1], full_output=True,
+                           ftol=PRECISE, xtol=PRECISE, gtol=PRECISE, maxfev=50 * len(z0))[0]
         res = lm(lambda z: evaluate(z)[0], z0, jac=lambda z: evaluate(z)[1], method="lm", xtol=PRECISE, ftol=PRECISE,
                  gtol=PRECISE, max_nfev=50 * len(z0))
     except (ValueError, np.linalg.LinAlgError, FloatingPointError):
         return None
     return res.x
+
+
+@functools.cache
+def _lm_diag_none() -> bool:
+    """Whether SciPy's least_squares(method="lm") calls MINPACK's lmder with diag=None (x_scale="jac", its
+    default from SciPy 1.16): then leastsq(Dfun=..., diag=None) makes the same call, the same iterates, without
+    least_squares' VectorFunction around each evaluation (a third of the constraints' diagnosis of the bicycle)."""
+    import scipy
+
+    try:
+        return tuple(int(x) for x in scipy.__version__.split(".")[:2]) >= (1, 16)
+    except ValueError:
+        return False
 
 
 def gauss_newton(fun: Residual, x, free: Sequence[int] | None = None, *, iterations: int,
