@@ -248,3 +248,108 @@ def test_the_progress_bar_shows_a_run_that_ended_before_its_first_look(monkeypat
     assert _with_progress(lambda: 0, stats, 7, True) == 0
     shown = stream.getvalue()
     assert shown.startswith("\rsimulating [") and " 7/7 " in shown and shown.endswith(" s\n")
+
+
+def _fields(tr) -> dict:
+    import dataclasses
+
+    return {f.name: getattr(tr, f.name) for f in dataclasses.fields(tr)}
+
+
+def _same_trajectory(a, b) -> None:
+    """Every field of `a` equal to `b`'s (arrays bit for bit, with their dtype, shape and flags), in
+    the same order, the stats' keys in the same order."""
+    fa, fb = _fields(a), _fields(b)
+    assert list(a.__dict__) == list(b.__dict__)
+    for name, value in fa.items():
+        other = fb[name]
+        if isinstance(value, np.ndarray):
+            assert type(other) is np.ndarray and value.dtype == other.dtype and value.shape == other.shape, name
+            assert value.tobytes() == other.tobytes() and not value.flags.writeable and value.flags.c_contiguous, name
+            assert not other.flags.writeable and (value.size == 0 or not np.shares_memory(value, other)), name
+        elif name == "model":
+            assert value is other
+        elif name == "outputs":
+            assert list(value) == list(other) and value is not other
+            for key in value:
+                assert value[key].tobytes() == other[key].tobytes() and not value[key].flags.writeable
+        else:
+            assert type(value) is type(other) and value == other, name
+    assert list(a.stats) == list(b.stats) and type(a.stats["status"]) is lg.Status
+    assert a.parameters is not b.parameters and a.stats is not b.stats and a.events is not b.events
+
+
+def test_a_repeated_run_is_the_whole_paths_trajectory_field_by_field(eqs, monkeypatch):
+    """The same call again runs the kept, prepared kernel call (_simulate._Repeat) and builds its
+    Trajectory from a template (_trajectory.RunTemplate): the same object as run_trajectory's."""
+    import dataclasses
+
+    first = lg.simulate(eqs, 3.0, {"theta2": 0.5}, rtol=1e-8, atol=1e-8)
+    kept = per_equations(eqs)["simulate.checked"]
+    assert all(isinstance(entry[5], _simulate._Repeat) for entry in kept.values())
+    again = lg.simulate(eqs, 3.0, {"theta2": 0.5}, rtol=1e-8, atol=1e-8)
+    whole = lg.simulate(eqs, 3.0, {"theta2": 0.5}, rtol=1e-8, atol=1e-8,
+                        options=SimulationOptions.from_model(eqs.model))
+    _same_trajectory(again, first)
+    _same_trajectory(again, whole)
+    assert again.stats["nstep"] > 0 and again.message == lg.Status.SUCCESS.message and again.outputs == {}
+    # frozen and immutable as any Trajectory; what a user changes in one is not in the next
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        again.x = first.x
+    with pytest.raises(ValueError, match="read-only"):
+        again.t[0] = 1.0
+    again.parameters["m1"] = 99.0
+    again.stats["nstep"] = -1
+    third = lg.simulate(eqs, 3.0, {"theta2": 0.5}, rtol=1e-8, atol=1e-8)
+    _same_trajectory(third, first)
+    assert third.conserved_drift()["energy"] < 1e-5 and third.to_csv() == first.to_csv()
+    # pickled and copied as any Trajectory
+    import copy
+    import pickle
+
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(third)).x, first.x)
+    assert copy.copy(third).x is third.x
+
+
+def test_a_repeated_run_that_fails_raises_the_whole_paths_error_and_partial_rows():
+    """x'' = 4 x^3 from rest at x = 1 leaves to infinity at t = K(1/sqrt(2))/2 = 0.9270373 (the energy
+    x_dot^2/2 - x^4 = -1: t = int_1^inf dx / sqrt(2 (x^4 - 1))): the kept call's run fails as the first
+    did, through the same map (the error, its status, the finite rows before it)."""
+    model = lg.Model("escape", coordinates=["x"], T="x_dot**2/2", V="-x**4")
+    eqs = lg.derive(model)
+    errors = []
+    for _ in range(3):
+        with pytest.raises(lg.SimulationError) as info:
+            lg.simulate(eqs, 2.0, {"x": 1.0}, rtol=1e-8, atol=1e-8)
+        errors.append(info.value)
+    kept = per_equations(eqs)["simulate.checked"]
+    assert len(kept) == 1 and isinstance(next(iter(kept.values()))[5], _simulate._Repeat)
+    first = errors[0]
+    blow_up = 1.8540746773013719 / 2  # K(1/sqrt(2))
+    assert abs(first.time - blow_up) < 1e-4 and first.partial.t[-1] == 0.92 and first.status == lg.Status.STEP_TOO_SMALL
+    for error in errors[1:]:
+        assert str(error) == str(first) and error.status == first.status and error.time == first.time
+        _same_trajectory(error.partial, first.partial)
+
+
+def test_what_the_repeated_run_does_not_take_goes_the_whole_way(monkeypatch):
+    """Inputs that switch (`where`), named outputs, the variational integrator and events: the kept
+    call runs as _run_compiled (no _Repeat, or its run handed on), with the same numbers."""
+    model = lg.Model("switched", coordinates=["x"], parameters={"k": 4.0}, inputs=["F"], T="x_dot**2/2",
+                     V="k*x**2/2", Q={"x": "F"})
+    model.add_output("twice", "2*x")
+    eqs = lg.derive(model)
+    cases = [{"inputs": {"F": "where(x > 0, -1, 1)"}}, {}, {"method": "variational"}]
+    for args in cases:
+        first = lg.simulate(eqs, 2.0, {"x": 1.0}, **args)
+        again = lg.simulate(eqs, 2.0, {"x": 1.0}, **args)
+        _same_trajectory(again, first)
+        np.testing.assert_array_equal(again.outputs["twice"], 2 * again.x[:, 0])
+    assert all(entry[5] is None for entry in per_equations(eqs)["simulate.checked"].values())
+    plain = lg.derive(lg.Model("switched", coordinates=["x"], parameters={"k": 4.0}, inputs=["F"],
+                               T="x_dot**2/2", V="k*x**2/2", Q={"x": "F"}))
+    first = lg.simulate(plain, 2.0, {"x": 1.0}, inputs={"F": "where(x > 0, -1, 1)"})
+    assert first.stats["switches"] > 0
+    again = lg.simulate(plain, 2.0, {"x": 1.0}, inputs={"F": "where(x > 0, -1, 1)"})
+    assert isinstance(next(iter(per_equations(plain)["simulate.checked"].values()))[5], _simulate._Repeat)
+    _same_trajectory(again, first)

@@ -522,6 +522,61 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
 _NO_OUTPUTS = (np.zeros((1, 1)), np.zeros(1))
 
 
+class PreparedDop853:
+    """run_dop853's call with the output stage, prepared once for the same run again (simulate()'s
+    repeated call: see numeric/_simulate.py, _Repeat): a run without events and sampled inputs, its
+    arguments (the model's addresses, the input programs, the tolerances, the read-only shared
+    arrays) built here once, as run_dop853 builds them; `run` allocates the output arrays and calls
+    the kernel: the same arguments, so the same numbers bit for bit."""
+
+    __slots__ = ("n", "m", "times", "x0", "p", "args", "energy", "prog")
+
+    def __init__(self, cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf):
+        n = self.n = cm.n
+        m = self.m = len(prog.starts) - 1
+        sampling, hist = no_sampling(m)
+        events, eterm, ev_t, ev_k, ev_x, ev_n = _no_events(n)
+        self.times = np.ascontiguousarray(times, dtype=float)
+        self.x0 = np.array(x0, dtype=float)
+        self.p = _nonempty(np.ascontiguousarray(p, dtype=float))
+        self.prog = prog
+        self.energy = (cm.energy_address, cm.energy_rows_address)
+        self.args = ((cm.rhs_address, n, 0, 0, *self.energy), (prog.ops, prog.args, prog.starts,
+                                                             max(prog.nstack, events.nstack)),
+                     (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), 0.0),
+                     (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n),
+                     (sampling.hold, sampling.samples, sampling.which, hist))
+
+    def run(self, progress: bool | None = None):
+        """(status, X, U, E, stats, info, done) of one run (the kernel's own arrays; see raw)."""
+        rows = len(self.times)
+        X, U, E = np.empty((rows, 2 * self.n)), np.empty((rows, self.m)), np.empty(rows)
+        info, stats, done = np.zeros(2 + 2 * self.n), np.zeros(5, dtype=np.int64), np.zeros(1, np.int64)
+        model, program, control, watched, held = self.args
+
+        def call():
+            return kernels().dop853(model, self.x0.copy(), self.times, self.p, program, control, watched, held,
+                                    (X, info, stats, U, E, done))
+
+        status = call() if progress is False else _with_progress(call, stats, rows, progress,
+                                                                  lambda: not compiled(kernels().dop853))
+        return status, X, U, E, stats, info, done
+
+    def raw(self, status, X, U, E, stats, info, done) -> RawRun:
+        """The RawRun of a run's arrays, as run_dop853 makes it (the rows' output stage where it stopped)."""
+        times, prog = self.times, self.prog
+        nfev, nstep, nreject, k, nswitch = stats.tolist()
+        if k > done[0]:
+            d = int(done[0])
+            kernels().energies(self.energy, times[d:k], X[d:k], self.p, prog.ops, prog.args, prog.starts, prog.nstack,
+                               E[d:k], U[d:k], self.args[4][0])
+        if k < len(times):
+            times, X, U, E = times[:k], X[:k], U[:k], E[:k]
+        stop_t, stop_measure = info[:2].tolist()
+        return RawRun(int(status), times, X, stop_t, stop_measure, info[2:].copy(), nfev, nstep, nreject,
+                      _empty(0), _empty(0, dtype=np.int64), _empty(0, 2 * self.n), nswitch, self.args[4][3], U, E)
+
+
 def run_variational(cm: CompiledModel, x0, h: float, nsteps: int, every: int, p, prog) -> RawRun:
     """The midpoint variational integrator from (0, x0): `nsteps` steps of size h, output every
     `every` steps."""

@@ -283,6 +283,42 @@ def run_trajectory(equations, t, x, u, p, *, energy=None, stats: dict, status, m
         outputs=outputs)
 
 
+class RunTemplate:
+    """What run_trajectory gives every complete run of one checked simulate() call (the names, the
+    energy's name, the parameters by name, the model) built once, for the same call again
+    (numeric/_simulate.py, _Repeat): `make` fills in a run's own arrays and stats, the same
+    Trajectory as run_trajectory's (the same fields, read-only arrays the run's own, frozen), without
+    the dataclass's __init__. For models without named outputs (their values need the run)."""
+
+    __slots__ = ("fields", "parameters", "energy")
+
+    def __init__(self, equations, p):
+        names = cached(equations, "trajectory.names", lambda: _Names(equations))
+        self.energy = names.energy_name is not None
+        self.parameters = dict(zip(names.parameter_names, map(float, p)))
+        self.fields = dict(  # in the order of the dataclass's fields (its __init__ sets them so)
+            t=None, x=None, state_names=names.state_names, u=None, input_names=names.input_names, energy=None,
+            energy_name=names.energy_name, conservative=names.conservative, parameters=None, nfev=0,
+            message=Status.SUCCESS.message, stats=None, events=None, model=equations.model, multipliers=None,
+            multiplier_names=(), failure=None, outputs=None)
+
+    def make(self, t, x, u, energy, stats: dict) -> Trajectory:
+        """The Trajectory of a complete run: a copy of its times `t` (shared by the runs), its states
+        `x`, inputs `u` and `energy` (its own, float64 and C-contiguous, made read-only), its `stats`
+        (with "status" SUCCESS)."""
+        t = np.array(t, dtype=float)
+        for a in (t, x, u, energy):
+            a.setflags(write=False)
+        tr = object.__new__(Trajectory)
+        d = tr.__dict__
+        d.update(self.fields)
+        d["t"], d["x"], d["u"], d["parameters"], d["nfev"] = t, x, u, dict(self.parameters), stats["nfev"]
+        d["stats"], d["events"], d["outputs"] = stats, {}, {}
+        if self.energy:
+            d["energy"] = energy
+        return tr
+
+
 def evaluate_outputs(equations, t, x, u, p) -> dict[str, np.ndarray]:
     """The model's named outputs along a run, evaluated vectorised (SymEngine over all rows) by the
     one numeric model (``NumericModel.function``): name -> shape (N,); {} without outputs."""
