@@ -346,6 +346,8 @@ def test_what_the_repeated_run_does_not_take_goes_the_whole_way(monkeypatch):
         _same_trajectory(again, first)
         np.testing.assert_array_equal(again.outputs["twice"], 2 * again.x[:, 0])
     assert all(entry[5] is None for entry in per_equations(eqs)["simulate.checked"].values())
+    with pytest.raises(lg.ModelError, match="cannot change"):  # (so _keep_checked asks for outputs once)
+        eqs.model.add_output("thrice", "3*x")
     plain = lg.derive(lg.Model("switched", coordinates=["x"], parameters={"k": 4.0}, inputs=["F"],
                                T="x_dot**2/2", V="k*x**2/2", Q={"x": "F"}))
     first = lg.simulate(plain, 2.0, {"x": 1.0}, inputs={"F": "where(x > 0, -1, 1)"})
@@ -353,3 +355,20 @@ def test_what_the_repeated_run_does_not_take_goes_the_whole_way(monkeypatch):
     again = lg.simulate(plain, 2.0, {"x": 1.0}, inputs={"F": "where(x > 0, -1, 1)"})
     assert isinstance(next(iter(per_equations(plain)["simulate.checked"].values()))[5], _simulate._Repeat)
     _same_trajectory(again, first)
+
+
+
+def test_the_keys_tell_apart_what_simulate_treats_differently():
+    """_argument_key keys the floats inside a dict, list or tuple in place (the repeated call's key):
+    still by their exact bits and type."""
+    key = _simulate._argument_key
+    values = [0.0, -0.0, 1, 1.0, True, "1.0", None, float.fromhex("0x1.0000000000001p+0")]
+    for wrap in (lambda v: v, lambda v: [v], lambda v: (v,), lambda v: {"a": v}, lambda v: {"a": [v]}):
+        keys = [key(wrap(v)) for v in values]
+        assert len(set(keys)) == len(values) and keys == [key(wrap(v)) for v in values]
+    assert key([1.0]) != key((1.0,))
+    for bad in ({1: 2.0}, {"a": np.float64(1.0)}, [np.array([1.0])], {"a": {"b": {2}}}, (lambda t: t,)):
+        with pytest.raises(_simulate._Uncheckable):
+            key(bad)
+    assert _simulate._checked_key(None, None, 1e-8, {"x": -0.0}) != _simulate._checked_key(None, None, 1e-8, {"x": 0.0})
+    assert _simulate._checked_key(None, np.float64(1.0)) is None

@@ -466,19 +466,27 @@ class _Uncheckable(Exception):
 def _argument_key(value):
     """`value` as part of a key that is equal only for values simulate() treats alike: None, a str,
     a bool, an int, a float (its exact bits: -0.0 is not 0.0), or a dict (of str), list or tuple of
-    those; _Uncheckable for anything else."""
+    those; _Uncheckable for anything else. (A float inside a dict, list or tuple is keyed in place,
+    without a call: the key of every repeated call is built here.)"""
     kind = type(value)
+    if kind is dict:
+        items = [(name, (_FLOAT, v.hex()) if type(v) is _FLOAT else _argument_key(v)) for name, v in value.items()]
+        for name, _ in items:
+            if type(name) is not str:
+                raise _Uncheckable
+        return tuple(items)
     if value is None or kind is str:
         return value
     if kind is float:
         return kind, value.hex()
     if kind is int or kind is bool:
         return kind, value
-    if kind is dict and all(type(name) is str for name in value):
-        return tuple((name, _argument_key(v)) for name, v in value.items())
     if kind is list or kind is tuple:
-        return kind, tuple(map(_argument_key, value))
+        return kind, tuple([(_FLOAT, v.hex()) if type(v) is _FLOAT else _argument_key(v) for v in value])
     raise _Uncheckable
+
+
+_FLOAT = float
 
 
 def _table_key(eq: Equations):
@@ -498,7 +506,7 @@ def _checked_key(table, *arguments):
     from the environment are compared when the call is taken again (_keep_checked). None for
     arguments it cannot key: such a call takes the whole path."""
     try:
-        return table, tuple(map(_argument_key, arguments))
+        return table, tuple([a if a is None else _argument_key(a) for a in arguments])
     except _Uncheckable:
         return None
 
@@ -515,7 +523,7 @@ def _keep_checked(eq: Equations, key, nm, fast: CompiledModel, run: _Run, opts: 
         limits.append(MAX_EXPONENT)
     kept = cached(eq, "simulate.checked", dict)
     kept.pop(key, None)
-    repeat = None
+    repeat = None  # (the Equations' model is a frozen snapshot: its named outputs cannot change)
     if not isinstance(run.solver, Variational) and not run.event_exprs and run.sampling is None and \
             not (eq.model is not None and eq.model.outputs):
         repeat = _Repeat(fast, run, opts)
@@ -542,7 +550,7 @@ class _Repeat:
     that switch) goes on as _run_compiled's (_finish_compiled: the same errors, the same partial
     rows). The same kernel with the same arguments: the same numbers bit for bit."""
 
-    __slots__ = ("fast", "run", "opts", "prog", "call", "template", "model")
+    __slots__ = ("fast", "run", "opts", "prog", "call", "template")
 
     def __init__(self, fast: CompiledModel, run: _Run, opts: SimulationOptions):
         self.fast, self.run, self.opts = fast, run, opts
@@ -550,15 +558,13 @@ class _Repeat:
         self.call = PreparedDop853(fast, run.x0, run.times, run.p, self.prog, float(opts.rtol), float(opts.atol),
                                    opts.max_step)
         self.template = RunTemplate(fast.equations, run.p)
-        self.model = fast.equations.model
 
     def __call__(self) -> Trajectory:
         call, times = self.call, self.call.times
         status, X, U, E, stats, info, done = call.run(self.opts.progress)
         nfev, nstep, nreject, k, nswitch = stats.tolist()
         rows = len(times)
-        if status or k != rows or done[0] != rows or self.prog.nswitch or not np.isfinite(X).all() or (
-                self.model is not None and self.model.outputs):
+        if status or k != rows or done[0] != rows or self.prog.nswitch or not np.isfinite(X).all():
             return _finish_compiled(self.fast, self.run, self.opts, self.run.x0, None, self.prog,
                                     call.raw(status, X, U, E, stats, info, done))
         return self.template.make(times, X, U, E, {"backend": self.fast.backend, "method": self.run.solver.name,
