@@ -378,7 +378,54 @@ def output_stage(quick: bool) -> None:
     # everything
     print(f"Python around the run: {(end - outputs) * 1e6:.1f} us ({(new - outputs) * 1e6:.1f} us for a call not "
           f"made before)")
+    around, prep = _python_around(eqs, cm, x0, grid, p, prog)
+    print(f"Python around a repeated simulate(), the kernel stubbed (it writes a real run's arrays; CPU time, "
+          f"medians of interleaved rounds): {around * 1e6:.1f} us (the key, the kept call, the output arrays, the "
+          f"finiteness check, the Trajectory; the kept call runs a prepared kernel call); run_dop853's own: "
+          f"{prep * 1e6:.1f} us")
     RESULTS["output"] = (alone, end)
+
+
+def _python_around(eqs, cm, x0, grid, p, prog, rounds: int = 15, reps: int = 300) -> tuple[float, float]:
+    """The Python of a repeated simulate() and of run_dop853 (seconds): the kernel replaced by a stub that
+    writes a real run's states, energy and counts, less the stub's own work (interleaved rounds, CPU time)."""
+    k = kernels()
+    real = k.dop853
+    ref = lg.simulate(eqs, rtol=1e-8, atol=1e-8)
+    rows, RX, RE = len(ref.t), ref.x.copy(), ref.energy.copy()
+    counts = (ref.stats["nfev"], ref.stats["nstep"], ref.stats["nreject"], rows, 0)
+
+    def stub(model, x0_, t_out, p_, prog_, control, events, sampling, out):
+        X, info, stats, U, E, done = out
+        X[:] = RX
+        E[:] = RE
+        stats[:] = counts
+        done[0] = rows
+        return 0
+
+    def stub_only():
+        stub(None, None, None, None, None, None, None, None,
+             (np.empty((rows, RX.shape[1])), None, np.zeros(5, np.int64), None, np.empty(rows), np.zeros(1, np.int64)))
+
+    runs = {"stub": stub_only, "simulate": lambda: lg.simulate(eqs, rtol=1e-8, atol=1e-8),
+            "run_dop853": lambda: run_dop853(cm, x0, grid, p, prog, 1e-8, 1e-8, progress=False)}
+    times: dict[str, list] = {label: [] for label in runs}
+
+    def repeat(fn):  # (each result dropped at once, as a loop of simulate() calls does)
+        for _ in range(reps):
+            fn()
+
+    k.dop853 = stub
+    try:
+        for _ in range(rounds):
+            for label, fn in runs.items():
+                fn()
+                times[label].append(cpu(lambda: repeat(fn), 1) / reps)
+    finally:
+        k.dop853 = real
+    less = [statistics.median([b - a for a, b in zip(times["stub"], times[label])])
+            for label in ("simulate", "run_dop853")]
+    return less[0], less[1]
 
 
 # ------------------------------------------------------------------------------- new model
