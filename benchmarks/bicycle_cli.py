@@ -88,16 +88,18 @@ last line). CPU s of the child, median (min-max):
 "/api/analysis (frozen)" is the task as this script now runs it (its objects frozen at exit, as a worker never
 tears down after a request); "as before" without that. The same outputs: the bicycle's report (HTML and
 Markdown), /api/analysis JSON, steady (text and --json), equilibria --json and check byte-identical before and
-after, with the compile cache cold and warm. This script alone at the end (load 4.3-4.7, 5 runs): derive 1.02,
-report 3.84, steady 2.19, /api/analysis 2.47 s of CPU. A first run (the compile cache empty, e.g. a new
+after, with the compile cache cold and warm. This script alone (load 4.3-4.7, 5 runs): derive 1.02, report 3.84,
+steady 2.19, /api/analysis 2.47 s of CPU; again after the constraints' searches call MINPACK through leastsq
+(equations/_search.py, 0.3-0.45 -> 0.26 s in process; load 4.3-4.6): report 3.65, steady 2.12, /api/analysis 2.80
+(the spread of this machine: the same tree gave 2.47 and 2.80). A first run (the compile cache empty, e.g. a new
 LAGRANGIAN_CACHE_DIR) compiles what later runs load: about 0.45 s more for the report (0.37 s of LLVM
 compilation, 0.08 s of the keys' common-subexpression elimination) and 0.3 s for steady, besides the exact
-parameter values' nsimplify (STEADY2). report still misses 3 s: in process (load 4-5) imports 0.35 s, load
-0.27 s, derive 0.06 s, the sections 0.65 s (the Coriolis matrix made readable 0.23 s, the SymPy conversions of
-the derived forms 0.27 s, readable forms 0.3 s), the diagnoses 0.64 s (SciPy's optimize and linalg imported
-0.3 s, the constraints' rank and dead-point searches 0.3 s), the equilibria 0.93 s (numba: import 0.17 s, its
-first dispatch, the typing and target registries, 0.23 s, the cached kernels 0.07 s; the multi-start search
-0.4 s: 7806 evaluations, each 33 us of compiled code and 15-20 us of Python and dispatch), HTML 0.3 s.
+parameter values' nsimplify (STEADY2). report still misses 3 s: in process (load 4-5) imports 0.35 s, load 0.27
+s, derive 0.06 s, the sections 0.65 s (the Coriolis matrix made readable 0.23 s, the SymPy conversions of the
+derived forms 0.27 s, readable forms 0.3 s), the diagnoses 0.64 s (SciPy's optimize and linalg imported 0.3 s,
+the constraints' rank and dead-point searches 0.3 s), the equilibria 0.93 s (numba: import 0.17 s, its first
+dispatch, the typing and target registries, 0.23 s, the cached kernels 0.07 s; the multi-start search 0.4 s: 7806
+evaluations, each 33 us of compiled code and 15-20 us of Python and dispatch), HTML 0.3 s.
 """
 
 from __future__ import annotations
