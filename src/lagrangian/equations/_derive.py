@@ -158,7 +158,7 @@ def _composite_mass_matrix(model: Model, kin: Kinematics, kinetic):
     n = len(q)
     frames = model.frames
     varying = set(q) | set(qd) | {t}
-    motion = _FrameMotion(frames, kin, None)
+    motion = kin.frame_motion if kin.frame_motion is not None else _FrameMotion(frames, kin, None)
     rng = np.random.default_rng(2024)
     zero = se.Integer(0)
     own: dict = {}  # frame -> [mass, first moment (3), inertia about its origin (3x3)], its axes

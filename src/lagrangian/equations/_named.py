@@ -274,6 +274,7 @@ def kane_form(model, kin) -> tuple[list, list, list]:
         g_world = [kin.se(grav.g) * x for x in unit]
     frames = model.frames
     motion = _FrameMotion(frames, kin, g_world if g_world is not None and len(g_world) == 3 else None)
+    kin.frame_motion = motion  # M by composite bodies (_derive) reads the same expressions
     rng = np.random.default_rng(2024)
     quantities = []
     listed_frames: set = set()

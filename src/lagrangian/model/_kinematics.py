@@ -67,6 +67,10 @@ class Kinematics:
         self.massive_elements = tuple(massive_elements)
         self._cache: dict = {}
         self._nodes: dict = {}  # to_se's memo: the subexpressions converted, shared by every expression
+        # the frames' velocities and their Jacobians of the Kane form (equations._named._FrameMotion), kept
+        # so that what derive builds on them later uses the same expressions: two equal copies of a deep
+        # expression compare (in a set, a dict, cse) as whole trees
+        self.frame_motion = None
 
     def se(self, expr) -> se.Basic:
         """`expr` in SymEngine (converted once per expression, and each subexpression shared by

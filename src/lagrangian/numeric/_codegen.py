@@ -85,9 +85,16 @@ def fingerprint(equations: Equations, *salt: str) -> str:
     core = equations.core
     h = hashlib.sha256()
     h.update(repr((GENERATOR_VERSION, _names(equations), equations.model.name, salt)).encode())
-    for e in (*core.M, *core.f, core.L, core.D, *core.Q, *core.p, *core.g, *core.w, *core.c):
-        h.update(str(e).encode())
-        h.update(b"|")
+    parts = (*core.M, *core.f, core.L, core.D, *core.Q, *core.p, *core.g, *core.w, *core.c)
+    if _tree_size(parts, SHARED_FROM) > SHARED_FROM:  # printed as trees: past 1e12 characters at 20 rods
+        h.update(b"shared\0")
+        for line in _shared_text(parts):
+            h.update(line.encode())
+            h.update(b"|")
+    else:
+        for e in parts:
+            h.update(str(e).encode())
+            h.update(b"|")
     if core.G is not None:
         h.update(str(list(core.G)).encode())
     return h.hexdigest()[:24]
@@ -157,7 +164,11 @@ class _Printer:
         number of bases). `lanes`: by the polynomial alone, each argument named b{k}. With `first`
         (see :meth:`block`): (the sin and cos and the statements the `first` outputs need, the other
         statements, the outputs, the number of bases)."""
-        bases, exprs = _split_trig(self._hide(exprs))
+        shared = None
+        if _tree_size(exprs, SHARED_FROM) > SHARED_FROM:  # one statement per shared node (see _shared)
+            bases, *shared = self._shared(exprs, trig=True)
+        else:
+            bases, exprs = _split_trig(self._hide(exprs))
         lines, names = [], {}
         for k, b in enumerate(bases):
             text = self._translate(self._str(b), {})
@@ -167,19 +178,24 @@ class _Printer:
                 lines.append(f"{indent}sn{k}, cs{k} = _sincos({text})")
             names.update({f"__lg_sn{k}": f"sn{k}", f"__lg_cs{k}": f"cs{k}"})
         if first is not None:
-            early, late, outputs = self.block(exprs, indent, first=first, names=names, hidden=True)
+            early, late, outputs = self.block(exprs, indent, first=first, names=names, hidden=True, cse=shared)
             return lines + early, late, outputs, len(bases)
-        more, outputs = self.block(exprs, indent, names=names, hidden=True)
+        more, outputs = self.block(exprs, indent, names=names, hidden=True, cse=shared)
         return lines + more, outputs, len(bases)
 
     def block(self, exprs: list, indent: str = "    ", first=None, names: dict | None = None,
-              hidden: bool = False):
+              hidden: bool = False, cse=None):
         """(statements defining the common subexpressions, the output expressions); with `first`,
         (the statements the first `first` outputs need (or the outputs whose indices `first` lists),
         the other statements, the outputs).
         `names`: more symbols' names (those of :meth:`trig_block`); `hidden`: `exprs` hold
-        placeholders already."""
-        reps, reduced = se.cse(exprs if hidden else self._hide(exprs))
+        placeholders already; `cse`: (replacements, reduced expressions) made already (:meth:`_shared`)."""
+        if cse is not None:
+            reps, reduced = cse
+        elif not hidden and _tree_size(exprs, SHARED_FROM) > SHARED_FROM:
+            _, reps, reduced = self._shared(exprs, trig=False)
+        else:
+            reps, reduced = se.cse(exprs if hidden else self._hide(exprs))
         temps: dict[str, str] = dict(names or {})
         lines = []
         for k, (sym, expr) in enumerate(reps):
@@ -202,6 +218,46 @@ class _Printer:
         late = [line for (sym, _), line in zip(reps, lines) if sym not in needed]
         return early, late, outputs
 
+    def _shared(self, exprs: list, trig: bool) -> tuple[list, list, list]:
+        """(bases, replacements, reduced): what :meth:`trig_block` (`trig`) or :meth:`block` make of
+        `exprs` by :func:`_split_trig`, :meth:`_hide` and SymEngine's cse, made in one walk over the
+        expressions' shared subexpressions instead, for expressions far larger written out as trees
+        than they are (SHARED_FROM): each subexpression used more than once (by two expressions or
+        two larger subexpressions) becomes one statement, the others are written where they are used.
+        SymEngine's cse of a spatial chain's M and f grows about 4x per rod (65 s at 8 rods), and
+        xreplace's copies of a shared subexpression are equal without being the same object (sets of
+        them compare whole trees): here every set and dict holds the derived expressions themselves."""
+        order, uses = _post_order(exprs)
+        inner: dict = {}  # node -> whether it holds a sin or cos
+        for e in order:
+            inner[e] = any(inner[a] or isinstance(a, (se.sin, se.cos)) for a in e.args)
+        calls = [e for e in order if isinstance(e, (se.sin, se.cos)) and not inner[e]] if trig else []
+        hidden = {c: c.args[0].xreplace(self.placeholders) for c in calls}
+        bases, rep = _trig_bases(sorted(set(hidden.values()), key=str)) if calls else ([], {})
+        new: dict = {}
+        reps: list = []
+        for e in order:
+            args = e.args
+            if not args:
+                out = self.placeholders.get(e, e)
+            elif e in hidden:
+                out = rep[(se.sin if isinstance(e, se.sin) else se.cos)(hidden[e])]
+            else:
+                parts = [new[a] for a in args]
+                if isinstance(e, se.Piecewise):
+                    out = _steps(e.xreplace(dict(zip(args, parts))))
+                else:
+                    try:
+                        out = e.func(*parts)
+                    except (AttributeError, TypeError):  # a relation (no func)
+                        out = e.xreplace(dict(zip(args, parts)))
+            if uses[e] > 1 and out.args and not isinstance(out, _BOOLEAN):  # (a condition stays in its Piecewise)
+                name = se.Symbol(f"__lg_d{len(reps)}")
+                reps.append((name, out))
+                out = name
+            new[e] = out
+        return bases, reps, [new[e] for e in exprs]
+
     def _str(self, e) -> str:
         if self.lang == "c":
             text = se.ccode(e)
@@ -221,6 +277,7 @@ class _Printer:
 
 
 _STEP = se.Function("lg_step")
+_BOOLEAN = type(se.true).__mro__[2]  # symengine's Boolean: relations, And, Or, true, false
 
 
 def _atoms(exprs, *types) -> set:
@@ -258,6 +315,55 @@ def _tree_size(exprs, bound: int) -> int:
         if total > bound:
             break
     return total
+
+
+#: Expressions that written out as trees would have more nodes than this are generated by one walk
+#: over their shared subexpressions (:meth:`_Printer._shared`), the others by SymEngine's cse (which
+#: also finds common parts of sums and products): the examples, the Panda (1.2e6 nodes) and chains
+#: of up to 4 rods in space (3.8e6) as before; 5 rods: 2.1e7, 20 rods: past 1e12.
+SHARED_FROM = 10_000_000
+
+
+def _post_order(exprs) -> tuple[list, dict]:
+    """(each distinct subexpression of `exprs`, children before parents; node -> the number of
+    distinct larger subexpressions that hold it, plus the times it is one of `exprs`)."""
+    uses: dict = {}
+    order: list = []
+    seen: set = set()
+    for e in exprs:
+        uses[e] = uses.get(e, 0) + 1
+    stack = [(e, False) for e in reversed(exprs)]
+    while stack:
+        e, ready = stack.pop()
+        if ready:
+            order.append(e)
+            continue
+        if e in seen:
+            continue
+        seen.add(e)
+        stack.append((e, True))
+        args = e.args
+        for a in args:
+            uses[a] = uses.get(a, 0) + 1
+        stack.extend((a, False) for a in reversed(args) if a not in seen)
+    return order, uses
+
+
+def _shared_text(exprs):
+    """`exprs` written as a list of their distinct subexpressions, children first, each as its kind and
+    the positions of its arguments in the list (a leaf as itself), then the positions of `exprs`: the
+    same text exactly for the same expressions, in a size of their shared form (str() writes trees)."""
+    order, _ = _post_order(exprs)
+    index: dict = {}
+    for k, e in enumerate(order):
+        index[e] = k
+        args = e.args
+        if not args:
+            yield f"{type(e).__name__}:{e}"
+        else:
+            kind = type(e).__name__ + (f":{e.get_name()}" if isinstance(e, se.FunctionSymbol) else "")
+            yield f"{kind}(" + ",".join(str(index[a]) for a in args) + ")"
+    yield "roots(" + ",".join(str(index[e]) for e in exprs) + ")"
 
 
 def _steps(e):
@@ -369,7 +475,12 @@ def _split_trig(exprs: list) -> tuple[list, list]:
     then cost one pair per coordinate, not one per pair of coordinates)."""
     calls = {c for c in _atoms(exprs, se.sin, se.cos) if not _atoms(c.args, se.sin, se.cos)}
     args = sorted({c.args[0] for c in calls}, key=str)
+    bases, rep = _trig_bases(args)
+    return bases, ([e.subs(rep) for e in exprs] if rep else list(exprs))
 
+
+def _trig_bases(args: list) -> tuple[list, dict]:
+    """(bases, {sin(a): S, cos(a): C} for each argument a of `args`) for :func:`_split_trig`."""
     def pair(a):  # ((c1, s1), (c2, s2)) for a = c1 s1 + c2 s2, c = +-1, s symbols; or None
         if not (a.is_Add and len(a.args) == 2):
             return None
@@ -398,7 +509,7 @@ def _split_trig(exprs: list) -> tuple[list, list]:
             S, C = S1 * C2 + C1 * S2, C1 * C2 - S1 * S2
         rep[se.sin(a)] = S
         rep[se.cos(a)] = C
-    return bases, ([e.subs(rep) for e in exprs] if rep else list(exprs))
+    return bases, rep
 
 
 _PRELUDE = """
