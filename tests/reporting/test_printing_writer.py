@@ -76,3 +76,16 @@ def test_a_symbol_whose_name_is_markup_is_escaped_as_before():
     name = sympy.Symbol("a<b>&c")
     _printing._SYMBOLS.clear()
     assert mathml(name) == _reference(name)
+
+
+def test_a_symbol_name_with_markup_is_escaped_in_mathml():
+    """SymPy's MathML printer writes text nodes raw; a symbol named with markup (possible from the Python
+    API's SymPy symbols, not from a model file) must not become markup in a report."""
+    import sympy
+
+    from lagrangian.reporting._printing import mathml
+
+    out = mathml(sympy.Symbol("a<b>&c") ** 2 + sympy.Symbol("x</mi><script>") + 1)
+    assert "<b>" not in out and "<script>" not in out
+    assert "a&lt;b&gt;&amp;c" in out and "x&lt;/mi&gt;&lt;script&gt;" in out
+    assert mathml(sympy.Symbol("theta")) == "<mi>&#952;</mi>" and mathml(sympy.Symbol("ell")) == "<mi>&#8467;</mi>"

@@ -5,6 +5,7 @@ operators (partial and total time derivatives, elementary rotations, the constra
 
 from __future__ import annotations
 
+import html
 import html.entities
 import re
 
@@ -234,7 +235,9 @@ class _MathML(MathMLPresentationPrinter):
         dom = self.dom
 
         def token(text):
-            text = _SPECIAL.get(text) or greek_unicode.get(text, text)
+            # a name is escaped: SymPy writes its text nodes raw (a model's names are identifiers, but
+            # the Python API takes SymPy symbols of any name)
+            text = _SPECIAL.get(text) or greek_unicode.get(text) or html.escape(text, quote=False)
             number = re.fullmatch(r"-?[0-9]+", text) is not None
             el = dom.createElement("mn" if number else "mi")
             text = text.replace("-", "\u2212") if number else text
