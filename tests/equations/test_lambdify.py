@@ -187,3 +187,19 @@ def test_the_constrained_model_loads_its_code(cache, monkeypatch):
     cm2 = constrained_model(again, compile_equations(again))
     assert cm2 is not cm
     assert np.array_equal(np.asarray(cm2._parts(args)), before)
+
+
+@pytest.mark.parametrize("name, constant", [("pi", se.pi), ("E", se.E)])
+def test_an_argument_named_like_a_constant_is_not_the_constant(cache, name, constant):
+    """An argument `pi` prints as the constant pi does ("pi"): the key names the arguments by their place,
+    so the function that returns the argument and the one that returns the constant are two entries, each
+    with its own number."""
+    a = se.Symbol(name)
+    assert str(a) == str(constant)
+    f = lambdify([a, x], [constant, 2 * x])
+    g = lambdify([a, x], [a, 2 * x])
+    assert len(list(cache.iterdir())) == 2
+    f2, g2 = lambdify([a, x], [constant, 2 * x]), lambdify([a, x], [a, 2 * x])  # loaded
+    p = np.array([10.0, 0.5])
+    assert np.asarray(f2(p))[0] == np.asarray(f(p))[0] == float(constant)
+    assert np.asarray(g2(p))[0] == np.asarray(g(p))[0] == 10.0

@@ -40,11 +40,13 @@ import symengine as se
 __all__ = ["lambdify"]
 
 #: The format of an entry (a change makes a new key).
-_FORMAT = "lagrangian-lambdify-1"
+_FORMAT = "lagrangian-lambdify-2"
 #: The names SymEngine's cse gives the subexpressions.
 _CSE_NAME = re.compile(r"x\d+\Z")
 #: The prefix of the names that stand for the floats in the text of the key.
 _FLOAT = "_float_"
+#: The prefix of the names that stand for the arguments (by their place) in the text of the key.
+_ARG = "_arg_"
 #: An entry larger than this is not read (the bicycle's largest: about 50 KB).
 _MAX_BYTES = 64 << 20
 #: A function whose text (see _definition) is shorter than this is not kept: it compiles in about 10 ms
@@ -89,12 +91,15 @@ def _definition(args, exprs) -> str | None:
     # every name is an argument's, an identifier that the elimination's names and the floats' cannot be
     # taken for
     if not (free - {str(s) for s, _ in reps} <= set(names)
-            and all(n.isidentifier() and not _CSE_NAME.match(n) and not n.startswith(_FLOAT) for n in names)):
+            and all(n.isidentifier() and not _CSE_NAME.match(n) and not n.startswith((_FLOAT, _ARG)) for n in names)):
         return None
     if any(float(v) == 0.0 for v in floats):  # 0.0 and -0.0 are one key of the mapping below
         return None
     exact = {v: se.Symbol(_FLOAT + float(v).hex().replace("-", "m").replace("+", "p").replace(".", "_"))
              for v in floats}
+    # each argument by its place: a name printed alike with a constant or function (an argument `pi`, `E`
+    # or `I`) cannot make two definitions one text
+    exact.update({a: se.Symbol(f"{_ARG}{k}") for k, a in enumerate(args)})
     if exact:
         reps = [(s, e.xreplace(exact)) for s, e in reps]
         reduced = [e.xreplace(exact) for e in reduced]
