@@ -108,3 +108,23 @@ def test_a_batch_has_the_outputs_of_each_run_as_simulate_gives_them(equations):
                                    rtol=0, atol=1e-12)
     with pytest.raises(KeyError, match="its columns are t, th1, th2, th1_dot, th2_dot, tip_x, tip_y, push"):
         batch["tip_z"]
+
+
+def test_an_unpickled_trajectory_is_as_frozen_as_the_original():
+    """pickle makes fresh, writable arrays: the unpickled Trajectory freezes them again."""
+    import copy
+    import pickle
+
+    import lagrangian as lg
+
+    eqs = lg.derive(lg.load("double-pendulum"))
+    traj = lg.simulate(eqs, t_end=0.5, backend="scipy")
+    for back in (pickle.loads(pickle.dumps(traj)), copy.deepcopy(traj)):
+        np.testing.assert_array_equal(back.x, traj.x)
+        np.testing.assert_array_equal(back.energy, traj.energy)
+        assert back.columns == traj.columns
+        for name in ("t", "x", "u", "energy"):
+            array = getattr(back, name)
+            assert not array.flags.writeable, name
+            with pytest.raises(ValueError, match="read-only"):
+                array[0] = 1.0

@@ -97,6 +97,13 @@ class Trajectory:
         object.__setattr__(self, "outputs", {k: read_only(np.reshape(v, len(self.t)), float)
                                              for k, v in self.outputs.items()})
 
+    def __setstate__(self, state):
+        """Unpickled as it was made: its arrays read-only again (pickle gives fresh, writable arrays)."""
+        self.__dict__.update(state)
+        arrays = (self.t, self.x, self.u, self.energy, self.multipliers, *self.outputs.values())
+        if any(isinstance(a, np.ndarray) and a.flags.writeable for a in arrays):  # a copy.copy shares them
+            self.__post_init__()
+
     @property
     def n(self) -> int:
         """Number of coordinates."""
