@@ -19,8 +19,8 @@ Large models stay usable (issue 22): the whole pipeline, each run a fresh proces
     python benchmarks/spatial_chain.py 20 --pipeline [--repeat R] [--backends numba,scipy] [--t-end T]
     python benchmarks/spatial_chain.py --panda [--repeat R] [--backends numba,scipy] [--t-end T]
 
-load, derive, compile (each backend named: numba is the default one, scipy the portable SymEngine path;
-none: load and derive only)
+load, derive, compile (each backend named: numba is the default one, scipy the portable SymEngine path,
+c the generated C compiled by the system's compiler; none: load and derive only)
 and simulate T seconds (default 1) of the n-rod chain (--pipeline) or of the 7-joint Franka Emika Panda
 read from example-robot-data's URDF (--panda; its fingers removed: a mimic joint). Each repeat runs the
 model twice: first under a model name never used before (its generated code is new: written, compiled and

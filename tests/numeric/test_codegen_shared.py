@@ -151,3 +151,25 @@ def test_the_five_rod_chain_takes_the_shared_path_and_agrees_with_cse(monkeypatc
     core = eqs.core
     assert _codegen._tree_size((*core.M, *core.f), _codegen.SHARED_FROM) > _codegen.SHARED_FROM
     _agree(eqs, monkeypatch, states=3)
+
+
+@pytest.mark.slow
+def test_the_five_rod_chain_simulates_through_the_shared_path_and_keeps_its_energy():
+    """The C backend (the same _Printer, so the shared path) of 5 rods in space: energy conserved over a short run
+    (the generated numbers against SymEngine's cse: the test above)."""
+    import sys
+
+    from lagrangian.numeric._cbackend import c_compiler
+
+    if c_compiler() is None:
+        pytest.skip("no C compiler ($CC, cc or gcc) for the C backend")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    from spatial_chain import chain_text
+
+    from lagrangian.io import loads_model
+
+    eqs = lg.derive(loads_model(chain_text(5)))
+    c_run = lg.simulate(eqs, backend="c", t_end=0.05, rtol=1e-11, atol=1e-11)
+    energy = np.asarray(c_run.energy)
+    assert np.all(np.isfinite(np.asarray(c_run.x))) and np.ptp(np.asarray(c_run.x), axis=0).max() > 0.1  # it moved
+    assert abs(energy[-1] - energy[0]) <= 1e-8 * max(1.0, abs(energy[0]))
