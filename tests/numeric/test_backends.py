@@ -226,3 +226,27 @@ def test_every_backend_gives_a_constrained_model_s_state_equations():
     # gravity's part -g 0.6 along the tangent (0.8, 0.6)
     assert a[2] * 0.6 - a[3] * 0.8 == pytest.approx(-(0.3**2 + 0.225**2), abs=1e-12)
     assert a[2] * 0.8 + a[3] * 0.6 == pytest.approx(-9.81 * 0.6, abs=1e-12)
+
+
+@pytest.mark.skipif(not HAVE_C, reason="the C backend needs cffi and a C compiler")
+def test_a_large_source_is_compiled_at_o1_with_the_same_numbers(monkeypatch, tmp_path):
+    """gcc -O2's register allocation grows faster than linearly with a function's length (the 5-rod spatial
+    chain: about 600 s); a source past LARGE_SOURCE characters is compiled at -O1, a separate cache entry,
+    with the same numbers (no fast-math either way)."""
+    from lagrangian.numeric import _cbackend, _fast
+    from lagrangian.numeric._codegen import c_source
+
+    eqs = lg.derive(lg.load("double-pendulum"))
+    source = c_source(eqs)
+    assert len(source) < _cbackend.LARGE_SOURCE
+    assert _cbackend.compiler_flags(source)[0] == "-O2"
+    assert _cbackend.compiler_flags("x" * (_cbackend.LARGE_SOURCE + 1))[0] == "-O1"
+    monkeypatch.setenv("LAGRANGIAN_CACHE_DIR", str(tmp_path))
+    o2 = lg.simulate(eqs, backend="c", t_end=2.0)
+    _fast._CACHE.pop(eqs, None)
+    monkeypatch.setattr(_cbackend, "LARGE_SOURCE", 0)
+    o1 = lg.simulate(eqs, backend="c", t_end=2.0)
+    libraries = sorted(p.name for p in tmp_path.glob("lagrangian_c_*.so"))
+    assert len(libraries) == 2  # two flags, two entries
+    np.testing.assert_array_equal(o1.x, o2.x)
+    np.testing.assert_array_equal(o1.energy, o2.energy)

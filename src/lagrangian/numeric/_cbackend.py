@@ -34,6 +34,17 @@ def c_compiler() -> str | None:
 
 #: The compiler's flags (part of the cache key).
 _FLAGS = ("-O2", "-shared", "-fPIC")
+#: A source longer than this (characters) is compiled with _LARGE_FLAGS: -O2's register allocation grows
+#: faster than linearly with a function's length. The 5-rod spatial chain's 720 KB source: -O2 about
+#: 600 s of gcc (loaded machine), -O1 41 s, -O0 1.5 s; one right-hand side 3.4, 3.5 and 8.6 us.
+LARGE_SOURCE = 256 * 1024
+_LARGE_FLAGS = ("-O1", "-shared", "-fPIC")
+
+
+def compiler_flags(source: str) -> tuple[str, ...]:
+    """The flags `source` is compiled with: -O2, or -O1 for a source past LARGE_SOURCE characters (as fast to
+    run, and an order of magnitude faster to compile there)."""
+    return _FLAGS if len(source) <= LARGE_SOURCE else _LARGE_FLAGS
 
 
 def compile_c(equations: Equations):
@@ -58,7 +69,8 @@ def compile_c(equations: Equations):
 
         source += "\n" + constrained_c(equations)
         declarations += constrained_declarations
-    key = source_key(source, "c", cc, *_FLAGS)
+    flags = compiler_flags(source)
+    key = source_key(source, "c", cc, *flags)
     folder = cache_dir()
     src = folder / f"lagrangian_c_{key}.c"
     lib_path = folder / f"lagrangian_c_{key}.so"
@@ -66,7 +78,7 @@ def compile_c(equations: Equations):
     if not lib_path.exists():  # the library is stored only once the compiler built it
         fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".so", dir=folder)
         os.close(fd)
-        cmd = [*cc.split(), *_FLAGS, "-o", tmp, str(src), "-lm"]
+        cmd = [*cc.split(), *flags, "-o", tmp, str(src), "-lm"]
         run = subprocess.run(cmd, capture_output=True, text=True)
         if run.returncode != 0:
             os.unlink(tmp)
