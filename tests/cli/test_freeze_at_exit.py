@@ -49,3 +49,22 @@ def test_a_piped_output_is_complete():
     assert out.returncode == 0, out.stderr
     data = json.loads(out.stdout)
     assert data
+
+
+def test_the_young_generation_is_collected_less_often_and_a_higher_setting_kept():
+    script = textwrap.dedent("""
+        import gc, sys
+        from lagrangian.cli import main
+        assert gc.get_threshold() == (700, 10, 10), gc.get_threshold()
+        main(["examples"])
+        print(gc.get_threshold(), flush=True)
+    """)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=_env(), timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == f"({cli._GEN0}, 10, 10)"
+    higher = script.replace("from lagrangian.cli import main",
+                            "gc.set_threshold(50000, 5, 5)\nfrom lagrangian.cli import main")
+    higher = higher.replace("assert gc.get_threshold() == (700, 10, 10), gc.get_threshold()", "")
+    out = subprocess.run([sys.executable, "-c", higher], capture_output=True, text=True, env=_env(), timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "(50000, 5, 5)"

@@ -72,17 +72,26 @@ def _freeze_at_exit() -> None:
     """Have the objects a command leaves frozen (``gc.freeze``) when the process exits, once per process:
     Python's collections at shutdown then do not walk them. A command that built large symbolic
     expressions leaves millions (the bicycle's report: 0.5 s of CPU after its last line, of 4). Nothing
-    else changes: the exit handlers run, the files and streams are flushed and closed as before."""
+    else changes: the exit handlers run, the files and streams are flushed and closed as before.
+
+    Also, once: the youngest generation's threshold is raised to _GEN0 objects (where it was lower), so that
+    the collector runs less often over the symbolic work's many young objects: the bicycle's report 3.85 ->
+    3.5 s of CPU with the same peak memory (289 MB). Cyclic garbage is still collected."""
     global _FREEZE_REGISTERED
     if not _FREEZE_REGISTERED:
         import atexit
         import gc
 
         atexit.register(gc.freeze)
+        threshold = gc.get_threshold()
+        if threshold[0] < _GEN0:
+            gc.set_threshold(_GEN0, *threshold[1:])
         _FREEZE_REGISTERED = True
 
 
 _FREEZE_REGISTERED = False
+#: The youngest generation's collection threshold the command line sets (Python's default: 700).
+_GEN0 = 20_000
 
 
 def main(argv: Sequence[str] | None = None) -> int:
