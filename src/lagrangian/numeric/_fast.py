@@ -451,6 +451,28 @@ def no_sampling(m: int) -> tuple[Sampling, np.ndarray]:
     return _NO_SAMPLING[m]
 
 
+def _dop853_arguments(cm, energy, prog, rtol, atol, max_step, first_step, project, nwork, watched, held,
+                      events_nstack) -> tuple:
+    """The kernel's argument tuples (model, program, control, watched, held) of run_dop853 and PreparedDop853."""
+    model = (cm.rhs_address, cm.n, int(project), int(nwork), *energy)
+    program = (prog.ops, prog.args, prog.starts, max(prog.nstack, events_nstack))
+    control = (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), float(first_step))  # see MIN_RTOL
+    return model, program, control, watched, held
+
+
+def _call_dop853(args, x0, times, p, arrays, progress) -> int:
+    """The compiled DOP853 on the prepared `args` into `arrays` (X, info, stats, U, E, done), with the
+    progress bar where asked (see run_dop853)."""
+    model, program, control, watched, held = args
+
+    def call():
+        return kernels().dop853(model, x0, times, p, program, control, watched, held, arrays)
+
+    if progress is False:
+        return call()
+    return _with_progress(call, arrays[2], len(times), progress, lambda: not compiled(kernels().dop853))
+
+
 def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf,
                first_step: float = 0.0, events=None, terminal=(), progress: bool | None = None,
                sampling: Sampling | None = None, project: int = 0, nwork: int = 0, outputs: bool = True) -> RawRun:
@@ -485,21 +507,12 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
         U, E, energy = np.empty((len(times), m)), np.empty(len(times)), (cm.energy_address, cm.energy_rows_address)
     else:
         U, E, energy = _NO_OUTPUTS[0], _NO_OUTPUTS[1], (0, 0)
-    model = (cm.rhs_address, n, int(project), int(nwork), *energy)
-    program = (prog.ops, prog.args, prog.starts, max(prog.nstack, events.nstack))
-    control = (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), float(first_step))  # see MIN_RTOL
-    watched = (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n)
-    held = (sampling.hold, sampling.samples, sampling.which, hist)
-
+    args = _dop853_arguments(cm, energy, prog, rtol, atol, max_step, first_step, project, nwork,
+                             (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n),
+                             (sampling.hold, sampling.samples, sampling.which, hist), events.nstack)
     p = _nonempty(np.ascontiguousarray(p, dtype=float))
     done = np.zeros(1, np.int64)
-
-    def call():
-        return kernels().dop853(model, np.array(x0, dtype=float), times, p, program, control, watched, held,
-                                (X, info, stats, U, E, done))
-
-    status = call() if progress is False else _with_progress(call, stats, len(times), progress,
-                                                              lambda: not compiled(kernels().dop853))
+    status = _call_dop853(args, np.array(x0, dtype=float), times, p, (X, info, stats, U, E, done), progress)
     nfev, nstep, nreject, k, nswitch = stats.tolist()
     if outputs and k > done[0]:  # the rows written where it stopped: their output stage
         d = int(done[0])
@@ -541,25 +554,16 @@ class PreparedDop853:
         self.p = _nonempty(np.ascontiguousarray(p, dtype=float))
         self.prog = prog
         self.energy = (cm.energy_address, cm.energy_rows_address)
-        self.args = ((cm.rhs_address, n, 0, 0, *self.energy), (prog.ops, prog.args, prog.starts,
-                                                             max(prog.nstack, events.nstack)),
-                     (0.0, max(float(rtol), _MIN_RTOL), float(atol), float(max_step), 0.0),
-                     (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n),
-                     (sampling.hold, sampling.samples, sampling.which, hist))
+        self.args = _dop853_arguments(cm, self.energy, prog, rtol, atol, max_step, 0.0, 0, 0,
+                                      (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n),
+                                      (sampling.hold, sampling.samples, sampling.which, hist), events.nstack)
 
     def run(self, progress: bool | None = None):
         """(status, X, U, E, stats, info, done) of one run (the kernel's own arrays; see raw)."""
         rows = len(self.times)
         X, U, E = np.empty((rows, 2 * self.n)), np.empty((rows, self.m)), np.empty(rows)
         info, stats, done = np.zeros(2 + 2 * self.n), np.zeros(5, dtype=np.int64), np.zeros(1, np.int64)
-        model, program, control, watched, held = self.args
-
-        def call():
-            return kernels().dop853(model, self.x0.copy(), self.times, self.p, program, control, watched, held,
-                                    (X, info, stats, U, E, done))
-
-        status = call() if progress is False else _with_progress(call, stats, rows, progress,
-                                                                  lambda: not compiled(kernels().dop853))
+        status = _call_dop853(self.args, self.x0.copy(), self.times, self.p, (X, info, stats, U, E, done), progress)
         return status, X, U, E, stats, info, done
 
     def raw(self, status, X, U, E, stats, info, done) -> RawRun:
