@@ -201,8 +201,8 @@ def test_a_floating_quaternion_body_falls_as_the_closed_form_while_it_tumbles():
     assert np.max(np.abs(E - E[0])) < 1e-9 * E[0] and np.max(np.abs(L - L[0])) < 1e-9 * np.linalg.norm(L[0])
 
 
-def test_the_model_file_key_builds_the_same_joint():
-    text = '''name = "top"
+#: The heavy top as a model file: {joint} adds keys to its joint, {simulation} to its [simulation] table.
+_TOP_FILE = '''name = "top"
 [parameters]
 m = 1.0
 g = 9.81
@@ -210,12 +210,11 @@ l = 0.1
 I1 = 0.02
 I2 = 0.03
 I3 = 0.01
-c = 0.05
 [[joints]]
 name = "ball"
 type = "spherical"
 parametrization = "quaternion"
-damping = "c"
+{joint}
 [[bodies]]
 mass = "m"
 frame = "ball"
@@ -224,9 +223,17 @@ center = ["0", "0", "l"]
 [gravity]
 g = "g"
 [simulation]
-t_end = 1.0
+t_end = 0.05
+{simulation}
 '''
-    a = loads_model(text)
+
+
+def test_the_model_file_key_builds_the_same_joint():
+    def text(simulation=""):  # the top with a rotational damper c
+        top = _TOP_FILE.format(joint='damping = "c"', simulation=simulation)
+        return top.replace("I3 = 0.01\n", "I3 = 0.01\nc = 0.05\n")
+
+    a = loads_model(text())
     b = _top("quaternion")
     b.parameter("c", 0.05)
     with pytest.raises(ModelError):  # a model is built once: the damping goes in add_joint
@@ -245,7 +252,7 @@ t_end = 1.0
     w = sp.Matrix(quaternion_rate(a.q))
     assert sp.expand(ea.D - sp.Symbol("c") * (w.T * w)[0] / 2) == 0
     # the file's own initial values replace the default q0 = 1
-    c = loads_model(text.replace("t_end = 1.0", "initial = { ball_q3 = 1.0 }"))
+    c = loads_model(text("initial = { ball_q3 = 1.0 }"))
     assert c.simulation["initial"] == {"ball_q3": 1.0}
 
 
@@ -441,30 +448,6 @@ def test_a_free_body_started_with_quaternion_rates_turns_at_omega():
 
 # ------------------------------------------------------------------ the initial angular velocity: omega
 
-_TOP_FILE = '''name = "top"
-[parameters]
-m = 1.0
-g = 9.81
-l = 0.1
-I1 = 0.02
-I2 = 0.03
-I3 = 0.01
-[[joints]]
-name = "ball"
-type = "spherical"
-parametrization = "quaternion"
-{joint}
-[[bodies]]
-mass = "m"
-frame = "ball"
-inertia = ["I1", "I2", "I3"]
-center = ["0", "0", "l"]
-[gravity]
-g = "g"
-[simulation]
-t_end = 0.05
-{simulation}
-'''
 
 
 def _start_of(traj):
