@@ -182,6 +182,7 @@ class SteadyState:
         self._constraints_fun = compile_equations(equations)._group("constraints").fun
         self._sizes: dict[int, tuple[int, int]] = {}  # the compiled functions' (inputs, outputs) a point, checked
         self._last = None
+        self._workspace = None  # the C kernels' arrays (_steady_c.Workspace) once the sizes are checked, or False
 
     def state(self, setting: Setting, q: np.ndarray) -> np.ndarray:
         """(q, q_dot): given rates, the free ignorable ones from the constraints, the shape at rest."""
@@ -228,17 +229,16 @@ class SteadyState:
         each point in compiled loops (``_steady_kernel``); with the constraint Jacobians and the size of
         the terms of the accelerations at each point (``term_scale`` without the squared rates). A row of
         NaN where a point is singular or not finite (the caller asks `values` for those)."""
-        from ._steady_kernel import free_rates, steady_rows
-
+        kernel = steady_kernels()
         cm = self.cm
         n, m, k = cm.n, cm.m, len(A)
         C = self._batch(self._constraints_fun, A)
         bad = np.zeros(k, dtype=np.bool_)
-        w = free_rates(C, A, self._free, n, m, bad)
+        w = kernel.free_rates(C, A, self._free, n, m, bad)
         P = self._batch(cm._parts, A)
         rows = np.empty((k, len(self.held) + len(cm.holonomic) + m))
         scale = np.empty(k)
-        steady_rows(P, w, C[:, m * n:m * n + m], self._held, self._hol, n, m, SINGULAR_RATIO, bad, rows, scale)
+        kernel.steady_rows(P, w, C[:, m * n:m * n + m], self._held, self._hol, n, m, SINGULAR_RATIO, bad, rows, scale)
         return rows, C[:, :m * n].reshape(k, m, n), scale
 
     def _batch(self, fun, A: np.ndarray) -> np.ndarray:
@@ -285,9 +285,13 @@ class SteadyState:
 
     def __call__(self, setting: Setting, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(r, dr/dz) in the shape coordinates z."""
-        from ._steady_kernel import central_jacobian, differences, points
-
         q = np.asarray(q, float)
+        ws = self._workspace
+        if ws:  # the batch in the C kernels' arrays: where every point is finite, done
+            with np.errstate(all="ignore"):
+                if self._fast(ws, setting, q):
+                    return ws.R[0].copy(), ws.J.copy()
+        kernel = steady_kernels()
         n, k = self.cm.n, len(self.shape)
         a, kh = len(self.held), len(self.cm.holonomic)
         with np.errstate(all="ignore"):
@@ -295,13 +299,15 @@ class SteadyState:
             h = 1e-5 * (1.0 + np.abs(q[self._shape]))
             u, p = self._arguments(setting)
             A = np.empty((2 * k + 1, 1 + 2 * n + len(u) + len(p)))
-            points(A, float(setting.t), u, p, q, self._shape, h, self._given, self._given_values)
+            kernel.points(A, float(setting.t), u, p, q, self._shape, h, self._given, self._given_values)
             R, Ws, scales = self._rows_batch(setting, A)
             J = np.empty((R.shape[1], k))
+            if ws is None:
+                self._workspace = self._new_workspace(u, p) or False
             # central differences: error O(h^2) + round-off/h, about 1e-10 relative; their round-off
             # (about 1e-11 of the terms) as exact zeros, so that a set of steady motions (a knife edge
             # sliding at any heading) shows as a singular Jacobian
-            if central_jacobian(R, A, Ws, scales, q, h, n, a, kh, J):
+            if kernel.central_jacobian(R, A, Ws, scales, q, h, n, a, kh, J):
                 return R[0].copy(), J
         finite = np.isfinite(R).all(axis=1)
         r = R[0] if finite[0] else self.values(setting, q)[3]
@@ -320,8 +326,34 @@ class SteadyState:
             floor[:a] = scale
             floor[a:a + kh] = 1.0 + np.max(np.abs(q))
             floor[a + kh:] = (1.0 + np.max(np.abs(x[n:]))) * (1.0 + np.max(np.abs(W), initial=0.0))
-            differences(R, h, floor, J)
+            kernel.differences(R, h, floor, J)
         return r, J
+
+    def _new_workspace(self, u: np.ndarray, p: np.ndarray):
+        """The C kernels' arrays for this evaluator (_steady_c.Workspace), once both compiled functions' sizes
+        are checked (by the first batch); None without the C kernels (numba's then, point by point)."""
+        from ._steady_c import CKernels, Workspace
+
+        kernel, cm = steady_kernels(), self.cm
+        sizes = [self._sizes.get(id(fun)) for fun in (self._constraints_fun, cm._parts)]
+        if not isinstance(kernel, CKernels) or None in sizes:
+            return None
+        return Workspace(kernel.lib, cm.n, cm.m, self.shape, self.free, self.held, cm.holonomic, list(self.given),
+                         list(self.given.values()), len(u), len(p), sizes[0][1], sizes[1][1])
+
+    def _fast(self, ws, setting: Setting, q: np.ndarray) -> bool:
+        """The batch of __call__ in the workspace `ws` (the same kernels' operations on the same arrays, without
+        their allocation and checks); True where every point is finite (r is ws.R[0], dr/dz ws.J), else False
+        (the caller takes the whole way, which decides the points that are not)."""
+        if ws.setting is not setting:
+            u, p = self._arguments(setting)
+            ws.u[:], ws.p[:], ws.setting = u, p, setting
+        rows = ws.A.shape[0]
+        ws.points(float(setting.t), q)
+        self._constraints_fun.unsafe_eval(ws.A, ws.C, rows)
+        ws.free_rates()
+        self.cm._parts.unsafe_eval(ws.A, ws.P, rows)
+        return ws.rows_jacobian(SINGULAR_RATIO)
 
     def _arguments(self, setting: Setting) -> tuple[np.ndarray, np.ndarray]:
         """(u, p) of the setting as float arrays (kept for the last setting: the search asks thousands
@@ -330,6 +362,19 @@ class SteadyState:
         if last is None or last[0] is not setting:
             last = self._last = (setting, np.asarray(setting.u, float).ravel(), np.asarray(setting.p, float).ravel())
         return last[1], last[2]
+
+
+def steady_kernels():
+    """The steady residual's compiled loops: the C kernels (_steady_c, no numba to start), or numba's
+    (_steady_kernel) where there is no C compiler; the same numbers bit for bit."""
+    from ._steady_c import kernels
+
+    found = kernels()
+    if found is not None:
+        return found
+    from . import _steady_kernel
+
+    return _steady_kernel
 
 
 def _angles(evaluator: SteadyState, setting: Setting, n: int) -> tuple[bool, ...]:
