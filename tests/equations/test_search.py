@@ -201,3 +201,47 @@ def test_least_squares_by_leastsq_is_least_squares_iterate_for_iterate(seed, mon
     bad = lambda z: (np.array([np.nan, z[0]]), np.eye(2))  # noqa: E731
     assert _search.least_squares(bad, np.zeros(2), 2) is None
     assert _search.least_squares(singular, np.array([np.inf, 0.0]), 2) is None
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_newton_is_scipys_root_iterate_for_iterate(seed):
+    """newton calls MINPACK's hybrj and lmder through fsolve and leastsq as scipy.optimize.root(jac=True,
+    method="hybr" or "lm") calls them: the same answer bit for bit (a square system, one with fewer rows,
+    padded, one with more rows, one singular at its root), and None where root raises (a residual that is
+    not finite at the start)."""
+    import scipy.optimize
+
+    from lagrangian.equations import _search
+
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(5, 3))
+    B = A[:3]
+
+    def square(z):
+        return np.tanh(B @ z) + 0.1 * z.sum() ** 2 - 0.3, (1 - np.tanh(B @ z) ** 2)[:, None] * B + 0.2 * z.sum()
+
+    def over(z):
+        return np.tanh(A @ z) + 0.1 * z.sum() ** 2 - 0.3, (1 - np.tanh(A @ z) ** 2)[:, None] * A + 0.2 * z.sum()
+
+    def under(z):
+        return np.array([z[0] ** 2 + z[1] - 1.0, np.sin(z[2]) * z[0]]), np.array(
+            [[2 * z[0], 1.0, 0.0], [np.sin(z[2]), 0.0, z[0] * np.cos(z[2])]])
+
+    def singular(z):
+        return np.array([(z[0] - 1.0) ** 2, z[1] - 2.0]), np.array([[2 * (z[0] - 1.0), 0.0], [0.0, 1.0]])
+
+    for fun, k, rows in ((square, 3, 3), (over, 3, 5), (under, 3, 2), (singular, 2, 2)):
+        z0 = rng.uniform(-2, 2, k)
+        solve = _search._padded(fun, k, rows)
+        with np.errstate(all="ignore"):
+            if rows <= k:
+                want = scipy.optimize.root(solve, z0, jac=True, method="hybr", options={"xtol": _search.NEWTON_XTOL}).x
+            else:
+                want = scipy.optimize.root(solve, z0, jac=True, method="lm",
+                                           options={"xtol": _search.NEWTON_XTOL, "ftol": _search.PRECISE}).x
+        assert np.array_equal(_search.newton(fun, z0, rows), want)
+
+    def bad(z):
+        raise ValueError("not finite")
+
+    assert _search.newton(lambda z: bad(z), np.zeros(2), 2) is None

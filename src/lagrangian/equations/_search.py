@@ -114,26 +114,43 @@ def _padded(fun: Residual, k: int, rows: int) -> Residual:
     return padded
 
 
+def _memo(fun: Residual) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """`fun` evaluated once per point: MINPACK asks for r and dr/dz at a point separately (one evaluation
+    serves both), as SciPy's MemoizeJac does (a new evaluation where the point differs from the last one,
+    compared as np.array_equal does), without its checks."""
+    last: list = [None, None]
+
+    def evaluate(z):
+        if last[0] is None or last[0].shape != np.shape(z) or not (last[0] == z).all():
+            last[:] = [np.array(z, dtype=float), fun(z)]
+        return last[1]
+
+    return evaluate
+
+
 def newton(fun: Residual, z0, rows: int):
     """The solution of r(z) = 0 from z0 (`rows`: the length of r): Powell's hybrid method where the
     rows are as many as the unknowns or fewer (zero rows added), Levenberg-Marquardt where they are
     more (the minimum of |r|). Returns the last iterate, checked by the caller; None where the solve
-    raised (a residual that is not finite)."""
-    import scipy.optimize
+    raised (a residual that is not finite).
+
+    MINPACK's hybrj and lmder are called as SciPy's root(jac=True, method="hybr" or "lm") calls them
+    (through fsolve and leastsq, with the same arguments: the same iterates bit for bit), without
+    root's wrappers of each evaluation (MemoizeJac, the counters)."""
+    from scipy.optimize import fsolve, leastsq
 
     z0 = np.asarray(z0, dtype=float)
     k = len(z0)
-    solve = _padded(fun, k, rows)
+    evaluate = _memo(_padded(fun, k, rows))
     try:
         with np.errstate(all="ignore"):
             if rows <= k:
-                sol = scipy.optimize.root(solve, z0, jac=True, method="hybr", options={"xtol": NEWTON_XTOL})
-            else:
-                sol = scipy.optimize.root(solve, z0, jac=True, method="lm",
-                                          options={"xtol": NEWTON_XTOL, "ftol": PRECISE})
+                return fsolve(lambda z: evaluate(z)[0], z0, fprime=lambda z: evaluate(z)[1], full_output=True,
+                              xtol=NEWTON_XTOL)[0]
+            return leastsq(lambda z: evaluate(z)[0], z0, Dfun=lambda z: evaluate(z)[1], full_output=True,
+                           xtol=NEWTON_XTOL, ftol=PRECISE)[0]
     except (ValueError, FloatingPointError, np.linalg.LinAlgError):
         return None
-    return sol.x
 
 
 def least_squares(fun: Residual, z0, rows: int):
@@ -143,14 +160,7 @@ def least_squares(fun: Residual, z0, rows: int):
     from scipy.optimize import least_squares as lm
 
     z0 = np.asarray(z0, dtype=float)
-    solve = _padded(fun, len(z0), rows)
-    last: list = [None, None]  # SciPy asks for r and dr/dz at a point separately: one evaluation serves both
-
-    def evaluate(z):
-        if last[0] is None or last[0].shape != np.shape(z) or not (last[0] == z).all():  # np.array_equal
-            last[:] = [np.array(z, dtype=float), solve(z)]
-        return last[1]
-
+    evaluate = _memo(_padded(fun, len(z0), rows))
     try:
         if _lm_diag_none():  # least_squares' own call of MINPACK, without its wrappers of each evaluation
             from scipy.optimize import leastsq
