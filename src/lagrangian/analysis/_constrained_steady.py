@@ -287,10 +287,8 @@ class SteadyState:
         """(r, dr/dz) in the shape coordinates z."""
         q = np.asarray(q, float)
         ws = self._workspace
-        if ws:  # the batch in the C kernels' arrays: where every point is finite, done
-            with np.errstate(all="ignore"):
-                if self._fast(ws, setting, q):
-                    return ws.R[0].copy(), ws.J.copy()
+        if ws and self._fast(ws, setting, q):  # the batch in the C kernels' arrays, every point finite: done
+            return ws.R[0].copy(), ws.J.copy()
         kernel = steady_kernels()
         n, k = self.cm.n, len(self.shape)
         a, kh = len(self.held), len(self.cm.holonomic)
@@ -344,7 +342,8 @@ class SteadyState:
     def _fast(self, ws, setting: Setting, q: np.ndarray) -> bool:
         """The batch of __call__ in the workspace `ws` (the same kernels' operations on the same arrays, without
         their allocation and checks); True where every point is finite (r is ws.R[0], dr/dz ws.J), else False
-        (the caller takes the whole way, which decides the points that are not)."""
+        (the caller takes the whole way, which decides the points that are not). No NumPy arithmetic: no
+        floating-point state to set."""
         if ws.setting is not setting:
             u, p = self._arguments(setting)
             ws.u[:], ws.p[:], ws.setting = u, p, setting
