@@ -285,3 +285,23 @@ def test_notes_say_what_was_not_searched_and_why():
     assert report.notes == ("The model's initial values do not meet the constraints and could not be moved onto "
                             "them: G's rank is given at those values.",)
     assert not report.singular and report.initial_rank == 0  # G = (2x, 2y) = 0 at x = y = 0
+
+
+def test_the_searchs_point_call_is_the_lambdify_call_bit_for_bit():
+    """_constraint_singular._point_call: SymEngine's unsafe_eval into a new array at one point, the numbers of
+    fn(x) bit for bit (not finite ones too); anything but a vector of the arguments goes to fn(x) itself (which
+    refuses a wrong length)."""
+    import symengine as se
+
+    from lagrangian.equations._constraint_singular import _point_call
+    from lagrangian.equations._lambdify import lambdify
+
+    a, b = se.symbols("a b")
+    fn = lambdify([a, b], [se.sin(a) * b, a / b, se.sqrt(a) + b ** 3])
+    call = _point_call(fn, 2, 3)
+    rng = np.random.default_rng(1)
+    for x in [*rng.uniform(-2, 2, (20, 2)), np.array([1.0, 0.0]), np.array([np.nan, 1.0]), [0.5, 2]]:
+        want = np.asarray(fn(np.asarray(x, float)), float).ravel()
+        assert call(x).tobytes() == want.tobytes()
+    with pytest.raises((ValueError, TypeError)):
+        call(np.zeros(3))

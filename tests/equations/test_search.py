@@ -245,3 +245,16 @@ def test_newton_is_scipys_root_iterate_for_iterate(seed):
         raise ValueError("not finite")
 
     assert _search.newton(lambda z: bad(z), np.zeros(2), 2) is None
+
+
+def test_padded_rows_are_the_concatenated_zeros():
+    from lagrangian.equations import _search
+
+    def fun(z):
+        return np.array([z[0] - 1.0, np.nan]), np.array([[1.0, 2.0, 3.0], [np.inf, -0.0, 5.0]])
+
+    r, J = _search._padded(fun, 3, 2)(np.zeros(3))
+    r0, J0 = fun(np.zeros(3))
+    want_r, want_J = np.concatenate((r0, np.zeros(1))), np.vstack((J0, np.zeros((1, 3))))
+    assert r.tobytes() == want_r.tobytes() and J.tobytes() == want_J.tobytes() and J.shape == (3, 3)
+    assert _search._padded(fun, 2, 2) is fun

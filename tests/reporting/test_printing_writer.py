@@ -89,3 +89,29 @@ def test_a_symbol_name_with_markup_is_escaped_in_mathml():
     assert "<b>" not in out and "<script>" not in out
     assert "a&lt;b&gt;&amp;c" in out and "x&lt;/mi&gt;&lt;script&gt;" in out
     assert mathml(sympy.Symbol("theta")) == "<mi>&#952;</mi>" and mathml(sympy.Symbol("ell")) == "<mi>&#8467;</mi>"
+
+
+def test_too_large_counts_the_nodes_preorder_traversal_visits():
+    """_printing.too_large counts from a stack the nodes sympy.preorder_traversal visits (nested sums and
+    products, a shared subexpression counted at each place, a matrix, Max's argument set, a tuple with text in
+    it): None up to the limit, limit + 1 past it, at every limit around each object's size."""
+    x, y, z = sympy.symbols("x y z")
+    shared = sympy.sin(x + y) * sympy.cos(z) + x ** 2
+    objects = [x, sympy.Integer(3), shared, shared * (shared + 1) - sympy.sqrt(shared), sympy.Max(x, y, shared),
+               sympy.ImmutableMatrix([[shared, x], [0, sympy.exp(-y)]]), (shared, "text", x + 1), ("only text",),
+               sympy.Eq(x, shared, evaluate=False)]
+
+    def traversal(obj, limit):
+        count = 0
+        for item in obj if isinstance(obj, tuple) else (obj,):
+            if isinstance(item, sympy.Basic):
+                for _ in sympy.preorder_traversal(item):
+                    count += 1
+                    if count > limit:
+                        return count
+        return None
+
+    for obj in objects:
+        size = 0 if traversal(obj, 0) is None else next(n for n in range(1, 1000) if traversal(obj, n) is None)
+        for limit in sorted({0, 1, 2, size - 1, size, size + 1, 400} - {-1}):
+            assert _printing.too_large(obj, limit) == traversal(obj, limit), (obj, limit)

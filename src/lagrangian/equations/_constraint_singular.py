@@ -369,17 +369,16 @@ class _Numbers:
         self.q = list(core.q)
         self.g_exprs = [se.sympify(core.g[k]).subs(subs) for k in self.hol]
         self.G_exprs = [[se.sympify(core.G[k, j]).subs(subs) for j in range(self.n)] for k in range(self.m)]
-        self._g = lambdify(self.q, self.g_exprs or [se.Integer(0)])
-        self._G = lambdify(self.q, [e for row in self.G_exprs for e in row])
+        self._g = _point_call(lambdify(self.q, self.g_exprs or [se.Integer(0)]), self.n, len(self.g_exprs) or 1)
+        self._G = _point_call(lambdify(self.q, [e for row in self.G_exprs for e in row]), self.n, self.m * self.n)
         self._systems: dict = {}
         self.assembled: dict = {}  # _assemble's results without held coordinates, by (start, scale)
 
     def g(self, q) -> np.ndarray:
-        out = np.asarray(self._g(np.asarray(q, float)), float).ravel()
-        return out[:len(self.hol)]
+        return self._g(q)[:len(self.hol)]
 
     def G(self, q) -> np.ndarray:
-        return np.asarray(self._G(np.asarray(q, float)), float).reshape(self.m, self.n)
+        return self._G(q).reshape(self.m, self.n)
 
     def system(self, rows, cols):
         """z = (q, y) -> (F, dF/dz) of F = (g(q), A(q)^T y, |y|^2 - 1) with A = G[rows][:, cols]: its zeros
@@ -392,15 +391,33 @@ class _Numbers:
             F.append(sum((v * v for v in y), se.Integer(0)) - 1)
             z = self.q + y
             J = [se.diff(f, v) for f in F for v in z]
-            fn = lambdify(z, F + J)
             size, width = len(F), len(z)
+            fn = _point_call(lambdify(z, F + J), width, size + size * width)
 
             def evaluate(zz, fn=fn, size=size, width=width):
-                out = np.asarray(fn(np.asarray(zz, float)), float).ravel()
+                out = fn(zz)
                 return out[:size], out[size:].reshape(size, width)
 
             self._systems[key] = evaluate
         return self._systems[key]
+
+
+def _point_call(fn, args: int, outputs: int):
+    """`fn` (a SymEngine Lambdify of `args` arguments and `outputs` outputs) at one point, as a flat float
+    array: by its ``unsafe_eval`` into a new array where the point is a contiguous vector of `args` floats (the
+    same compiled code as ``fn(x)``, without the checks and broadcasting of its call: the searches make
+    thousands), else ``np.asarray(fn(x), float).ravel()``."""
+    unsafe = getattr(fn, "unsafe_eval", None)
+
+    def call(x):
+        x = np.asarray(x, float)
+        if unsafe is None or x.shape != (args,) or not x.flags.c_contiguous:
+            return np.asarray(fn(x), float).ravel()
+        out = np.empty(outputs)
+        unsafe(x, out, 1)
+        return out
+
+    return call
 
 
 def _assemble(num: _Numbers, q, held=(), scale=1.0):

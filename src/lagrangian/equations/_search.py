@@ -109,7 +109,11 @@ def _padded(fun: Residual, k: int, rows: int) -> Residual:
 
     def padded(z):
         r, J = fun(z)
-        return np.concatenate((r, np.zeros(pad))), np.vstack((J, np.zeros((pad, k))))
+        m = len(r)
+        out, jac = np.zeros(m + pad), np.zeros((m + pad, k))  # np.concatenate and np.vstack's arrays, made
+        out[:m] = r                                            # without their checks (MINPACK calls it
+        jac[:m] = J                                            # thousands of times)
+        return out, jac
 
     return padded
 

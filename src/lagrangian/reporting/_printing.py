@@ -15,6 +15,7 @@ from sympy.printing.latex import LatexPrinter
 from sympy.printing.mathml import MathMLPresentationPrinter
 from sympy.printing.printer import Printer
 from sympy.printing.pretty.pretty_symbology import greek_unicode
+from sympy.utilities.iterables import iterable
 
 __all__ = ["Partial", "TimeDerivative", "Rotation", "Given", "ConstraintForce", "latex", "mathml", "too_large",
            "MAX_NODES"]
@@ -358,14 +359,22 @@ def math_element(inner: str, *, block: bool) -> str:
 
 def too_large(obj, limit: int = MAX_NODES) -> int | None:
     """None when `obj` (an expression, matrix or tuple of them) has at most `limit` nodes,
-    else the number of nodes counted so far (more than `limit`). Stops counting early."""
+    else the number of nodes counted so far (more than `limit`). Stops counting early.
+
+    The nodes are those sympy.preorder_traversal visits (a LatticeOp's argument set, the items of an
+    iterable that is not an expression), counted from a stack instead of its nested generators (each
+    node passed up through every generator above it: a third of the bicycle's HTML time)."""
     count = 0
     items = obj if isinstance(obj, tuple) else (obj,)
-    for item in items:
-        if not isinstance(item, sympy.Basic):
-            continue
-        for _ in sympy.preorder_traversal(item):
-            count += 1
-            if count > limit:
-                return count
+    stack = [item for item in items if isinstance(item, sympy.Basic)]
+    basic = sympy.Basic
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > limit:
+            return count
+        if isinstance(node, basic):
+            stack.extend(node._argset if hasattr(node, "_argset") else node.args)
+        elif iterable(node):
+            stack.extend(node)
     return None
