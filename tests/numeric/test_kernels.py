@@ -184,4 +184,87 @@ def test_the_interpolants_coefficients_written_out_in_dop853_are_the_functions_l
     body = text[text.index("    # stage 13\n", start):text.index("\n\n\n", start)]
     written = "\n".join(("        " + line) if line.strip() else line for line in body.split("\n"))
     dop = text[text.index("def dop853("):text.index("def _single_run(")]
-    assert len(body.splitlines()) > 50 and written in dop
+    # (the body: the three stages and the coefficients, now one call of _coefficients, LANES states at a time)
+    assert len(body.splitlines()) > 20 and written in dop
+    assert [f"_ptr(K, {s} * nx)" in body for s in (13, 14, 15)] == [True] * 3 and "_coefficients(" in body
+
+
+def _special_values(rng, shape):
+    """Random doubles of all sizes with signed zeros, subnormals, infinities and NaN among them."""
+    a = rng.standard_normal(shape) * 10.0 ** rng.integers(-300, 300, shape)
+    special = np.array([0.0, -0.0, 5e-324, -5e-324, np.inf, -np.inf, np.nan, 1.0, -1.0])
+    mask = rng.random(shape) < 0.2
+    a[mask] = rng.choice(special, mask.sum())
+    return a
+
+
+@pytest.mark.parametrize("nx", [1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 40])
+def test_the_dense_output_four_states_at_a_time_has_the_float_formulas_bits(nx):
+    # the interpolant's coefficients and its value at an output are computed LANES (4) states at a time as
+    # <4 x double> (the intrinsics emit the formulas' operations in their order, no fast-math); every lane,
+    # and the states past the last whole block of 4, must have the bits of the same formula on Python floats
+    from numba import njit
+
+    k = kernels()
+    assert k.LANES == 4
+
+    @njit
+    def dense(K, y, ynew, h, s, F, out):
+        n = y.shape[0]
+        k._coefficients(k._ptr(K, 0), n, k._ptr(y, 0), k._ptr(ynew, 0), h, k._ptr(F, 0))
+        k._interpolate(k._ptr(F, 0), n, k._ptr(y, 0), s, 1.0 - s, k._ptr(out, 0))
+
+    rng = np.random.default_rng(nx)
+    for trial in range(6):
+        K, y, ynew = _special_values(rng, (16, nx)), _special_values(rng, nx), _special_values(rng, nx)
+        if trial % 2:  # ordinary numbers too (the special ones make most results NaN)
+            K, y, ynew = rng.standard_normal((16, nx)), rng.standard_normal(nx), rng.standard_normal(nx)
+        h, s = float(rng.uniform(1e-3, 1.0)), float(rng.uniform(0.0, 1.0))
+        F, out = np.full((7, nx), 7.0), np.full(nx, 7.0)
+        dense(K, y, ynew, h, s, F, out)
+        for i in range(nx):
+            col = [float(K[j, i]) for j in (0, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15)]
+            expected = k.coefficients(h, float(ynew[i]) - float(y[i]), *col)
+            assert _same_bits(F[:, i], expected), (trial, i)
+            value = k.interpolant(float(y[i]), *(float(f) for f in F[:, i]), s, 1.0 - s)
+            assert _same_bits(out[i:i + 1], [value]), (trial, i)
+        # and the rows of dop853 (_dense_row) equal the one-state-at-a-time _dense it stands for
+        X, row = np.empty((2, nx)), np.empty(nx)
+        k._dense(0.0, h, y, F, s * h, row)
+        _dense_row_of(k)(0.0, h, y, F, s * h, X, 1)
+        assert _same_bits(X[1], row)
+
+
+def _same_bits(a, b) -> bool:
+    """The same doubles bit for bit (signed zeros told apart), NaN where the other is NaN (of any sign and
+    payload: the processor's, as the operands' order in an addition, which the compiler may swap, decides)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    nan = np.isnan(a)
+    return bool((nan == np.isnan(b)).all()) and a[~nan].tobytes() == b[~nan].tobytes()
+
+
+def _dense_row_of(k):
+    from numba import njit
+
+    @njit
+    def call(t, h, y, F, tq, X, j):
+        k._dense_row(t, h, y, F, tq, X, j)
+
+    return call
+
+
+def test_the_dense_output_uses_four_lane_vectors():
+    # the coefficients' and the rows' arithmetic is <4 x double> in dop853's compiled code (numba's own loop
+    # vectorizer would take 8 states at a time: a double pendulum's 4 ran one by one)
+    k = kernels()
+    from numba import njit
+
+    @njit
+    def dense(K, y, ynew, h, s, F, out):
+        n = y.shape[0]
+        k._coefficients(k._ptr(K, 0), n, k._ptr(y, 0), k._ptr(ynew, 0), h, k._ptr(F, 0))
+        k._interpolate(k._ptr(F, 0), n, k._ptr(y, 0), s, 1.0 - s, k._ptr(out, 0))
+
+    dense(np.ones((16, 4)), np.ones(4), np.ones(4), 0.1, 0.5, np.empty((7, 4)), np.empty(4))
+    llvm = dense.inspect_llvm(dense.signatures[0])
+    assert llvm.count("fmul <4 x double>") >= 4 * 12 + 7 and llvm.count("fadd <4 x double>") >= 7
