@@ -282,7 +282,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
 
     from ._compiled import compile_equations
 
-    cm = nm if isinstance(nm, CompiledModel) else compile_equations(eq, "numba" if backend == "auto" else backend)
+    cm = nm if isinstance(nm, CompiledModel) else compile_equations(eq, backend)
     project = nwork = 0
     if eq.is_constrained:  # each run from its consistent state, projected after every step
         project, nwork = _constrained_starts(cm, X0, P[:, :k], given_initial, defaults.get("initial"))

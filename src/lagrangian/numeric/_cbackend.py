@@ -10,16 +10,17 @@ Needs cffi (``pip install lagrangian[c]``) and a C compiler (``$CC``, ``cc`` or 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import tempfile
-import types
 
 import numpy as np
 
 from ..equations import Equations
 from ..errors import ModelError
-from ._codegen import C_DECLARATIONS, c_source, cache_dir, source_key, store
+from . import _codegen
+from ._codegen import C_DECLARATIONS, c_source, cache_dir, fingerprint, source_key, store
 
 __all__ = ["compile_c", "c_compiler"]
 
@@ -48,7 +49,12 @@ def compiler_flags(source: str) -> tuple[str, ...]:
 
 
 def compile_c(equations: Equations):
-    """The CompiledModel of `equations` with its functions in C (cached per content hash)."""
+    """The CompiledModel of `equations` with its functions in C (cached per content hash).
+
+    A large model's source (c_source's split form) holds lg_rhs, lg_mass_forcing and lg_energy; its
+    lg_lagrange_parts (the variational integrator's: the 20-rod spatial chain's 26 MB of C) is generated and
+    compiled as a library of its own when first used. A second process finds the library by the fingerprint of
+    the equations (as the numba backend its module: :func:`_codegen.model_module`), without generating the source."""
     from ._fast import _CACHE, _LOCK, CompiledModel
 
     with _LOCK:
@@ -62,16 +68,82 @@ def compile_c(equations: Equations):
     cc = c_compiler()
     if cc is None:
         raise ModelError("backend 'c' needs a C compiler: install gcc (or set $CC), or use backend='numba'")
-    source, declarations = c_source(equations), C_DECLARATIONS
-    if equations.is_constrained:  # the saddle-point rhs and the projection, from numba's template
-        from ._codegen_constrained import C_DECLARATIONS as constrained_declarations
-        from ._codegen_constrained import constrained_c
 
-        source += "\n" + constrained_c(equations)
+    def main_source() -> str:
+        source = c_source(equations, functions=_MAIN)
+        if equations.is_constrained:  # the saddle-point rhs and the projection, from numba's template
+            from ._codegen_constrained import constrained_c
+
+            source += "\n" + constrained_c(equations)
+        return source
+
+    declarations = C_DECLARATIONS
+    if equations.is_constrained:
+        from ._codegen_constrained import C_DECLARATIONS as constrained_declarations
+
         declarations += constrained_declarations
+    src, key, ffi, lib = _library(equations, "main", main_source, declarations, cc, cffi)
+    values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
+    cm = CompiledModel(equations, "c", equations.state_names, tuple(u.name for u in equations.inputs),
+                       tuple(p.name for p in equations.parameters), values, str(src), key,
+                       lib.lg_constrained_rhs if equations.is_constrained else lib.lg_rhs, lib.lg_energy,
+                       lib.lg_project if equations.is_constrained else None)
+    per["c-second"] = _Second(equations, ffi, lib, src, cc, cffi)
+    with _LOCK:
+        return per.setdefault("c", cm)
+
+
+#: The functions of the main library (a small model's source has all four: c_source's `functions`).
+_MAIN = ("rhs", "mass_forcing", "energy")
+
+
+class _Second:
+    """mass_forcing and lagrange_parts of the C backend (what the variational integrator calls): from the main
+    library, or lagrange_parts from a library of its own, built on first use, for a source without it."""
+
+    def __init__(self, equations, ffi, lib, src, cc, cffi):
+        self.mass_forcing = lib.lg_mass_forcing
+        self._args = (equations, cc, cffi)
+        self._keep = [ffi, lib]
+        self._lagrange_parts = lib.lg_lagrange_parts if "lg_lagrange_parts(" in src.read_text() else None
+
+    @property
+    def lagrange_parts(self):
+        if self._lagrange_parts is None:
+            equations, cc, cffi = self._args
+            _, _, ffi, lib = _library(equations, "lagrange-parts",
+                                      lambda: c_source(equations, functions=("lagrange_parts",)),
+                                      _PARTS_DECLARATION, cc, cffi)
+            self._keep += [ffi, lib]
+            self._lagrange_parts = lib.lg_lagrange_parts
+        return self._lagrange_parts
+
+
+_PARTS_DECLARATION = "void lg_lagrange_parts(double t, double *x, double *u, double *p, double *pm, double *F);\n"
+
+
+def _library(equations: Equations, part: str, make_source, declarations: str, cc: str, cffi):
+    """(source path, key, ffi, lib): the shared library of the source `make_source()` gives, compiled once per
+    content hash. An index entry named by the fingerprint of `equations`, `part` and the compiler gives the key of a
+    library built before: used when its stored source still hashes to it (so that a cached run of a large model
+    does not generate its source), else the source is generated, written and compiled again."""
+    folder = cache_dir()
+    salt = ("c-" + part, cc, f"{_codegen.SHARED_FROM}:{_codegen.C_HELPER_STATEMENTS}")  # (tests change them)
+    index = folder / f"lagrangian_index_{fingerprint(equations, *salt)}.txt"
+    source = None
+    try:
+        key = index.read_text().strip()
+        src = folder / f"lagrangian_c_{key}.c"
+        if re.fullmatch(r"[0-9a-f]{32}", key) and (folder / f"lagrangian_c_{key}.so").exists():
+            stored = src.read_text(encoding="utf-8")
+            if source_key(stored, "c", cc, *compiler_flags(stored)) == key:
+                source = stored
+    except (OSError, UnicodeDecodeError):
+        pass
+    if source is None:
+        source = make_source()
     flags = compiler_flags(source)
     key = source_key(source, "c", cc, *flags)
-    folder = cache_dir()
     src = folder / f"lagrangian_c_{key}.c"
     lib_path = folder / f"lagrangian_c_{key}.so"
     store(src, source)
@@ -85,6 +157,7 @@ def compile_c(equations: Equations):
             raise ModelError(f"backend 'c': the C compiler failed on {src}:\n{run.stderr.strip()[:2000]}\n"
                              "use backend='numba'")
         os.replace(tmp, lib_path)
+    store(index, key)
     ffi = cffi.FFI()
     ffi.cdef(declarations)
     try:
@@ -92,12 +165,4 @@ def compile_c(equations: Equations):
     except OSError:  # a broken entry is removed, never reused
         lib_path.unlink(missing_ok=True)
         raise
-    values = np.array([np.nan if v is None else v for v in equations.parameters.values()], dtype=float)
-    cm = CompiledModel(equations, "c", equations.state_names, tuple(u.name for u in equations.inputs),
-                       tuple(p.name for p in equations.parameters), values, str(src), key,
-                       lib.lg_constrained_rhs if equations.is_constrained else lib.lg_rhs, lib.lg_energy,
-                       lib.lg_project if equations.is_constrained else None)
-    per["c-second"] = types.SimpleNamespace(mass_forcing=lib.lg_mass_forcing,
-                                            lagrange_parts=lib.lg_lagrange_parts, _keep=(ffi, lib))
-    with _LOCK:
-        return per.setdefault("c", cm)
+    return src, key, ffi, lib

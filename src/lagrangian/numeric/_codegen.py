@@ -25,7 +25,7 @@ from ..io._files import write_atomically
 from ._kernels import SINGULAR_RATIO as SINGULAR
 
 __all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "model_module", "numba_source",
-           "c_source",
+           "c_source", "large_model",
            "load_module", "Unsupported",
            "GENERATOR_VERSION"]
 
@@ -322,6 +322,15 @@ def _tree_size(exprs, bound: int) -> int:
 #: also finds common parts of sums and products): the examples, the Panda (1.2e6 nodes) and chains
 #: of up to 4 rods in space (3.8e6) as before; 5 rods: 2.1e7, 20 rods: past 1e12.
 SHARED_FROM = 10_000_000
+
+
+def large_model(equations: Equations) -> bool:
+    """Whether M and f of `equations` written out as trees pass SHARED_FROM nodes (spatial chains of 5 rods and
+    more; not the examples, the Panda nor 4 rods): then c_source writes the split form, and compile's backend "auto"
+    takes C where a compiler is present (numba's compile of such a module grows faster than linearly with its
+    functions' size: the 8-rod chain 165 s, 12 rods past 15 min; C's split form: gcc -O1 about 10 s at 8 rods)."""
+    core = equations.core
+    return _tree_size((*core.M, *core.f), SHARED_FROM) > SHARED_FROM
 
 
 def _post_order(exprs) -> tuple[list, dict]:
@@ -885,21 +894,34 @@ static double lg_solve_loop(int n, double *work, const double *x, double *dx) {
 """
 
 
-def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet: bool = False) -> str:
+#: The functions c_source writes (all four, unless told otherwise: see its `functions`).
+C_FUNCTIONS = ("rhs", "mass_forcing", "energy", "lagrange_parts")
+
+
+def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet: bool = False,
+             functions: tuple[str, ...] = C_FUNCTIONS) -> str:
     """C source of `equations`' functions, with the signatures of C_DECLARATIONS (the same as the
     numba cfuncs): lg_rhs, lg_energy, lg_mass_forcing (M row-major, n x n), lg_lagrange_parts.
 
     For lagrangian.export: `prefix` replaces "lg_" in the functions' names, `storage` is put
     before each definition ("static "), and `quiet` marks the unpacked arguments as used
     ((void)v_t;), and the arguments a model may not read (u without inputs, p without
-    parameters), so that -Wall -Wextra stays silent."""
+    parameters), so that -Wall -Wextra stays silent.
+
+    A large model (:func:`large_model`) is written in the split form
+    (:func:`_c_split_source`), where `functions` (some of C_FUNCTIONS) names the functions written: the C
+    backend compiles lg_lagrange_parts (the variational integrator's, far the largest of a spatial chain)
+    only when it is first used. Smaller models are written as before, all four functions."""
     n = equations.n
     Mlow, f, h, _, _ = _model_parts(equations)
-    _, _, _, pm, F = _model_parts(equations, "variational")
     pr = _Printer(equations, "c")
     loop = _C_SOLVE_LOOP.replace("@SINGULAR@", repr(SINGULAR)).replace("lg_solve_loop", f"{prefix}solve_loop")
     head = ("/* " + _header(equations) + "*/\n#include <math.h>\n"
             + (loop if n > UNROLL_MAX else "") + "\n")
+    mf = pr.block(Mlow + f)
+    if large_model(equations):
+        return _c_split_source(equations, pr, mf, h, head, prefix, storage, quiet, functions)
+    _, _, _, pm, F = _model_parts(equations, "variational")
 
     def unpack() -> list[str]:
         lines = pr.unpack()
@@ -909,7 +931,7 @@ def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet
 
     body = [f"{storage}double {prefix}rhs(double t, double *x, double *u, double *p, double *dx, double *work) {{"]
     body += unpack()
-    lines, exprs = pr.block(Mlow + f)
+    lines, exprs = mf
     body += lines
     body += _rhs_values(n, exprs, "double ", ";")
     if n <= UNROLL_MAX:
@@ -933,6 +955,118 @@ def c_source(equations: Equations, prefix: str = "lg_", storage: str = "", quiet
     body += _stores(n, exprs, ("pm", "F"), ";")
     body += ["}", ""]
     return head + "\n".join(body)
+
+
+#: The split form's helpers hold at most this many statements each: gcc's time grows faster than linearly with a
+#: function's length. The 8-rod spatial chain's rhs, mass_forcing and energy (9000 statements, 1.1 MB), gcc -O1
+#: CPU by helper size 100, 500, 2000: 9.5, 12.6, 18.5 s (-O2 at 500: 52 s, 3.3 GB); one rhs 9.5 us each.
+C_HELPER_STATEMENTS = 200
+_C_TEMP = re.compile(r"\bc(\d+)\b")
+_C_STATEMENT = re.compile(r"^ *double (c\d+) = (.*);$")
+
+
+def _c_split(pr: _Printer, block: tuple, name: str, prefix: str, unpack: list[str]) -> tuple[list[str], list[str], int]:
+    """(the definitions of the helpers, the statements calling them, the work size) of `block` (:meth:`_Printer.block`'s
+    statements and outputs) in static helpers `<prefix><name>_<k>(t, x, u, p, w)` of at most C_HELPER_STATEMENTS
+    statements each, the outputs stored in w[0], w[1], ... in order. A value used only in its own helper stays a local
+    there; one used by a later helper goes through w[], after the outputs. `unpack`: the statements naming t, x, u and
+    p (from lagrangian._codetext.local_name, as everywhere: no name of the model's reaches the C text raw)."""
+    lines, outputs = block
+    texts = []
+    for line in lines:
+        m = _C_STATEMENT.match(line)
+        if m is None or m.group(1) != f"c{len(texts)}":  # (the printer's own statements, in order)
+            raise AssertionError(f"unexpected generated statement {line[:80]!r}")
+        texts.append(m.group(2))
+    first = len(texts)
+    texts += outputs  # output i is statement first + i
+    size = C_HELPER_STATEMENTS
+    part = lambda k: min(k, first - 1) // size if first else 0  # noqa: E731  (the outputs go with the last part)
+    slots = {first + i: i for i in range(len(outputs))}
+    uses = [[int(m) for m in _C_TEMP.findall(text)] for text in texts]
+    for k, used in enumerate(uses):
+        for j in used:
+            if j not in slots and part(j) != part(k):
+                slots[j] = len(slots)
+    helpers, calls = [], []
+    for h in range(part(len(texts) - 1) + 1):
+        fname = f"{prefix}{name}_{h}"
+        calls.append(f"    {fname}(t, x, u, p, w);")
+        helpers += [f"static void {fname}(double t, double *x, double *u, double *p, double *w) {{", *unpack]
+        for k in (k for k in range(len(texts)) if part(k) == h):
+            text = _C_TEMP.sub(lambda m: f"c{m[1]}" if part(int(m[1])) == h else f"w[{slots[int(m[1])]}]", texts[k])
+            if k >= first:
+                helpers.append(f"    w[{slots[k]}] = {text};")
+            else:
+                helpers.append(f"    double c{k} = {text};")
+                if k in slots:
+                    helpers.append(f"    w[{slots[k]}] = c{k};")
+        helpers += ["}", ""]
+    return helpers, calls, max(1, len(slots))
+
+
+def _c_split_source(equations: Equations, pr: _Printer, mf: tuple, h, head: str, prefix: str, storage: str,
+                    quiet: bool, functions: tuple[str, ...]) -> str:
+    """c_source of a large model: each statement list written once (M and f: for lg_rhs and lg_mass_forcing both), in
+    static helper functions of at most C_HELPER_STATEMENTS statements (:func:`_c_split`) that pass their values
+    through a work array on the stack; only the functions named in `functions`. The 20-rod spatial chain's M, f and
+    energy: 1.9 MB of C where the four functions written out were 29 MB (its lg_lagrange_parts alone 26 MB)."""
+    n = equations.n
+    unpack = pr.unpack()
+    if quiet:
+        unpack.append("    " + " ".join(["(void)t;", "(void)x;", "(void)u;", "(void)p;", "(void)w;",
+                                         *(f"(void){local};" for local, _, _ in pr.locals)]))
+    sig = "double t, double *x, double *u, double *p"
+    body = []
+    if "rhs" in functions or "mass_forcing" in functions:
+        helpers, calls, size = _c_split(pr, mf, "mf", prefix, unpack)
+        body += helpers
+        outs = [f"w[{k}]" for k in range(n * (n + 1) // 2 + n)]
+        if "rhs" in functions:
+            body += [f"{storage}double {prefix}rhs({sig}, double *dx, double *work) {{",
+                     *_c_work(size, calls, "return -1.0;")]
+            body += _rhs_values(n, outs, "double ", ";")
+            if n > UNROLL_MAX:
+                body += [f"    double r = {prefix}solve_loop({n}, work, x, dx);"]
+            else:  # (the unrolled solve returns from several places: the values leave w first)
+                body += (["    (void)work;"] if quiet else [])
+                if size > C_STACK_VALUES:
+                    body.append("    free(w);")
+                body += _ldl(n, "c", lambda i, j: f"m{i}_{j}", lambda i: f"f{i}")
+            if n > UNROLL_MAX:
+                body += (["    free(w);"] if size > C_STACK_VALUES else []) + ["    return r;"]
+            body += ["}", ""]
+        if "mass_forcing" in functions:
+            body += [f"{storage}void {prefix}mass_forcing({sig}, double *M, double *f) {{",
+                     *_c_work(size, calls, f"{{ for (int i = 0; i < {n * n}; i++) M[i] = NAN; "
+                                           f"for (int i = 0; i < {n}; i++) f[i] = NAN; return; }}")]
+            body += _stores(n, outs, ("M", "f"), ";")
+            body += (["    free(w);"] if size > C_STACK_VALUES else []) + ["}", ""]
+    if "energy" in functions:
+        helpers, calls, size = _c_split(pr, pr.block([h]), "energy", prefix, unpack)
+        body += helpers + [f"{storage}double {prefix}energy({sig}) {{", *_c_work(size, calls, "return NAN;"),
+                           "    double e = w[0];", *(["    free(w);"] if size > C_STACK_VALUES else []),
+                           "    return e;", "}", ""]
+    if "lagrange_parts" in functions:
+        _, _, _, pm, F = _model_parts(equations, "variational")
+        helpers, calls, size = _c_split(pr, pr.block(pm + F), "lagrange_parts", prefix, unpack)
+        body += helpers + [f"{storage}void {prefix}lagrange_parts({sig}, double *pm, double *F) {{",
+                           *_c_work(size, calls, f"{{ for (int i = 0; i < {n}; i++) pm[i] = F[i] = NAN; return; }}")]
+        body += _stores(n, [f"w[{k}]" for k in range(2 * n)], ("pm", "F"), ";")
+        body += (["    free(w);"] if size > C_STACK_VALUES else []) + ["}", ""]
+    return head.replace("#include <math.h>\n", "#include <math.h>\n#include <stdlib.h>\n", 1) + "\n".join(body)
+
+
+#: A split function's work array is on the stack up to this many values (64 KB), else on the heap.
+C_STACK_VALUES = 8192
+
+
+def _c_work(size: int, calls: list[str], fail: str) -> list[str]:
+    """The statements making the work array w of `size` values (on the stack, or from malloc past C_STACK_VALUES:
+    the caller frees it; `fail` runs where malloc fails) and calling the helpers that fill it."""
+    if size <= C_STACK_VALUES:
+        return [f"    double w[{size}];", *calls]
+    return [f"    double *w = (double *)malloc({size} * sizeof(double));", f"    if (w == 0) {fail}", *calls]
 
 
 def _rhs_values(n: int, exprs, decl: str = "", end: str = "") -> list[str]:

@@ -419,7 +419,8 @@ def compile(equations: Equations, backend: str = "auto"):
     ----------
     equations : Equations
     backend : {"auto", "numba", "c", "scipy"}
-        "auto" (default): numba's compiled code (:class:`~lagrangian.numeric.CompiledModel`), or
+        "auto" (default): numba's compiled code (:class:`~lagrangian.numeric.CompiledModel`; C's for a
+        large model where cffi and a C compiler are present, see :func:`auto_backend`), or
         the portable :class:`NumericModel` for a model whose expressions numba cannot be given;
         the others as :func:`compile_equations` (every backend gives the same numbers, constrained
         models included).
@@ -435,7 +436,7 @@ def compile(equations: Equations, backend: str = "auto"):
         from ._codegen import Unsupported
 
         try:
-            return compile_equations(equations, "numba")
+            return compile_equations(equations, "auto")
         except Unsupported:
             return compile_equations(equations, "scipy")
     return compile_equations(equations, backend)
@@ -447,8 +448,9 @@ def compile_equations(equations: Equations, backend: str = "scipy"):
     Parameters
     ----------
     equations : Equations
-    backend : {"scipy", "numba", "c"}
+    backend : {"scipy", "numba", "c", "auto"}
         "scipy" (default): a :class:`NumericModel` evaluated by SymEngine and NumPy (portable).
+        "auto": "numba", or "c" for a large model (:func:`auto_backend`).
         :func:`compile`, the public one, takes the fastest by default.
         "numba": a :class:`~lagrangian.numeric.CompiledModel` of generated code compiled by
         numba; "c": the same with the model's functions in C (cffi and a C compiler needed).
@@ -458,12 +460,35 @@ def compile_equations(equations: Equations, backend: str = "scipy"):
     if backend != "scipy":
         from ._fast import BACKENDS, compile_c, compile_numba
 
-        if backend == "numba" or backend == "auto":
+        if backend == "auto":
+            backend = auto_backend(equations)
+        if backend == "numba":
             return compile_numba(equations)
         if backend == "c":
             return compile_c(equations)
         raise ModelError(f"unknown backend '{backend}'; choose one of {', '.join(BACKENDS[1:])}")
     return cached(equations, "scipy", lambda: _numeric_model(equations))
+
+
+def auto_backend(equations: Equations) -> str:
+    """The compiled backend "auto" takes for `equations`: "c" for a large model (M and f past 1e7 nodes written out
+    as trees: spatial chains of 5 rods and more, see :func:`~lagrangian.numeric._codegen.large_model`) where cffi
+    and a C compiler are present, else "numba". numba's compile of such a model grows faster than linearly with its
+    functions' size (the 8-rod chain 165 s, 12 rods past 15 min); the C backend writes it as small helpers (about
+    10 s of gcc at 8 rods). The trajectory's ``stats["backend"]`` says which ran."""
+    from ._cbackend import c_compiler
+    from ._codegen import large_model
+
+    def decide():
+        if not large_model(equations) or c_compiler() is None:
+            return "numba"
+        try:
+            import cffi  # noqa: F401
+        except ImportError:
+            return "numba"
+        return "c"
+
+    return cached(equations, "auto-backend", decide)
 
 
 def _numeric_model(equations: Equations) -> NumericModel:

@@ -839,7 +839,7 @@ def _compiled_model(nm, backend: str, method: "str | Solver", u_exprs):
         if u_exprs is None:
             raise NotCompilable(_CALLABLE_INPUT)
         _input_programs(nm.equations, u_exprs)
-        return compile_equations(nm.equations, backend="numba" if backend == "auto" else backend)
+        return compile_equations(nm.equations, backend=backend)
     except (Unsupported, NotCompilable) as exc:
         if backend == "auto" and solver.scipy:
             return None
