@@ -115,3 +115,22 @@ def test_too_large_counts_the_nodes_preorder_traversal_visits():
         size = 0 if traversal(obj, 0) is None else next(n for n in range(1, 1000) if traversal(obj, n) is None)
         for limit in sorted({0, 1, 2, size - 1, size, size + 1, 400} - {-1}):
             assert _printing.too_large(obj, limit) == traversal(obj, limit), (obj, limit)
+
+
+def test_mathml_printed_once_per_expression_never_mixes_equal_hashes():
+    """_printing.mathml keeps the MathML of the expressions it printed (by expression): objects whose hashes
+    are equal but that are not equal (2 and 2.0, one float at two precisions, True and 1) each print as
+    themselves, whichever came first; a mutable matrix (not hashable) is printed each time."""
+    pairs = [(sympy.Integer(2), sympy.Float(2.0)), (sympy.Float(0.5, 6), sympy.Float(0.5, 15)),
+             (sympy.S.true, sympy.Integer(1)), (sympy.Integer(1), sympy.Float(1, 3))]
+    for a, b in pairs:
+        assert hash(a) == hash(b) and a != b
+        for first, second in ((a, b), (b, a)):
+            _printing._PRINTED.clear()
+            want = _printing._printed(second)
+            _printing.mathml(first)
+            assert _printing.mathml(second) == want
+    _printing._PRINTED.clear()
+    M = sympy.Matrix([[1, sympy.Symbol("x")]])
+    assert _printing.mathml(M) == _printing._printed(M) == _printing.mathml(sympy.ImmutableMatrix(M))
+    assert not any(isinstance(k, sympy.MutableDenseMatrix) for k in _printing._PRINTED)

@@ -346,8 +346,29 @@ def latex(expr) -> str:
     return _Latex().doprint(expr)
 
 
+#: The MathML of the expressions printed last, by expression (a pure function of its structure, which SymPy's
+#: equality compares): a report prints a tenth of its expressions more than once. At most _PRINTED_KEPT of them.
+_PRINTED: dict = {}
+_PRINTED_KEPT = 2048
+
+
 def mathml(expr) -> str:
     """Presentation MathML of a SymPy object (the content of a ``<math>`` element)."""
+    if not isinstance(expr, sympy.Basic):
+        return _printed(expr)
+    try:
+        hit = _PRINTED.get(expr)
+    except TypeError:  # not hashable (a mutable matrix): printed each time
+        return _printed(expr)
+    if hit is None or type(hit[0]) is not type(expr):
+        hit = (expr, _printed(expr))
+        if len(_PRINTED) >= _PRINTED_KEPT:
+            _PRINTED.clear()
+        _PRINTED[expr] = hit
+    return hit[1]
+
+
+def _printed(expr) -> str:
     return _numeric_entities(_MathML().doprint(expr)).replace("<mo>-</mo>", "<mo>&#x2212;</mo>")
 
 
