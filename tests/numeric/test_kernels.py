@@ -127,7 +127,8 @@ def test_energy_rows_gives_the_energy_of_each_row_bit_for_bit(name):
     # sin/cos polynomial's bound (1e5) or not finite is left to the energy (libm's sin and cos)
     eqs = lg.derive(lg.load(name))
     cm = compile_numba(eqs)
-    assert cm.energy_rows_address != 0
+    address = cm.energy_rows.compile()  # (compiled lazily: see test_energy_rows_compiled_lazily)
+    assert address != 0 and cm.energy_rows_address == address
     rng = np.random.default_rng(3)
     n, m = cm.n, len(cm.input_names)
     X = rng.uniform(-3.0, 3.0, (203, 2 * n))
@@ -154,6 +155,7 @@ def test_the_output_stage_in_blocks_of_rows_equals_the_energy_row_by_row():
 
     eqs = lg.derive(lg.load("double-pendulum"))
     cm = compile_numba(eqs)
+    assert cm.energy_rows.compile() != 0  # (compiled lazily: see test_energy_rows_compiled_lazily)
     p = cm.parameter_values
     x0 = np.array([2.0, 2.5, 0.0, 0.0])
     for rows in (2, OUTPUT_BLOCK - 1, OUTPUT_BLOCK, OUTPUT_BLOCK + 1, 3 * OUTPUT_BLOCK + 5):

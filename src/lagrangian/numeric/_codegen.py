@@ -30,7 +30,7 @@ __all__ = ["cache_dir", "source_key", "fingerprint", "store", "cached_module", "
            "GENERATOR_VERSION"]
 
 #: Changes whenever the generated code changes, so that old cache entries are not reused.
-GENERATOR_VERSION = "34"
+GENERATOR_VERSION = "35"
 
 _PY_FUNCS = {
     "sin": "math.sin", "cos": "math.cos", "tan": "math.tan", "asin": "math.asin", "acos": "math.acos",
@@ -764,11 +764,15 @@ def _energy_rows(equations: Equations, pr: _Printer, h) -> list[str]:
     over the rows with no branch in it, so that numba vectorizes it (SIMD across the rows); the same
     operations as the energy's, in the same order (the same numbers: no contraction into fused
     multiply-adds), with sin and cos by the polynomial alone, so that a row where an argument of sin or
-    cos exceeds SINCOS_BOUND is NaN: the kernels evaluate that row by energy."""
+    cos exceeds SINCOS_BOUND is NaN: the kernels evaluate that row by energy. A plain function: compiled
+    (a cfunc, numba's cache) only where the model's runs need it (_fast.EnergyRows), so that a new model's
+    first compile is its rhs and energy alone."""
     n = equations.n
     nu, npar = len(equations.inputs), len(equations.parameters)
     ind = " " * 8
-    out = ["", "", '@cfunc(types.void(_P, _P, _P, _P, _P, types.int64), cache=True, error_model="numpy")',
+    out = ["", "", "#: energy_rows is compiled when first asked for, not on import (numeric/_fast.py, EnergyRows):",
+           '#: cfunc(ENERGY_ROWS_SIGNATURE, cache=True, error_model="numpy")(energy_rows)',
+           "ENERGY_ROWS_SIGNATURE = types.void(_P, _P, _P, _P, _P, types.int64)", "", "",
            "def energy_rows(t_, x_, u_, p_, e_, count):",
            f'    """e[k] = the Jacobi integral at row k: t[k], x[k * {2 * n} + i]'
            + (f", u[k * {nu} + i]" if nu else "") + " (row-major, as",

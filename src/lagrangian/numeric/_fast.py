@@ -33,6 +33,61 @@ _CACHE = CACHE  # the one cache, per Equations (_cache.py): "numba", "c", "varia
 _LOCK = threading.Lock()
 
 
+#: Output rows whose energy a model evaluates one by one (its energy, about 28 ns a row for a double
+#: pendulum) before its energy_rows (about 7 ns a row, vectorized) is compiled: the compile costs a new model
+#: about as much (0.6-0.8 s of CPU for a double pendulum, 1.2-1.5 s for a 6-link chain), so it is paid only
+#: once the rows one by one have cost as much (the rent-or-buy rule: at most twice the better choice, in
+#: hindsight); a double pendulum's 2001 outputs: about 12,000 runs.
+ENERGY_ROWS_AFTER = 25_000_000
+
+
+class EnergyRows:
+    """A model's energy_rows (the generated plain function and its signature; see
+    _codegen._energy_rows), compiled lazily: at once where numba's cache already holds it (a model
+    compiled before on this machine: loading it takes milliseconds), otherwise when the rows the model
+    evaluated one by one (``count``: the output stage's energy row by row, the same numbers bit for
+    bit) reach ENERGY_ROWS_AFTER, or when asked (``compile``). ``address``: 0 until compiled (the
+    kernels then call the energy row by row)."""
+
+    __slots__ = ("function", "signature", "address", "rows", "compiled")
+
+    def __init__(self, function, signature):
+        self.function, self.signature = function, signature
+        self.address = 0
+        self.rows = 0  # rows evaluated one by one so far
+        self.compiled = None  # the cfunc
+        if _cached_cfunc(function):
+            self.compile()
+
+    def compile(self) -> int:
+        """Compile (or load from numba's cache) energy_rows; its address."""
+        with _LOCK:
+            if self.compiled is None:
+                from numba import cfunc
+
+                self.compiled = cfunc(self.signature, cache=True, error_model="numpy")(self.function)
+                self.address = int(self.compiled.address)
+        return self.address
+
+    def count(self, rows: int) -> int:
+        """Count `rows` evaluated one by one; the address (compiled once they reach ENERGY_ROWS_AFTER)."""
+        self.rows += rows
+        if self.rows >= ENERGY_ROWS_AFTER:
+            return self.compile()
+        return self.address
+
+
+def _cached_cfunc(function) -> bool:
+    """Whether numba's cache on disk has an entry for the cfunc of `function` (its index file; False
+    when it cannot tell)."""
+    try:
+        from numba.core.caching import FunctionCache
+
+        return os.path.exists(FunctionCache(function)._cache_file._index_path)
+    except Exception:  # another numba's internals: compiled when the rows have cost its compile
+        return False
+
+
 @dataclass(frozen=True, eq=False)
 class CompiledModel:
     """The numerical state equations of `equations`, generated and compiled by numba (or C).
@@ -66,7 +121,7 @@ class CompiledModel:
     rhs_c: object = field(repr=False)
     energy_c: object = field(repr=False)
     project_c: object = field(default=None, repr=False)  # a constrained model's projection
-    energy_rows_c: object = field(default=None, repr=False)  # the energy at many rows at once (numba, small models)
+    energy_rows: EnergyRows | None = field(default=None, repr=False)  # the energy at many rows (numba, small models)
 
     @property
     def n(self) -> int:
@@ -165,11 +220,16 @@ class CompiledModel:
     def energy_address(self) -> int:
         return _address(self.energy_c)
 
-    @functools.cached_property
+    @property
     def energy_rows_address(self) -> int:
         """The address of the generated energy_rows (the energy at many output rows at once, vectorized;
-        see _codegen.ENERGY_ROWS_MAX), 0 where there is none (the kernels then call energy row by row)."""
-        return 0 if self.energy_rows_c is None else _address(self.energy_rows_c)
+        see _codegen.ENERGY_ROWS_MAX), 0 where there is none or it is not compiled yet (EnergyRows: the
+        kernels then call the energy row by row, the same numbers)."""
+        return 0 if self.energy_rows is None else self.energy_rows.address
+
+    def count_energy_rows(self, rows: int) -> int:
+        """Count `rows` whose energy was evaluated one by one (see EnergyRows); energy_rows_address."""
+        return 0 if self.energy_rows is None else self.energy_rows.count(rows)
 
     @functools.cached_property
     def mass_forcing_address(self) -> int:
@@ -318,7 +378,8 @@ def compile_numba(equations: Equations) -> "CompiledModel":
     cm = CompiledModel(equations, "numba", equations.state_names, tuple(u.name for u in equations.inputs),
                        tuple(p.name for p in equations.parameters), values, str(path), key,
                        module.rhs, module.energy, getattr(module, "project", None),
-                       getattr(module, "energy_rows", None))
+                       EnergyRows(module.energy_rows, module.ENERGY_ROWS_SIGNATURE)
+                       if hasattr(module, "energy_rows") else None)
     with _LOCK:
         return per.setdefault("numba", cm)
 
@@ -518,6 +579,8 @@ def run_dop853(cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, 
         d = int(done[0])
         kernels().energies(energy, times[d:k], X[d:k], p, prog.ops, prog.args, prog.starts, prog.nstack, E[d:k], U[d:k],
                            sampling.hold)
+    if outputs and not energy[1]:  # their energy row by row (see EnergyRows)
+        cm.count_energy_rows(k)
     m = int(ev_n[0]) if nev else 0
     if m:
         order = np.argsort(ev_t[:m], kind="stable")
@@ -542,7 +605,7 @@ class PreparedDop853:
     arrays) built here once, as run_dop853 builds them; `run` allocates the output arrays and calls
     the kernel: the same arguments, so the same numbers bit for bit."""
 
-    __slots__ = ("n", "m", "times", "x0", "p", "args", "energy", "prog")
+    __slots__ = ("n", "m", "times", "x0", "p", "args", "energy", "prog", "rows")
 
     def __init__(self, cm: CompiledModel, x0, times, p, prog, rtol: float, atol: float, max_step: float = np.inf):
         n = self.n = cm.n
@@ -554,6 +617,7 @@ class PreparedDop853:
         self.p = _nonempty(np.ascontiguousarray(p, dtype=float))
         self.prog = prog
         self.energy = (cm.energy_address, cm.energy_rows_address)
+        self.rows = cm.energy_rows if cm.energy_rows is not None and not self.energy[1] else None  # (EnergyRows)
         self.args = _dop853_arguments(cm, self.energy, prog, rtol, atol, max_step, 0.0, 0, 0,
                                       (events.ops, events.args, events.starts, eterm, ev_t, ev_k, ev_x, ev_n),
                                       (sampling.hold, sampling.samples, sampling.which, hist), events.nstack)
@@ -564,6 +628,10 @@ class PreparedDop853:
         X, U, E = np.empty((rows, 2 * self.n)), np.empty((rows, self.m)), np.empty(rows)
         info, stats, done = np.zeros(2 + 2 * self.n), np.zeros(5, dtype=np.int64), np.zeros(1, np.int64)
         status = _call_dop853(self.args, self.x0.copy(), self.times, self.p, (X, info, stats, U, E, done), progress)
+        if self.rows is not None and self.rows.count(int(stats[3])):  # energy_rows compiled: the next runs use it
+            self.energy = (self.energy[0], self.rows.address)
+            self.args = ((*self.args[0][:5], self.rows.address), *self.args[1:])
+            self.rows = None
         return status, X, U, E, stats, info, done
 
     def raw(self, status, X, U, E, stats, info, done) -> RawRun:
@@ -630,9 +698,12 @@ def inputs_and_energy(cm: CompiledModel, times, X, p, prog, held=None, run: RawR
     if held is not None:
         hold, U[:] = held
     energy = np.empty(len(times))
-    kernels().energies((cm.energy_address, cm.energy_rows_address), times, np.ascontiguousarray(X, dtype=float),
+    rows = cm.energy_rows_address
+    kernels().energies((cm.energy_address, rows), times, np.ascontiguousarray(X, dtype=float),
                        _nonempty(np.ascontiguousarray(p, dtype=float)), prog.ops, prog.args, prog.starts, prog.nstack,
                        energy, U, hold)
+    if not rows:  # (see EnergyRows)
+        cm.count_energy_rows(len(times))
     return U, energy
 
 

@@ -17,7 +17,8 @@ per call), with fixed signatures,
     energy(t, x*, u*, p*) -> double           the Jacobi integral
     energy_rows(t*, x*, u*, p*, e*, count)    the Jacobi integral at `count` output rows (t[k], x and u
                                               row-major, p) at once, vectorized; NaN in a row whose sin
-                                              or cos it leaves to energy (a small model's, numba only)
+                                              or cos it leaves to energy (a small model's, numba only;
+                                              compiled lazily, 0 until then: see below)
     mass_forcing(t, x*, u*, p*, M*, f*)      M row-major (n x n), f (n)
     lagrange_parts(t, x*, u*, p*, pm*, F*)   pm = dL/dq_dot, F = dL/dq - dD/dq_dot + Q
     rhs_lanes(t*, x*, u*, p*, dx*, work*, L) rhs of L states (lane-major arrays) at once
@@ -786,7 +787,9 @@ def dop853(model, x0, t_out, p, prog, control, events, sampling, out):
     The problem comes as tuples (see _kernels.py): model = (rhs, n, project, nwork, energy,
     energy_rows), the addresses of the model's functions (project: a constrained model's projection, or
     0; nwork: the size of the work array its rhs needs, 0: the default n * n + 2 n; energy: 0 for no
-    output stage; energy_rows: 0 where the model has none);
+    output stage; energy_rows: 0 where the model has none or it is not compiled yet: numeric/_fast.py's
+    EnergyRows compiles it where numba's cache on disk holds it, or once the model's rows evaluated one by
+    one, by energy (the same numbers), have cost about as much as its compile, ENERGY_ROWS_AFTER rows);
     prog = (ops, args, starts, nstack), the inputs' programs; control = (t0, rtol, atol, max_step,
     first_step); events = (ops, args, starts, terminal, ev_t, ev_k, ev_x, ev_n); sampling = (hold,
     samples, which, hist); out = (X_out, info, stats, U_out, E_out, done).
