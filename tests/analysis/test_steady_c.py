@@ -169,3 +169,17 @@ def test_a_constrained_models_equilibria_start_no_numba():
             "print('numba' in sys.modules)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+@needs_c
+def test_a_library_others_can_write_is_not_loaded(monkeypatch, tmp_path):
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("LAGRANGIAN_CACHE_DIR", str(folder))
+    assert SC._library() is not None
+    (built,) = folder.glob("lagrangian_steady_*.so")
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / built.name).write_bytes(built.read_bytes())
+    (other / built.name).chmod(0o666)  # writable by anyone: machine code not to run
+    monkeypatch.setenv("LAGRANGIAN_CACHE_DIR", str(other))
+    assert SC._library() is None

@@ -25,6 +25,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import os
+import stat
 import subprocess
 import tempfile
 
@@ -526,6 +527,8 @@ def _library() -> ctypes.CDLL | None:
                 os.unlink(tmp)
                 return None
             os.replace(tmp, path)
+        if not _own_file(path):  # machine code from the cache is run: only the user's own, as _lambdify reads
+            return None
         try:
             return ctypes.CDLL(str(path))
         except OSError:  # a broken entry is removed, never reused
@@ -533,3 +536,12 @@ def _library() -> ctypes.CDLL | None:
             return None
     except OSError:
         return None
+
+
+def _own_file(path) -> bool:
+    """Whether `path` is a regular file of this user's that nobody else can write (equations._lambdify's rule for
+    the machine code it loads from the cache)."""
+    st = os.lstat(path)
+    if not stat.S_ISREG(st.st_mode) or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return False
+    return not hasattr(os, "getuid") or st.st_uid == os.getuid()
