@@ -100,6 +100,35 @@ derived forms 0.27 s, readable forms 0.3 s), the diagnoses 0.64 s (SciPy's optim
 the constraints' rank and dead-point searches 0.3 s), the equilibria 0.93 s (numba: import 0.17 s, its first
 dispatch, the typing and target registries, 0.23 s, the cached kernels 0.07 s; the multi-start search 0.4 s: 7806
 evaluations, each 33 us of compiled code and 15-20 us of Python and dispatch), HTML 0.3 s.
+
+Then (issue 22, REPORT4), medians, the two trees alternating run by run in one session (bytecode cached, the
+compile cache warm), on the shared 2-core machine at load 2.5-3.2: before = b1c8304 (this round's start),
+after = with REPORT4's commits: the steady residual's loops in C (analysis/_steady_c.py, loaded with ctypes;
+numba's kernels only where there is no C compiler), so no numba starts (its import, registries and cached
+kernels: 0.45-0.6 s); the searches' MINPACK calls without SciPy's wrappers of each evaluation (root's
+MemoizeJac; the constraints' functions by unsafe_eval, their padding); too_large counting without nested
+generators; each expression's MathML printed once; the lambdify keys' one xreplace. The same outputs: the
+bicycle's report (HTML, Markdown, LaTeX; compile cache cold and warm), /api/analysis and /api/derive JSON,
+steady (text, --json), equilibria --json and check byte-identical, and the equilibria, singularities,
+constraint singularities and reports of the other 28 examples. CPU s of the child, median (min-max):
+
+| what          | CPU before (1)    | CPU after (1)     | CPU before (2)    | CPU after (2)     |
+|---------------|------------------:|------------------:|------------------:|------------------:|
+| report        | 3.19 (3.12-3.43)  | 2.61 (2.59-2.85)  | 3.52 (3.43-3.83)  | 2.92 (2.76-3.11)  |
+| steady        | 1.91 (1.88-1.97)  | 1.49 (1.45-1.50)  | 2.32 (2.17-2.52)  | 1.87 (1.62-1.95)  |
+| /api/analysis | 2.52 (2.42-2.58)  | 2.39 (2.28-2.53)  | 3.10 (2.80-3.19)  | 2.94 (2.82-3.37)  |
+
+(1) and (2): two sessions 5 minutes apart (report: 5 and 7 runs of each tree, steady and /api/analysis 5);
+the machine's load moved every number by 10-15 %, the ratio after/before held: report 0.82-0.83, steady
+0.78-0.81, /api/analysis 0.95. This script alone right after (load 2.75): report 2.80, steady 1.85,
+/api/analysis 2.69 s of CPU. A first run (a new LAGRANGIAN_CACHE_DIR) builds the C library once (gcc, about
+0.35 s of CPU) where numba compiled its kernels into the package's __pycache__: report 3.47-3.74 against
+3.81-3.97 before, byte-identical. Where the report's CPU goes now, in process: imports 0.36-0.45 s, load
+0.28 s, derive 0.06 s, the sections 0.7 s (the readable forms 0.4 s, the SymPy conversions of what is too
+large to make readable 0.23 s: the Report holds every expression, printed or not), the diagnoses 0.6 s (SciPy's
+optimize import 0.34 s, the constraints' searches 0.2 s), the equilibria 0.45-0.5 s (the lambdify keys of
+the constrained model 0.09 s, the multi-start search 0.3 s: 7806 evaluations of 26 us in the workspace, SymEngine
+13, C 11), HTML 0.25 s. The report meets 2.7 s on a quiet machine, not with margin under load 3.
 """
 
 from __future__ import annotations
