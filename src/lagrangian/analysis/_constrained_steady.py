@@ -334,7 +334,8 @@ class SteadyState:
 
         kernel, cm = steady_kernels(), self.cm
         sizes = [self._sizes.get(id(fun)) for fun in (self._constraints_fun, cm._parts)]
-        if not isinstance(kernel, CKernels) or None in sizes:
+        width = 1 + 2 * cm.n + len(u) + len(p)  # a point's arguments (t, q, q_dot, u, p), as checked by the call
+        if not isinstance(kernel, CKernels) or None in sizes or any(size[0] != width for size in sizes):
             return None
         return Workspace(kernel.lib, cm.n, cm.m, self.shape, self.free, self.held, cm.holonomic, list(self.given),
                          list(self.given.values()), len(u), len(p), sizes[0][1], sizes[1][1])
