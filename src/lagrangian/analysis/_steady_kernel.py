@@ -20,6 +20,9 @@ Then :func:`central_jacobian` forms r and dr/dz from the rows at q and at the 2k
 (the round-off floor of ``SteadyState.__call__``). The same operations as the NumPy batch, in the
 same order; the factorizations are written out (Cholesky, Householder QR, triangular solves) and
 agree with LAPACK's to round-off. Compiled once per machine (``cache=True``).
+
+The search uses these where there is no C compiler: ``_steady_c`` holds the same loops in C (the same
+numbers bit for bit, tests/analysis/test_steady_c.py), which start without numba's import.
 """
 
 from __future__ import annotations
