@@ -183,3 +183,21 @@ def test_a_library_others_can_write_is_not_loaded(monkeypatch, tmp_path):
     (other / built.name).chmod(0o666)  # writable by anyone: machine code not to run
     monkeypatch.setenv("LAGRANGIAN_CACHE_DIR", str(other))
     assert SC._library() is None
+
+
+@needs_c
+def test_the_workspace_follows_the_setting():
+    """One evaluator asked at two parameter settings in turn: each answer the whole path's at its setting."""
+    eqs = lg.derive(lg.load("rolling-disk"))
+    ev, earth = _evaluator(eqs, {})
+    moon = resolve_setting(eqs, {"g": 1.62, "r": 0.5}, None, 0.0)
+    plain, _ = _evaluator(eqs, {})
+    plain._new_workspace = lambda u, p: None
+    rng = np.random.default_rng(4)
+    for k in range(12):
+        setting = (earth, moon)[k % 2]
+        q = rng.uniform(-1.2, 1.2, eqs.n)
+        r, J = ev(setting, q)
+        r0, J0 = plain(setting, q)
+        assert _bits(r, r0) and _bits(J, J0)
+    assert ev._workspace
