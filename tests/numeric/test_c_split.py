@@ -204,9 +204,12 @@ def test_the_export_of_a_large_model_builds_warning_free(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_the_five_rod_chain_is_large_and_its_split_c_gives_the_numpy_models_numbers(cache):
+def test_the_five_rod_chain_is_large_and_its_split_c_gives_the_numpy_models_numbers(cache, monkeypatch):
     """5 rods in space (15 coordinates: the loop LDL^T; 2.1e7 tree nodes) take the split form by default and backend
-    "auto" takes C: rhs, M, f and the energy are SymEngine's (the NumPy model) at random states to 1e-12."""
+    "auto" takes C: rhs, M, f and the energy are SymEngine's (the NumPy model by SymEngine's cse and Lambdify, not by
+    the shared statements it takes for a large model) at random states to 1e-12."""
+    from lagrangian.numeric import _compiled
+
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from spatial_chain import chain_text
 
@@ -216,7 +219,8 @@ def test_the_five_rod_chain_is_large_and_its_split_c_gives_the_numpy_models_numb
     assert _codegen.large_model(eqs)
     cm = lg.compile(eqs)
     assert cm.backend == "c" and "lg_mf_1(" in cm.source
-    nm = lg.compile(eqs, "scipy")
+    monkeypatch.setattr(_compiled, "_shared_function", lambda *a: None)
+    nm = _compiled._numeric_model(eqs)
     p = nm.parameter_values
     rng = np.random.default_rng(2)
     for _ in range(3):
@@ -226,3 +230,29 @@ def test_the_five_rod_chain_is_large_and_its_split_c_gives_the_numpy_models_numb
             scale = max(1.0, float(np.max(np.abs(ref))))
             np.testing.assert_allclose(getattr(cm, name)(0.0, x, [], p), ref, rtol=1e-12, atol=1e-12 * scale,
                                        err_msg=name)
+
+
+def test_the_numpy_model_of_a_large_model_evaluates_its_shared_statements(monkeypatch):
+    """The SciPy backend's M, f and energy of a large model come from the code generator's shared statement list run
+    as Python (not SymEngine's cse over the whole expressions: 65 s at 8 rods): the same numbers as the cse path's
+    (the 3-rod chain forced large) at random states, and its SciPy run keeps the energy."""
+    from lagrangian.numeric import _compiled
+
+    eqs = lg.derive(lg.load(str(CHAIN3)))
+    reference = _compiled._numeric_model(eqs)  # SymEngine's (the chain is small)
+    _split(monkeypatch, 60)
+    shared = _compiled._numeric_model(eqs)
+    assert _compiled._shared_function(eqs, [eqs.core.f[0]]) is not None
+    rng = np.random.default_rng(4)
+    p = reference.parameter_values
+    for _ in range(4):
+        x = rng.uniform(-1.3, 1.3, 2 * eqs.n)
+        for name in ("mass_matrix", "forcing", "energy", "rhs"):
+            ref = np.asarray(getattr(reference, name)(0.1, x, [], p))
+            np.testing.assert_allclose(getattr(shared, name)(0.1, x, [], p), ref, rtol=1e-12,
+                                       atol=1e-12 * max(1.0, float(np.max(np.abs(ref)))), err_msg=name)
+    assert shared._groups["dynamics"].fun.__name__ == "<lambda>"  # (SymEngine's is a Lambdify object)
+    run = lg.simulate(eqs, t_end=0.3, backend="scipy", rtol=1e-10, atol=1e-10)
+    assert run.stats["backend"] == "scipy"
+    energy = np.asarray(run.energy)
+    assert abs(energy[-1] - energy[0]) <= 1e-7 * max(1.0, abs(energy[0]))

@@ -16,6 +16,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
+import builtins
+import math
+
 import numpy as np
 import symengine as se
 
@@ -146,6 +149,42 @@ def _evaluator_of(args, exprs):
     return lambdify(args, list(exprs) or [se.Integer(0)])
 
 
+#: The groups a large model evaluates by its shared statement list (:func:`_shared_function`).
+_SHARED_GROUPS = ("dynamics", "energy")
+
+
+def _shared_function(equations: Equations, exprs: list):
+    """For a large model (numeric._codegen.large_model), `exprs` as a plain Python function of the argument vector
+    [t, x, u, p]: the statements of the code generator's one walk over their shared subexpressions (each name through
+    lagrangian._codetext, as in the numba module), instead of SymEngine's cse over the whole expressions (65 s at 8
+    rods, about 4x per rod). None for other models, or expressions the generator cannot write (SymEngine's then)."""
+    from ._codegen import Unsupported, _Printer, large_model
+
+    if not large_model(equations):
+        return None
+    n, k = equations.n, len(equations.inputs)
+    pr = _Printer(equations, "py")
+    try:
+        lines, outputs = pr.block(list(exprs))
+    except Unsupported:
+        return None
+
+    def slot(acc: str) -> str:
+        if acc == "t":
+            return "a[0]"
+        kind, i = acc[0], int(acc[2:-1])
+        return f"a[{1 + i + {'x': 0, 'u': 2 * n, 'p': 2 * n + k}[kind]}]"
+
+    source = "\n".join(["def evaluate(a):", *(f"    {local} = {slot(acc)}" for local, acc, _ in pr.locals), *lines,
+                         "    return [" + ", ".join(outputs) + "]", ""])
+    namespace = {"math": math, "_sign": lambda v: 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0),
+                 "_heaviside": lambda v: 1.0 if v > 0.0 else (0.5 if v == 0.0 else 0.0),
+                 "_step": lambda v: 1.0 if v > 0.0 else 0.0}
+    exec(builtins.compile(source, "<lagrangian shared statements>", "exec"), namespace)  # (generated: no raw names)
+    evaluate = namespace["evaluate"]
+    return lambda args: np.array(evaluate(np.asarray(args, dtype=float).tolist()), dtype=float)
+
+
 def _flat(matrix, rows: int, cols: int) -> list:
     return [matrix[i, j] for i in range(rows) for j in range(cols)]
 
@@ -249,7 +288,12 @@ class NumericModel:
             exprs, extra, shapes = _group(eq, name) if build is None else build()
             args = [eq.core.t, *eq.core.q, *eq.core.qd, *(se.Symbol(s.name) for s in eq.inputs),
                     *(se.Symbol(s.name) for s in eq.parameters), *extra]
-            ev = self._groups.setdefault(name, _Evaluator(_evaluator_of(args, exprs) if exprs else None, tuple(shapes)))
+            fun = None
+            if exprs and build is None and name in _SHARED_GROUPS:
+                fun = _shared_function(eq, exprs)
+            if fun is None and exprs:
+                fun = _evaluator_of(args, exprs)
+            ev = self._groups.setdefault(name, _Evaluator(fun, tuple(shapes)))
         return ev
 
     def _at(self, name: str, t, x, u, p, extra=()) -> list[np.ndarray]:
