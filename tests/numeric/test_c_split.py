@@ -177,12 +177,21 @@ def test_names_reach_the_split_c_only_through_the_escaping_layer(tmp_path, monke
     ffi = cffi.FFI()
     ffi.cdef(_codegen.C_DECLARATIONS)
     lib = ffi.dlopen(str(tmp_path / "evil.so"))
-    nm = lg.compile(eqs, "scipy")
+    from lagrangian.numeric import _compiled
+
+    shared = _compiled._numeric_model(eqs)  # the SciPy backend's shared statements, the same names
+    x0 = np.array([0.1, 0.2])
+    shared.rhs(0.0, x0, [], shared.parameter_values), shared.energy(0.0, x0, [], shared.parameter_values)  # built
+    monkeypatch.setattr(_compiled, "_shared_function", lambda *a: None)
+    nm = _compiled._numeric_model(eqs)  # SymEngine's Lambdify
     p = nm.parameter_values
     for x in ([0.3, -0.7], [2.0, 1.5]):
         got = _values(ffi, lib, 1, 0.0, x, p)
         np.testing.assert_allclose(got["dx"], nm.rhs(0.0, x, [], p), rtol=1e-13, atol=1e-13)
         np.testing.assert_allclose(got["energy"], nm.energy(0.0, x, [], p), rtol=1e-13)
+        np.testing.assert_allclose(shared.rhs(0.0, x, [], p), nm.rhs(0.0, x, [], p), rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(shared.energy(0.0, x, [], p), nm.energy(0.0, x, [], p), rtol=1e-13)
+    assert shared._groups["dynamics"].fun.__name__ == "<lambda>"
 
 
 def test_the_export_of_a_large_model_builds_warning_free(tmp_path, monkeypatch):
