@@ -14,6 +14,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+import threading
 
 import numpy as np
 
@@ -109,14 +110,18 @@ class _Second:
 
     @property
     def lagrange_parts(self):
-        if self._lagrange_parts is None:
-            equations, cc, cffi = self._args
-            _, _, ffi, lib = _library(equations, "lagrange-parts",
-                                      lambda: c_source(equations, functions=("lagrange_parts",)),
-                                      _PARTS_DECLARATION, cc, cffi)
-            self._keep += [ffi, lib]
-            self._lagrange_parts = lib.lg_lagrange_parts
-        return self._lagrange_parts
+        with _SECOND_LOCK:  # (built once when two threads ask at once)
+            if self._lagrange_parts is None:
+                equations, cc, cffi = self._args
+                _, _, ffi, lib = _library(equations, "lagrange-parts",
+                                          lambda: c_source(equations, functions=("lagrange_parts",)),
+                                          _PARTS_DECLARATION, cc, cffi)
+                self._keep += [ffi, lib]
+                self._lagrange_parts = lib.lg_lagrange_parts
+            return self._lagrange_parts
+
+
+_SECOND_LOCK = threading.Lock()
 
 
 _PARTS_DECLARATION = "void lg_lagrange_parts(double t, double *x, double *u, double *p, double *pm, double *F);\n"
