@@ -329,8 +329,11 @@ def large_model(equations: Equations) -> bool:
     more; not the examples, the Panda nor 4 rods): then c_source writes the split form, and compile's backend "auto"
     takes C where a compiler is present (numba's compile of such a module grows faster than linearly with its
     functions' size: the 8-rod chain 165 s, 12 rods past 15 min; C's split form: gcc -O1 about 10 s at 8 rods)."""
+    from ._cache import cached
+
     core = equations.core
-    return _tree_size((*core.M, *core.f), SHARED_FROM) > SHARED_FROM
+    return cached(equations, ("large_model", SHARED_FROM),  # (the bicycle's 13 ms once)
+                  lambda: _tree_size((*core.M, *core.f), SHARED_FROM) > SHARED_FROM)
 
 
 def _post_order(exprs) -> tuple[list, dict]:
