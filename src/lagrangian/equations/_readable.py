@@ -259,6 +259,7 @@ def _shift(mono: frozenset, remove: dict, add: dict) -> frozenset | None:
 
 
 _INTEGERS = tuple(se.Integer(k) for k in range(16))
+_ONE = _INTEGERS[1]
 
 
 # ------------------------------------------------------------------------ the identities
@@ -318,13 +319,21 @@ def _rewrite_one(terms: dict, mono: frozenset):
                 return _replace(terms, (mono, pair), c, rest, _UNIT)
             if terms.get(rest) == -c:
                 return _replace(terms, (mono, rest), -c, rest, other ** 2)
-    for i, (b1, sin1, _) in enumerate(trig):
-        for b2, sin2, _ in trig[i + 1:]:
+    bases = None
+    for i, (b1, sin1, k1) in enumerate(trig):
+        for b2, sin2, k2 in trig[i + 1:]:
             x, y = b1.args[0], b2.args[0]
             if x == y:
                 continue
-            # the partner: each of the two factors replaced by the other function of its angle
-            pair = _shift(mono, {b1: 1, b2: 1}, {_partner(b1): 1, _partner(b2): 1})
+            # the partner: each of the two factors replaced by the other function of its angle (where both
+            # are first powers and neither partner is a factor, the same monomial as _shift's, by set operations)
+            p1, p2 = _partner(b1), _partner(b2)
+            if bases is None:
+                bases = {b for b, _ in mono}
+            if k1 == 1 and k2 == 1 and p1 not in bases and p2 not in bases:
+                pair = mono.difference(((b1, _ONE), (b2, _ONE))).union(((p1, _ONE), (p2, _ONE)))
+            else:
+                pair = _shift(mono, {b1: 1, b2: 1}, {p1: 1, p2: 1})
             d = None if pair is None else terms.get(pair)
             if d is None or (d != c and d != -c):
                 continue

@@ -20,7 +20,7 @@ import symengine as se
 import sympy
 
 from ..equations import Equations, constraint_singularities, derive
-from ..equations._readable import expanded_terms_bound, readable
+from ..equations._readable import expanded_terms_bound, readable_many
 from ..equations._singular import determinant, diagnosis, factored
 from ..errors import LagrangianError
 from ..model import Model
@@ -147,6 +147,7 @@ class _Builder:
         if self.large:
             self.readable = self._shown
             self._memo: dict = {}  # SymEngine -> SymPy of the subexpressions the derived forms share
+            self._bounds: dict = {}  # expanded_terms_bound's memo for LARGE_MODEL_TERMS (the forms share terms)
         else:
             self.readable = eqs.readable
 
@@ -157,10 +158,11 @@ class _Builder:
             e = se.sympify(expr)
         except (TypeError, ValueError, RuntimeError):
             return self.eqs.readable(expr, collect_on)
-        cheap = (expanded_terms_bound(e, LARGE_MODEL_TERMS) <= LARGE_MODEL_TERMS
+        cheap = (expanded_terms_bound(e, LARGE_MODEL_TERMS, self._bounds) <= LARGE_MODEL_TERMS
                  and all(p.args[1].is_integer for p in e.atoms(se.Pow)))
-        if cheap:
-            return readable(e, state=self.eqs._varying, collect_on=collect_on)
+        if cheap:  # (its budget LARGE_MODEL_TERMS: met, as just counted; the same form as under MAX_TERMS)
+            return readable_many((e,), state=self.eqs._varying, collect_on=collect_on, max_terms=LARGE_MODEL_TERMS,
+                                 bounds=self._bounds)[0]
         return _converted(e, self._memo)
 
     # the parts of the equations as the report shows them: the Equations' readable forms, or for a model
