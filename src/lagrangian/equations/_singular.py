@@ -25,7 +25,8 @@ from ._lambdify import lambdify
 from ._readable import trigonometric_polynomial
 from ._search import minimize, multistart, wrap_angle, wrap_angles
 
-__all__ = ["diagnosis", "singularities", "SingularityReport", "SingularConfiguration", "inertia_measure", "determinant",
+__all__ = ["diagnosis", "diagnosis_at", "singularities", "SingularityReport", "SingularConfiguration",
+           "inertia_measure", "determinant",
            "factored"]
 
 _SYMBOLIC_DET_MAX_N = 4
@@ -558,11 +559,14 @@ def _configuration(eqs, M, M_values, where, values, numeric: bool = False,
     return SingularConfiguration({q.name: v for q, v in where.items()}, cond, nv, still, massless)
 
 
-def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tuple[str, str]:
+def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict,
+                   blamed: sympy.Symbol | None = None) -> tuple[str, str]:
+    """(cause, fix) of the singular configuration `c`; `blamed`: the coordinate to name where the
+    readable M would choose it (diagnosis_at: a model too large to read it)."""
     direction = [c.null_velocity.get(v.name, 0) for v in eqs.velocities]
     has_elements = any(isinstance(e, (Particle, RigidBody, RigidBody3D)) for e in eqs.model.elements)
     if c.moving_massless:
-        q = _blamed_coordinate(eqs, direction)
+        q = blamed or _blamed_coordinate(eqs, direction)
         cause = (f"along this motion only massless parts move: {', '.join(c.moving_massless)}; "
                  "every body with mass stays still, so the motion has no inertia.")
         fix = ("give the massless part a positive mass (set its mass parameter > 0), "
@@ -579,7 +583,7 @@ def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tu
         fix = ("keep the motion away from these configurations, or describe the rotation by other angles (another "
                "order of the elementary rotations) that are regular where the motion goes.")
         return cause, fix
-    q = _blamed_coordinate(eqs, direction)  # (reads the readable M: after the gimbal lock's test, which does not)
+    q = blamed or _blamed_coordinate(eqs, direction)  # (reads the readable M: after the gimbal lock's test)
     if has_elements:
         still = f" ({_still(c.still)})" if c.still else ""
         cause = (f"coordinate {q.name} moves no mass of its own: along this combination no element with "
@@ -592,6 +596,43 @@ def _cause_and_fix(eqs: Equations, c: SingularConfiguration, values: dict) -> tu
            f"position depends on {q.name}, e.g. a cart of mass M1 at ({q.name}, 0), or a term "
            f"1/2*M1*{q.name}_dot**2 in T), or eliminate coordinate {q.name} from the model.")
     return cause, fix
+
+
+def diagnosis_at(equations: Equations, M, state: Mapping) -> str:
+    """The diagnosis of M from its numbers at one `state` (M there, an n x n array), for a model too large for
+    :func:`singularities` (numeric._codegen.large_model: its M written out as trees passes 1e7 nodes; the
+    readable M, det M's search and SymPy's forms of it would take minutes to hours): the velocity combination
+    with the least inertia there (the least eigenvector of M scaled to a unit diagonal), the likely cause and a
+    fix, in the words of :meth:`SingularityReport.text`. Reads no symbolic M; bounded by one n x n eigensolve."""
+    M = np.asarray(M, dtype=float)
+    n = equations.n
+    d = np.diag(M).copy()
+    ok = np.isfinite(M).all() and np.all(d > 0) and M.shape == (n, n)
+    lines = [f"det M: not expanded or searched for a model this large ({n} coordinates); M is diagnosed from "
+             "its numbers in this state."]
+    if not ok:
+        bad = ([v.name for v, x in zip(equations.velocities, d) if not x > 0]
+               if M.shape == (n, n) and np.isfinite(M).all() else [])
+        what = (f"the diagonal entry of M of {', '.join(bad)} is zero, negative or not finite in this state: that "
+                "velocity carries no inertia of its own" if bad else "M is not finite in this state")
+        return "\n".join(lines + [f"Likely cause: {what}.",
+                                   "Fix: give the body that this coordinate moves a mass or inertia, or eliminate the "
+                                   "coordinate from the model."])
+    s = 1.0 / np.sqrt(d)
+    values, vectors = np.linalg.eigh(M * s[:, None] * s[None, :])
+    direction = s * vectors[:, 0]
+    direction = direction / direction[np.argmax(np.abs(direction))]
+    support = [i for i in np.argsort(-np.abs(direction), kind="stable") if abs(direction[i]) >= 1e-3]
+    shown = ", ".join(f"{equations.velocities[i].name} = {direction[i]:.3g}" for i in support[:8])
+    more = f" and {len(support) - 8} more" if len(support) > 8 else ""
+    lines.append(f"Here the velocity combination {shown}{more} has almost no inertia (the least eigenvalue of M "
+                 f"scaled to a unit diagonal is {values[0]:.3g}, the largest {values[-1]:.3g}).")
+    nv = {equations.velocities[i].name: float(direction[i]) for i in support}
+    where = {k: v for k, v in state.items() if k in {q.name for q in equations.coordinates}}
+    c = SingularConfiguration(where, "", nv)
+    blamed = equations.coordinates[support[0]]
+    cause, fix = _cause_and_fix(equations, c, {}, blamed=blamed)
+    return "\n".join(lines + [f"Likely cause: {cause}", f"Fix: {fix}"])
 
 
 def _numeric_mass_matrix(eqs: Equations, values: dict):

@@ -802,14 +802,23 @@ def _singular_error(nm: NumericModel, t, x, ratio, p, kept: float | None = None)
     """The error of a run that reached a singular M: where, and the diagnosis of M with the parameter
     values `p` it ran with. `kept`: the inertia left of the start's (_inertia_kept), when that is how
     it was found (the integrator's step size collapsed there)."""
-    report = singularities(nm.equations, parameters=dict(zip(nm.parameter_names, map(float, p))))
-    diagnosis = report.text()
-    if not report.singular:  # no real zero of det M for these values: say why it is singular here all the same
+    state = dict(zip(nm.state_names, map(float, x)))
+    from ._codegen import large_model
+
+    if large_model(nm.equations):  # its symbolic diagnosis would take minutes to hours: M's numbers here
+        from ..equations._singular import diagnosis_at
+
+        with np.errstate(all="ignore"):
+            M = nm.mass_matrix(float(t), np.asarray(x, float), np.zeros(len(nm.input_names)), p)
+        report, diagnosis = None, diagnosis_at(nm.equations, M, state)
+    else:
+        report = singularities(nm.equations, parameters=dict(zip(nm.parameter_names, map(float, p))))
+        diagnosis = report.text()
+    if report is not None and not report.singular:  # no real zero of det M for these values: say why all the same
         diagnosis = "\n".join(diagnosis.splitlines()[:-1] + [
             "det M has no real zero for these parameter values, yet M is singular to working precision in this "
             "state: a mass or inertia negligible next to the others, or a motion that runs away to where M has no "
             "inertia left; check the parameter values and the initial state."])
-    state = dict(zip(nm.state_names, map(float, x)))
     how = (f"its least inertia is {kept:.3g} of that at the start" if kept is not None
            else f"inertia measure of M = {ratio:.3g}")
     msg = (f"the mass matrix became singular at t = {float(t):.6g} ({how}) "
