@@ -90,3 +90,22 @@ def test_a_diagonal_without_inertia_and_a_matrix_not_finite():
     assert text.endswith("Fix: give the body that this coordinate moves a mass or inertia, or eliminate the "
                          "coordinate from the model.")
     assert "Likely cause: M is not finite in this state." in diagnosis_at(eq, np.full((6, 6), np.nan), {})
+
+
+def test_a_large_model_s_linearization_at_the_lock_is_diagnosed_at_the_point(monkeypatch):
+    eq = _chain_near_the_lock()
+
+    def symbolic(*args, **kwargs):
+        raise AssertionError("the symbolic diagnosis was called for a large model")
+
+    import lagrangian.analysis._linearize as linearize_module
+
+    monkeypatch.setattr(codegen, "large_model", lambda equations: True)
+    monkeypatch.setattr(linearize_module, "singularities", symbolic)
+    with pytest.raises(lg.SingularMassMatrixError) as info:
+        lg.linearize(eq, at={"qy2": math.pi / 2})
+    d = info.value.diagnosis
+    assert str(info.value).startswith("the mass matrix is singular at the operating point (")
+    assert d.startswith("det M: not expanded or searched for a model this large (6 coordinates)")
+    assert "the velocity combination qx2_dot = 1, qz2_dot = -1 has almost no inertia" in d
+    assert "the gimbal lock of successive rotations" in d

@@ -35,7 +35,7 @@ import sympy
 from ..equations import Equations, singularities
 from ..equations._equations import _depends_on, _latex_name, vector_names
 from ..equations._exact import exact_number
-from ..equations._singular import inertia_measure
+from ..equations._singular import diagnosis_at, inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
 from ..numeric._compiled import compile_equations
@@ -469,7 +469,7 @@ def linearize_at(equations: Equations, point: Mapping[str, float], setting: Sett
                 or (diag.size and diag.min() <= _ROUND_OFF * diag.max())):
             # the second test: a diagonal entry at round-off against the others (sin(pi)**2 = 1.5e-32
             # at the pole of spherical coordinates), which the scaled measure cannot see
-            raise _singular_error(equations, point, setting.parameters)
+            raise _singular_error(equations, point, setting.parameters, M)
         qdd = np.linalg.solve(M, f)
         parts = nm.jacobians(setting.t, x, u, p, qdd) if np.any(qdd) else base
     K = parts["Maq"] - parts["fq"]
@@ -562,9 +562,17 @@ _CYCLIC: "weakref.WeakKeyDictionary[Equations, tuple]" = weakref.WeakKeyDictiona
 
 
 def _singular_error(equations: Equations, point: Mapping[str, float],
-                    parameters: Mapping[str, float]) -> SingularMassMatrixError:
+                    parameters: Mapping[str, float], M=None) -> SingularMassMatrixError:
+    """The error of a linearization at a singular M (`M`: its numbers at the point): the diagnosis with the values
+    it was linearized at; for a large model (numeric._codegen.large_model) from M's numbers at the point, as
+    simulate's (equations._singular.diagnosis_at: the symbolic one would take minutes to hours)."""
+    from ..numeric._codegen import large_model
+
     where = ", ".join(f"{k} = {v:.6g}" for k, v in point.items() if not k.endswith("_dot"))
-    diagnosis = singularities(equations, parameters=parameters).text()  # with the values it was linearized at
+    if M is not None and large_model(equations):
+        diagnosis = diagnosis_at(equations, M, point)
+    else:
+        diagnosis = singularities(equations, parameters=parameters).text()
     return SingularMassMatrixError(
         f"the mass matrix is singular at the operating point ({where}), so the equations cannot be "
         f"solved for q_ddot there and have no linearization in state-space form.\n{diagnosis}",

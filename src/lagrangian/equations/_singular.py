@@ -621,8 +621,11 @@ def diagnosis_at(equations: Equations, M, state: Mapping) -> str:
     s = 1.0 / np.sqrt(d)
     values, vectors = np.linalg.eigh(M * s[:, None] * s[None, :])
     direction = s * vectors[:, 0]
-    direction = direction / direction[np.argmax(np.abs(direction))]
-    support = [i for i in np.argsort(-np.abs(direction), kind="stable") if abs(direction[i]) >= 1e-3]
+    direction = direction / np.max(np.abs(direction))
+    # the largest components first, equal ones (to 6 digits) in the coordinates' order; the first scaled to 1
+    order = sorted(range(n), key=lambda i: (-round(abs(float(direction[i])), 6), i))
+    direction = direction / direction[order[0]]
+    support = [i for i in order if abs(direction[i]) >= 1e-3]
     shown = ", ".join(f"{equations.velocities[i].name} = {direction[i]:.3g}" for i in support[:8])
     more = f" and {len(support) - 8} more" if len(support) > 8 else ""
     lines.append(f"Here the velocity combination {shown}{more} has almost no inertia (the least eigenvalue of M "
