@@ -133,3 +133,21 @@ def test_batch_errors():
         lg.simulate_batch(forced(), 1.0, np.zeros((3, 5)))
     with pytest.raises(ModelError, match=r"must be a finite number: not so in params row 1"):
         lg.simulate_batch(forced(), 1.0, params={"k": [1.0, np.nan]})
+
+
+@pytest.mark.parametrize("initial", [[{"x": 0.1}], "abc", [[1.0, "x"]], [[1.0, 2.0], [3.0]], {1, 2}])
+def test_batch_initial_states_that_are_not_numbers_are_one_error(initial):
+    """A list of mappings, text, a ragged list: one error naming what initial must be (before: a TypeError or
+    ValueError from NumPy's conversion, with a traceback)."""
+    with pytest.raises(ModelError, match=r"\[initial\]: the initial states must be numbers: an array of shape \(B, 2\) "
+                                         r"\(x, x_dot\), or a mapping of these names to a number or a 1-d array \(one "
+                                         r"value per run\); got "):
+        lg.simulate_batch(forced(), 1.0, initial)
+
+
+@pytest.mark.parametrize("value", ["abc", [1.0, "x"], [[1.0], [2.0, 3.0]], None, {"a": 1}, True])
+def test_batch_per_run_values_that_are_not_numbers_are_one_error(value):
+    for what, kwargs in (("initial.x", {"initial": {"x": value}}), ("params.k", {"params": {"k": value}})):
+        with pytest.raises(ModelError, match=rf"\[{what}\]: {what} must be a number or a 1-d array of numbers \(one "
+                                             r"value per run\), got "):
+            lg.simulate_batch(forced(), 1.0, **kwargs)

@@ -265,3 +265,34 @@ def test_the_numpy_model_of_a_large_model_evaluates_its_shared_statements(monkey
     assert run.stats["backend"] == "scipy"
     energy = np.asarray(run.energy)
     assert abs(energy[-1] - energy[0]) <= 1e-7 * max(1.0, abs(energy[0]))
+
+
+def test_auto_runs_a_large_model_without_a_c_compiler_on_the_scipy_backend(monkeypatch):
+    """Without a C compiler, "auto" takes the SciPy backend for a large model (numba's compile of one grows faster
+    than linearly: hours at 20 rods), the numbers the same; simulate_batch, whose lanes need compiled code, numba."""
+    import lagrangian.numeric._cbackend as cbackend
+
+    monkeypatch.setattr(_codegen, "SHARED_FROM", 0)  # every model is large
+    monkeypatch.setattr(cbackend, "c_compiler", lambda: None)
+    eqs = lg.derive(lg.load("double-pendulum"))
+    nm = lg.compile(eqs)
+    assert type(nm).__name__ == "NumericModel"
+    run = lg.simulate(eqs, t_end=0.5)
+    assert run.stats["backend"] == "scipy"
+    monkeypatch.undo()
+    reference = lg.simulate(lg.derive(lg.load("double-pendulum")), t_end=0.5)
+    assert reference.stats["backend"] == "numba"
+    np.testing.assert_allclose(np.asarray(run.x)[-1], np.asarray(reference.x)[-1], rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.slow  # numba compiles the shared-statement form of the double pendulum
+def test_simulate_batch_of_a_large_model_without_a_c_compiler_runs_on_numba(monkeypatch):
+    import lagrangian.numeric._cbackend as cbackend
+
+    monkeypatch.setattr(_codegen, "SHARED_FROM", 0)
+    monkeypatch.setattr(cbackend, "c_compiler", lambda: None)
+    eqs = lg.derive(lg.load("double-pendulum"))
+    batch = lg.simulate_batch(eqs, initial={"theta1": [0.1, 0.2]}, t_end=0.5)
+    assert batch.backend == "numba"
+    one = lg.simulate(eqs, t_end=0.5, initial={"theta1": 0.2})
+    np.testing.assert_allclose(np.asarray(batch.final)[1], np.asarray(one.x)[-1], rtol=1e-6, atol=1e-6)

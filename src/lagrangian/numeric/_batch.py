@@ -130,10 +130,23 @@ def grid(axes: Mapping[str, object]) -> dict[str, np.ndarray]:
     return {k: np.array([c[i] for c in combos]) for i, k in enumerate(names)}
 
 
-def _size(value) -> int | None:
-    if isinstance(value, numbers.Real):
+def _numbers(value) -> np.ndarray | None:
+    """`value` as an array of floats, or None where it is not numbers (text, a mapping, None, a ragged list)."""
+    if value is None or isinstance(value, (str, bytes, Mapping)):
         return None
-    return int(np.asarray(value).shape[0]) if np.ndim(value) == 1 else -1
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+    return None if arr.dtype != float else arr
+
+
+def _size(value) -> int | None:
+    """None for one number (every run's), the length of a 1-d array of numbers (one per run), -1 otherwise."""
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return None
+    arr = _numbers(value)
+    return int(arr.shape[0]) if arr is not None and arr.ndim == 1 else -1
 
 
 def simulate_batch(system, t_end: float | None = None, initial=None, *, params: Mapping | None = None,
@@ -224,18 +237,23 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     # sizes: every per-run array must have the same length B
     sizes = {}
     if initial is not None and not isinstance(initial, Mapping):
-        arr = np.asarray(initial, dtype=float)
-        if arr.ndim == 2:
+        arr = _numbers(initial)
+        if arr is None:
+            problems.append(Problem(f"the initial states must be numbers: an array of shape (B, {2 * names.n}) "
+                                    f"({', '.join(names.state_names)}), or a mapping of these names to a number or "
+                                    f"a 1-d array (one value per run); got {repr(initial)[:80]}", key="initial"))
+        elif arr.ndim == 2:
             sizes["initial"] = arr.shape[0]
-        if arr.shape[-1:] != (2 * names.n,) or arr.ndim > 2:
+        if arr is not None and (arr.shape[-1:] != (2 * names.n,) or arr.ndim > 2):
             problems.append(Problem(f"the initial states must have shape (B, {2 * names.n}) "
                                     f"({', '.join(names.state_names)}), got shape {arr.shape}", key="initial"))
     for what, mapping in (("initial", initial if isinstance(initial, Mapping) else {}), ("params", params)):
         for k, v in mapping.items():
             s = _size(v)
             if s == -1:
-                problems.append(Problem(f"{what}.{getattr(k, 'name', k)} must be a number or a 1-d array, "
-                                        f"got shape {np.shape(v)}", key=f"{what}.{getattr(k, 'name', k)}"))
+                problems.append(Problem(f"{what}.{getattr(k, 'name', k)} must be a number or a 1-d array of numbers "
+                                        f"(one value per run), got {repr(v)[:80]}",
+                                        key=f"{what}.{getattr(k, 'name', k)}"))
             elif s is not None:
                 sizes[f"{what}.{getattr(k, 'name', k)}"] = s
     if len(set(sizes.values())) > 1:
@@ -283,6 +301,8 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     from ._compiled import compile_equations
 
     cm = nm if isinstance(nm, CompiledModel) else compile_equations(eq, backend)
+    if not isinstance(cm, CompiledModel):  # "auto" for a large model without a C compiler: lanes need numba
+        cm = compile_equations(eq, "numba")
     project = nwork = 0
     if eq.is_constrained:  # each run from its consistent state, projected after every step
         project, nwork = _constrained_starts(cm, X0, P[:, :k], given_initial, defaults.get("initial"))

@@ -465,7 +465,8 @@ def compile(equations: Equations, backend: str = "auto"):
     backend : {"auto", "numba", "c", "scipy"}
         "auto" (default): numba's compiled code (:class:`~lagrangian.numeric.CompiledModel`; C's for a
         large model where cffi and a C compiler are present, see :func:`auto_backend`), or
-        the portable :class:`NumericModel` for a model whose expressions numba cannot be given;
+        the portable :class:`NumericModel` for a model whose expressions numba cannot be given and for a
+        large model without a C compiler;
         the others as :func:`compile_equations` (every backend gives the same numbers, constrained
         models included).
 
@@ -494,18 +495,18 @@ def compile_equations(equations: Equations, backend: str = "scipy"):
     equations : Equations
     backend : {"scipy", "numba", "c", "auto"}
         "scipy" (default): a :class:`NumericModel` evaluated by SymEngine and NumPy (portable).
-        "auto": "numba", or "c" for a large model (:func:`auto_backend`).
+        "auto": "numba", or for a large model "c", or "scipy" where there is no C compiler (:func:`auto_backend`).
         :func:`compile`, the public one, takes the fastest by default.
         "numba": a :class:`~lagrangian.numeric.CompiledModel` of generated code compiled by
         numba; "c": the same with the model's functions in C (cffi and a C compiler needed).
         Every backend gives the same numbers; the compiled ones also run the compiled
         integrators (see :func:`simulate`).
     """
+    if backend == "auto":
+        backend = auto_backend(equations)
     if backend != "scipy":
         from ._fast import BACKENDS, compile_c, compile_numba
 
-        if backend == "auto":
-            backend = auto_backend(equations)
         if backend == "numba":
             return compile_numba(equations)
         if backend == "c":
@@ -517,19 +518,23 @@ def compile_equations(equations: Equations, backend: str = "scipy"):
 def auto_backend(equations: Equations) -> str:
     """The compiled backend "auto" takes for `equations`: "c" for a large model (M and f past 1e7 nodes written out
     as trees: spatial chains of 5 rods and more, see :func:`~lagrangian.numeric._codegen.large_model`) where cffi
-    and a C compiler are present, else "numba". numba's compile of such a model grows faster than linearly with its
-    functions' size (the 8-rod chain 165 s, 12 rods past 15 min); the C backend writes it as small helpers (about
-    10 s of gcc at 8 rods). The trajectory's ``stats["backend"]`` says which ran."""
+    and a C compiler are present, "scipy" for a large model without them, else "numba". numba's compile of such a
+    model grows faster than linearly with its functions' size (the 8-rod chain 165 s, 12 rods past 15 min); the C
+    backend writes it as small helpers (about 10 s of gcc at 8 rods); the SciPy backend runs its shared statements
+    as Python (the 20-rod chain's 1 s in about 8 s) where numba would compile for hours. The trajectory's
+    ``stats["backend"]`` says which ran."""
     from ._cbackend import c_compiler
     from ._codegen import large_model
 
     def decide():
-        if not large_model(equations) or c_compiler() is None:
+        if not large_model(equations):
             return "numba"
+        if c_compiler() is None:
+            return "scipy"
         try:
             import cffi  # noqa: F401
         except ImportError:
-            return "numba"
+            return "scipy"
         return "c"
 
     return cached(equations, "auto-backend", decide)

@@ -848,7 +848,10 @@ def _compiled_model(nm, backend: str, method: "str | Solver", u_exprs):
         if u_exprs is None:
             raise NotCompilable(_CALLABLE_INPUT)
         _input_programs(nm.equations, u_exprs)
-        return compile_equations(nm.equations, backend=backend)
+        cm = compile_equations(nm.equations, backend=backend)
+        if not isinstance(cm, CompiledModel):  # "auto": a large model without a C compiler (auto_backend)
+            return None if solver.scipy else compile_equations(nm.equations, backend="numba")
+        return cm
     except (Unsupported, NotCompilable) as exc:
         if backend == "auto" and solver.scipy:
             return None
