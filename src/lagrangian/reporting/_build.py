@@ -20,7 +20,7 @@ import symengine as se
 import sympy
 
 from ..equations import Equations, constraint_singularities, derive
-from ..equations._readable import expanded_terms_bound, readable_many
+from ..equations._readable import _add_sympy, _mul, expanded_terms_bound, readable_many
 from ..equations._singular import determinant, diagnosis, factored
 from ..errors import LagrangianError
 from ..model import Model
@@ -113,10 +113,18 @@ def _converted(e, memo: dict) -> sympy.Expr:
     if hit is not None:
         return hit
     kind = type(e)
-    if kind is se.Add:
-        out = sympy.Add(*[_converted(a, memo) for a in e.args])
-    elif kind is se.Mul:
-        out = sympy.Mul(*[_converted(a, memo) for a in e.args])
+    if kind is se.Add:  # (_add_sympy: sympy.Add, without its flattening where that would only sort the terms)
+        out = _add_sympy([_converted(a, memo) for a in e.args])
+    elif kind is se.Mul:  # (_mul: sympy.Mul, the same, for factors of distinct bases as SymEngine's are)
+        args = [_converted(a, memo) for a in e.args]
+        if args[0].is_Number:
+            coef, factors = args[0], args[1:]
+        else:
+            coef, factors = sympy.S.One, args
+        if len({f.as_base_exp()[0] for f in factors}) == len(factors):
+            out = _mul(coef, factors)
+        else:
+            out = sympy.Mul(*args)
     elif kind is se.Pow:
         out = sympy.Pow(_converted(e.args[0], memo), _converted(e.args[1], memo))
     elif kind.__name__ in _FUNCTIONS and len(e.args) == 1:
