@@ -15,7 +15,7 @@ import sympy
 from ._limits import value_problem
 from .errors import Problem
 
-__all__ = ["closest", "did_you_mean", "read_only", "real_number", "named_values"]
+__all__ = ["closest", "did_you_mean", "read_only", "real_number", "number_array", "named_values"]
 
 
 def closest(name, candidates: Iterable[str], cutoff: float = 0.6) -> str | None:
@@ -56,6 +56,19 @@ def real_number(value) -> float | None:
     else:
         return None
     return value if math.isfinite(value) else None
+
+
+def number_array(value) -> np.ndarray | None:
+    """`value` (a number, a sequence or an array of numbers) as a NumPy array of floats, or None where it is not
+    numbers: text, bytes, a mapping, None, a ragged list, objects (NumPy's conversion would raise, or read text
+    such as "1.5" as a number)."""
+    if value is None or isinstance(value, (str, bytes, Mapping)):
+        return None
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+    return arr
 
 
 def named_values(values: Mapping | None, names: tuple[str, ...], what: str, key: str,

@@ -343,6 +343,22 @@ def test_error_bad_initial_array_shape():
         lg.simulate(oscillator(), 1.0, [1.0, 2.0, 3.0])
 
 
+@pytest.mark.parametrize("initial", ["abc", [1.0, "x"], [[1.0], [2.0, 3.0]], object(), b"x"])
+def test_an_initial_state_that_is_not_numbers_is_one_error(initial):
+    """Text, bytes, a ragged list, an object: one error that says what initial must be (before: NumPy's ValueError
+    or TypeError with a traceback)."""
+    with pytest.raises(ModelError, match=r"\[initial\]: the initial state must be 2 numbers \(x, x_dot\) or a "
+                                         r"mapping of these names to numbers, got "):
+        lg.simulate(oscillator(), 1.0, initial)
+
+
+@pytest.mark.parametrize("t_eval", ["abc", [0.0, "x"], {"a": 1}, [[0.0], [0.5, 1.0]]])
+def test_output_times_that_are_not_numbers_are_one_error(t_eval):
+    with pytest.raises(ModelError, match=r"t_eval must be a non-empty increasing sequence of times \(numbers\) in "
+                                         r"\[0, t_end = 1\], got "):
+        lg.simulate(oscillator(), 1.0, {"x": 1.0}, t_eval=t_eval)
+
+
 # ------------------------------------------------------------------ singular mass matrix
 def test_massless_cart_raises_singular_mass_matrix_error():
     with pytest.raises(lg.SingularMassMatrixError) as info:

@@ -12,7 +12,7 @@ from typing import Mapping
 
 import numpy as np
 
-from .._util import did_you_mean, read_only
+from .._util import did_you_mean, number_array, read_only
 from ..errors import ModelError, Problem, Status
 from ._kernels import STATUS
 from ._trajectory import Trajectory
@@ -130,22 +130,11 @@ def grid(axes: Mapping[str, object]) -> dict[str, np.ndarray]:
     return {k: np.array([c[i] for c in combos]) for i, k in enumerate(names)}
 
 
-def _numbers(value) -> np.ndarray | None:
-    """`value` as an array of floats, or None where it is not numbers (text, a mapping, None, a ragged list)."""
-    if value is None or isinstance(value, (str, bytes, Mapping)):
-        return None
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
-    return None if arr.dtype != float else arr
-
-
 def _size(value) -> int | None:
     """None for one number (every run's), the length of a 1-d array of numbers (one per run), -1 otherwise."""
     if isinstance(value, numbers.Real) and not isinstance(value, bool):
         return None
-    arr = _numbers(value)
+    arr = number_array(value)
     return int(arr.shape[0]) if arr is not None and arr.ndim == 1 else -1
 
 
@@ -237,7 +226,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     # sizes: every per-run array must have the same length B
     sizes = {}
     if initial is not None and not isinstance(initial, Mapping):
-        arr = _numbers(initial)
+        arr = number_array(initial)
         if arr is None:
             problems.append(Problem(f"the initial states must be numbers: an array of shape (B, {2 * names.n}) "
                                     f"({', '.join(names.state_names)}), or a mapping of these names to a number or "

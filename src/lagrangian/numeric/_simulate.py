@@ -14,7 +14,7 @@ import sympy
 
 from ..equations import Equations, derive, singularities
 from .._limits import MAX_EXPONENT, MAX_ROWS, MAX_STEPS, number_problem
-from .._util import did_you_mean, named_values, read_only
+from .._util import did_you_mean, named_values, number_array, read_only
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError, Status
 from ..model import Model
 from ._cache import cached, per_equations
@@ -81,7 +81,11 @@ def requested_times(t_end: float, dt: float, t_eval=None) -> np.ndarray:
     """The output times: `t_eval` checked, or 0, dt, 2 dt, ... <= t_end."""
     if t_eval is None:
         return output_times(float(t_end), float(dt))
-    times = np.asarray(t_eval, dtype=float).ravel()
+    times = number_array(t_eval)
+    if times is None:
+        raise ModelError(f"t_eval must be a non-empty increasing sequence of times (numbers) in [0, t_end = "
+                         f"{t_end:g}], got {repr(t_eval)[:80]}")
+    times = times.ravel()
     if times.size == 0 or times[0] < 0 or np.any(np.diff(times) <= 0) or times[-1] > t_end * (1 + 1e-12):
         raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
                          f"got {t_eval!r}")
@@ -94,7 +98,8 @@ def _work_problems(t_end, dt, t_eval, step, method) -> list[Problem]:
     if number_problem(t_end, "t_end", positive=True) or number_problem(dt, "dt", positive=True):
         return []  # reported already
     if t_eval is not None:
-        rows = np.size(t_eval)
+        times = number_array(t_eval)
+        rows = 0 if times is None else times.size  # (times that are not numbers: requested_times says so)
         fix = "give fewer times in t_eval"
     else:
         rows = t_end / dt + 1
@@ -152,7 +157,11 @@ def _initial_state(nm: NumericModel, initial, problems: list[Problem]) -> np.nda
     if initial is None:
         return x0
     if not isinstance(initial, Mapping):
-        arr = np.asarray(initial, dtype=float)
+        arr = number_array(initial)
+        if arr is None:
+            problems.append(Problem(f"the initial state must be {2 * nm.n} numbers ({', '.join(nm.state_names)}) or "
+                                    f"a mapping of these names to numbers, got {repr(initial)[:80]}", key="initial"))
+            return x0
         if arr.shape != (2 * nm.n,):
             problems.append(Problem(f"the initial state must have {2 * nm.n} values "
                                     f"({', '.join(nm.state_names)}), got shape {arr.shape}", key="initial"))
