@@ -129,6 +129,18 @@ large to make readable 0.23 s: the Report holds every expression, printed or not
 optimize import 0.34 s, the constraints' searches 0.2 s), the equilibria 0.45-0.5 s (the lambdify keys of
 the constrained model 0.09 s, the multi-start search 0.3 s: 7806 evaluations of 26 us in the workspace, SymEngine
 13, C 11), HTML 0.25 s. The report meets 2.7 s on a quiet machine, not with margin under load 3.
+
+Then (issue 22, REPORT5), the report, medians of 5, the two trees alternating run by run (with this
+script's measure and environment, PYTHONPATH to each tree), the compile cache warm, load 2.9-3.6: before =
+22423ac, after = with REPORT5's commits (the large model's derived forms converted to SymPy by _readable's
+_add_sympy and _mul: sympy.Add and Mul without the flattening where it only sorts; the readable forms' budget
+counted with one memo; the angle-pair partner monomial by set operations). CPU s of the child: 3.04 (2.96-3.23)
+-> 2.88 (2.71-3.47), and 3.45 (2.87-3.73) -> 2.97 (2.83-3.37) a session later. In process, the report's
+sections without the equilibria: 0.92-1.05 -> 0.77-0.90 s. The same outputs: derive (text, --json) and report
+(HTML, Markdown, LaTeX) of the bicycle, pendulum-chain-4, double-pendulum, rolling-disk, four-bar and
+tests/models/spatial-chain-3 byte-identical. Not taken: the load (0.28 s) is SymPy's own work (the wheels'
+contact-point rates by sympy.diff 0.07 s, the frames' SymPy matrix products, the bodies' vectors in
+model/_model.py), which a faster path would only keep byte-identical by rebuilding SymPy's forms.
 """
 
 from __future__ import annotations
