@@ -15,7 +15,7 @@ import sympy
 from ._limits import value_problem
 from .errors import Problem
 
-__all__ = ["closest", "did_you_mean", "read_only", "real_number", "number_array", "named_values"]
+__all__ = ["closest", "did_you_mean", "read_only", "real_number", "number_array", "named_values", "shown_value"]
 
 
 def closest(name, candidates: Iterable[str], cutoff: float = 0.6) -> str | None:
@@ -71,6 +71,12 @@ def number_array(value) -> np.ndarray | None:
     return arr
 
 
+def shown_value(value, limit: int = 40) -> str:
+    """repr(value) on one line (runs of white space as one space), cut to `limit` characters for a message."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def named_values(values: Mapping | None, names: tuple[str, ...], what: str, key: str,
                  problems: list[Problem], derived: Mapping | None = None) -> dict[str, float]:
     """{name: value} of a mapping of names (or symbols) to real numbers, for names among `names`;
@@ -79,7 +85,14 @@ def named_values(values: Mapping | None, names: tuple[str, ...], what: str, key:
     must be: "a parameter of the model". `derived`: the model's derived parameters (name ->
     expression), whose names are refused with what they are."""
     out: dict[str, float] = {}
-    for name, value in (values or {}).items():
+    if values is None:
+        return out
+    if not isinstance(values, Mapping):
+        example = f"{{'{names[0]}': 1.0}}" if names else "{}"
+        problems.append(Problem(f"{key} must be a mapping of names to numbers, such as {example}, got "
+                                f"{type(values).__name__} {shown_value(values)}; give the values by name", key=key))
+        return out
+    for name, value in values.items():
         name = str(getattr(name, "name", name))
         number = real_number(value)
         if name in (derived or {}) and name not in names:

@@ -36,7 +36,8 @@ from ..model._constraints import VELOCITY
 from ._equilibria import make_equilibrium
 from ._roots import numeric_roots, solve_from
 from ._stationary import StationaryProblem, evaluate_exact, normalized_exact, same_point, stationary_problem
-from .._util import did_you_mean, read_only
+from .._limits import MAX_MAGNITUDE
+from .._util import did_you_mean, number_array, read_only, shown_value
 from ._setting import Setting, resolve_setting
 
 __all__ = ["continuation", "Continuation", "Branch", "BranchPoint"]
@@ -208,17 +209,27 @@ def continuation(equations: Equations, parameter: str, values: Sequence[float], 
             f"{'' if len(velocity) > 1 else 's'} the coordinates they do not hold free: there is no such system in "
             "q and lambda to continue; call equilibria(equations, params={...}) at each value instead")
     names = tuple(p.name for p in equations.parameters)
+    if not isinstance(parameter, str):
+        raise ModelError(f"the parameter to vary must be its name (text), one of {', '.join(names) or 'none'}; "
+                         f"got {type(parameter).__name__} {shown_value(parameter)}")
     if parameter not in names:
         raise ModelError(f"'{parameter}' is not a parameter of {equations.model.name}"
                          + did_you_mean(parameter, names)
                          + f"; the parameters are {', '.join(names) or 'none'}")
-    values = np.asarray(values, dtype=float).ravel()
+    given = values
+    values = number_array(values)
+    values = np.full(1, np.nan) if values is None else values.ravel()
     if values.size < 2 or not np.all(np.isfinite(values)) or not (np.all(np.diff(values) > 0)
                                                                  or np.all(np.diff(values) < 0)):
         raise ModelError(f"the values of {parameter} must be at least 2 finite numbers in increasing (or "
-                         "decreasing) order, e.g. numpy.linspace(0, 8, 201)")
-    base = resolve_setting(equations, {k: v for k, v in (params or {}).items()
-                                       if str(getattr(k, "name", k)) != parameter}, inputs, t, free=(parameter,))
+                         f"decreasing) order, e.g. numpy.linspace(0, 8, 201); got {shown_value(given)}")
+    if np.max(np.abs(values)) > MAX_MAGNITUDE:
+        raise ModelError(f"the values of {parameter} reach {np.max(np.abs(values)):g}, too large: at most "
+                         f"{MAX_MAGNITUDE:g} in magnitude, so that the products of the equations stay finite in "
+                         "double precision")
+    if isinstance(params, Mapping):
+        params = {k: v for k, v in params.items() if str(getattr(k, "name", k)) != parameter}
+    base = resolve_setting(equations, params, inputs, t, free=(parameter,))
     if equations.is_constrained:
         from ._constrained_static import constrained_problem
 

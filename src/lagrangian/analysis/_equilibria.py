@@ -44,7 +44,7 @@ import sympy
 from ..equations import Equations
 from ..model._constraints import VELOCITY
 from ._linearize import LinearModel
-from ._setting import Setting, resolve_setting
+from ._setting import Setting, check_search, resolve_setting
 from ._roots import (RootSet, completeness_notes, free_axes, group_roots, is_root, mirror_images, no_root_reasons,
                      numeric_roots, search_context)
 from ._stability import DEGENERATE, NOT_FINITE, UNDETERMINED, assess
@@ -277,6 +277,7 @@ def equilibria(equations: Equations, *, params: Mapping | None = None, inputs: M
     from the linearization in the independent coordinates. With velocity constraints the search is
     numerical, in the coordinates the motion depends on (see ``steady_motions``), the others a family.
     """
+    check_search(exact, starts, seed)
     setting = resolve_setting(equations, params, inputs, t)
     if any(c.kind == VELOCITY for c in equations.model.constraints):
         from ._constrained_steady import steady_problem

@@ -39,7 +39,7 @@ from ..equations._singular import diagnosis_at, inertia_measure
 from ..errors import ModelError, Problem, SingularMassMatrixError
 from ..model._kinematics import to_sympy
 from ..numeric._compiled import compile_equations
-from .._util import named_values, read_only
+from .._util import named_values, number_array, read_only, shown_value
 from ._setting import Setting, collect_setting
 
 __all__ = ["linearize", "LinearModel", "SymbolicLinearization", "classify", "STABILITY"]
@@ -370,12 +370,14 @@ def _point(equations: Equations, at, problems: list[Problem]) -> tuple[dict[str,
     if at is None:
         return values, exact
     if not isinstance(at, Mapping):
-        arr = np.asarray(at, dtype=float).ravel()
+        arr = number_array(at)
+        arr = np.full(1, np.nan) if arr is None else arr.ravel()
         if arr.shape == (equations.n,):
             arr = np.concatenate((arr, np.zeros(equations.n)))
         if arr.shape != (2 * equations.n,) or not np.all(np.isfinite(arr)):
             problems.append(Problem(f"the operating point must give {equations.n} coordinates or "
-                                    f"{2 * equations.n} state values ({', '.join(names)}), got {at!r}", key="at"))
+                                    f"{2 * equations.n} state values ({', '.join(names)}), got {shown_value(at)}",
+                                    key="at"))
             return values, exact
         return dict(zip(names, map(float, arr))), exact
     values.update(named_values(at, names, "a coordinate or velocity", "at", problems))

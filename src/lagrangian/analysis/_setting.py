@@ -15,10 +15,11 @@ from typing import Mapping
 import numpy as np
 
 from ..equations import Equations
-from .._util import named_values, real_number
+from .._limits import number_problem
+from .._util import named_values, real_number, shown_value
 from ..errors import ModelError, Problem
 
-__all__ = ["Setting", "resolve_setting", "collect_setting"]
+__all__ = ["Setting", "resolve_setting", "collect_setting", "check_search"]
 
 
 @dataclass(frozen=True)
@@ -82,3 +83,23 @@ def collect_setting(equations: Equations, params: Mapping | None, inputs: Mappin
     except ModelError as exc:
         problems.extend(exc.problems)
         return None
+
+
+def check_search(exact, starts, seed) -> None:
+    """Check the options of the search for equilibria and steady motions: `exact` True or False, `starts` None
+    or a whole number >= 0, `seed` a whole number >= 0; one ModelError names each that is not."""
+    problems: list[Problem] = []
+    if not isinstance(exact, (bool, np.bool_)):
+        problems.append(Problem(f"exact must be True or False, got {shown_value(exact)}", key="exact"))
+    for name, value, example in (("starts", starts, "starts=48"), ("seed", seed, "seed=0")):
+        if value is None and name == "starts":
+            continue
+        if isinstance(value, np.integer):
+            value = int(value)
+        why = number_problem(value, name, minimum=0, integer=True, example=example, shown=shown_value(value))
+        if why is None and not isinstance(value, int):
+            why = f"{name} must be a whole number, got {shown_value(value)}; for example {example}"
+        if why is not None:
+            problems.append(Problem(why, key=name))
+    if problems:
+        raise ModelError(problems)

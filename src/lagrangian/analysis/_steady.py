@@ -29,9 +29,9 @@ from ..equations import Equations
 from ..errors import ModelError, Problem
 from ._equilibria import Equilibria, Equilibrium, found_points
 from ..model._kinematics import to_sympy
-from .._util import did_you_mean, real_number
+from .._util import did_you_mean, real_number, shown_value
 from ..numeric._compiled import compile_equations
-from ._setting import collect_setting
+from ._setting import check_search, collect_setting
 from ._roots import completeness_notes, free_axes, no_root_reasons
 from ._stability import assess
 from ._stationary import conserved_cyclic, stationary_problem
@@ -135,6 +135,13 @@ def _fixed(equations: Equations, velocities: Mapping | None, momenta: Mapping | 
     def check(kind, given, prefix, suffix, allowed, out):
         choices = f"the {word} coordinates' {'velocities' if kind == 'velocity' else 'momenta'} are " \
                   f"{', '.join(allowed)}" if allowed else none
+        if given is not None and not isinstance(given, Mapping):
+            example = f"{{'{prefix}{names[cyclic[0]] if cyclic else names[0]}{suffix}': 1.0}}"
+            problems.append(Problem(f"the {'velocities' if kind == 'velocity' else 'momenta'} must be a mapping of "
+                                    f"names to numbers, such as {example}, got {type(given).__name__} "
+                                    f"{shown_value(given)}; {choices}", key="velocities" if kind == "velocity"
+                                    else "momenta"))
+            return
         for key, value in (given or {}).items():
             key = str(getattr(key, "name", key))
             base = key[len(prefix):len(key) - len(suffix)] if key.startswith(prefix) and key.endswith(suffix) else None
@@ -215,6 +222,7 @@ def steady_motions(equations: Equations, velocities: Mapping | None = None, *, m
         Bad names or values: a velocity of a coordinate that is not cyclic, a rate and a momentum
         for the same coordinate, unknown parameters or inputs.
     """
+    check_search(exact, starts, seed)
     if equations.is_constrained:
         return _constrained_steady_motions(equations, velocities, momenta, params, inputs, t, starts, seed)
     problems: list[Problem] = []
