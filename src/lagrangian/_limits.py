@@ -83,7 +83,9 @@ def value_problem(name: str, value) -> str | None:
     """Why `value` cannot be the value of the parameter, input or state component `name` (not a
     finite number, or past :data:`MAX_MAGNITUDE`), or None when it can."""
     if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
-        return f"the value of '{name}' must be a finite number, got {value!r}"
+        shown = " ".join(repr(value).split())
+        shown = shown if len(shown) <= 40 else shown[:37] + "..."
+        return f"the value of '{name}' must be a finite number, got {shown}"
     if abs(value) > MAX_MAGNITUDE:
         return (f"the value of '{name}' is {float(value):g}, too large: at most {MAX_MAGNITUDE:g} in magnitude, so "
                 "that the products of the equations stay finite in double precision")

@@ -36,6 +36,7 @@ import numpy as np
 import symengine as se
 import sympy
 
+from .._util import shown_value
 from ..errors import ModelError
 from ..model._constraints import HOLONOMIC
 from ..model._kinematics import to_sympy
@@ -620,6 +621,13 @@ def _driver_sets(eqs: Equations, drivers, names, m_h) -> list[tuple[tuple[int, .
         problems = []
         if isinstance(drivers, str):
             drivers = [drivers]
+        sets = (list, tuple, set, frozenset)
+        if not isinstance(drivers, sets) or not all(
+                isinstance(item, str) or (isinstance(item, sets) and all(isinstance(k, str) for k in item))
+                for item in drivers):
+            raise ModelError(f"drivers must be a coordinate's name, a list of names or a list of sets of names, "
+                             f"such as drivers='{names[0]}' or drivers=[('{names[0]}',)], got "
+                             f"{shown_value(drivers)}; the coordinates are {', '.join(names)}")
         for item in drivers:
             group = [item] if isinstance(item, str) else list(item)
             bad = [k for k in group if k not in names]

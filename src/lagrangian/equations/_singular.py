@@ -17,7 +17,8 @@ import numpy as np
 import symengine as se
 import sympy
 
-from .._util import did_you_mean
+from .._limits import value_problem
+from .._util import did_you_mean, real_number, shown_value
 from ..errors import ModelError, Problem
 from ..model._elements import Particle, RigidBody, RigidBody3D
 from ._equations import Equations
@@ -205,13 +206,21 @@ def factored(expr) -> sympy.Expr:
 def _values(eqs: Equations, parameters: Mapping | None = None) -> dict:
     """The parameter values, exact where they are simple numbers: the model's, those of `parameters`
     (by name) in their place."""
-    given = {getattr(k, "name", k): v for k, v in (parameters or {}).items()}
     names = [p.name for p in eqs.parameters]
+    if parameters is not None and not isinstance(parameters, Mapping):
+        raise ModelError([Problem(f"parameters must be a mapping of names to numbers, such as "
+                                  f"{{'{names[0] if names else 'm'}': 1.0}}, got {type(parameters).__name__} "
+                                  f"{shown_value(parameters)}", key="parameters")])
+    given = {getattr(k, "name", k): v for k, v in (parameters or {}).items()}
     unknown = [k for k in given if k not in names]
     if unknown:
         raise ModelError([Problem(f"'{k}' is not a parameter of the model" + did_you_mean(k, names)
                                   + f"; its parameters are {', '.join(names) or 'none'}", key=f"parameters.{k}")
                           for k in unknown])
+    bad = [(k, why) for k, v in given.items()
+           if (why := value_problem(k, v if real_number(v) is None else real_number(v))) is not None]
+    if bad:
+        raise ModelError([Problem(why, key=f"parameters.{k}") for k, why in bad])
     values = {p: given.get(p.name, v) for p, v in eqs.parameters.items()}
     return {p: exact_number(v) for p, v in values.items() if v is not None}
 
