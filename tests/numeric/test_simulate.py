@@ -473,3 +473,46 @@ def test_progress_bar_on_a_terminal_and_the_same_results(monkeypatch):
         quiet = lg.simulate(eqs, 2.0, {"theta1": 1.0}, backend=backend, progress=False)
         assert stream.getvalue() == ""
         np.testing.assert_array_equal(shown.x, quiet.x)
+
+
+# ------------------------------------------------------------------ hostile arguments (FUZZ)
+@pytest.mark.parametrize("key, value, text", [
+    ("inputs", "F", r"\[inputs\]: inputs must be a mapping of names to values, such as inputs=\{'F': 1\.0\}, got str "
+                    r"'F'"),
+    ("inputs", 2.0, r"\[inputs\]: inputs must be a mapping of names to values, such as inputs=\{'F': 1\.0\}, got float "
+                    r"2\.0"),
+    ("params", [1.0], r"\[params\]: params must be a mapping of names to values, such as params=\{'m': 2\.0\}, got "
+                      r"list \[1\.0\]"),
+    ("events", 3, r"\[events\]: events must be a mapping of names to values, such as events=\{'ground': 'y'\}, got "
+                  r"int 3"),
+    ("events", "x", r"\[events\]: events must be a mapping of names to values"),
+    ("stop_on", 3, r"\[stop_on\]: stop_on must be the name of an event or a list of names, such as stop_on='ground' "
+                   r"or stop_on=\['ground', 'wall'\], got 3"),
+    ("stop_on", [1], r"\[stop_on\]: stop_on must be the name of an event or a list of names"),
+    ("options", {}, r"\[options\]: options must be a SimulationOptions \(lagrangian\.numeric\."
+                    r"SimulationOptions\(\.\.\.\)\), got dict \{\}; or pass each option as its own argument"),
+    ("options", "fast", r"\[options\]: options must be a SimulationOptions"),
+])
+def test_arguments_of_the_wrong_kind_are_one_error(key, value, text):
+    """Before: AttributeError ('str' object has no attribute 'values'), TypeError ('int' object is not iterable),
+    ValueError (dictionary update sequence) with a traceback."""
+    with pytest.raises(ModelError, match=text):
+        lg.simulate(oscillator(force=True), 0.1, {"x": 1.0}, **{key: value})
+
+
+@pytest.mark.parametrize("value, text", [
+    (float("nan"), r"\[inputs\.F\]: input 'F' must be a finite number, got nan"),
+    (float("inf"), r"\[inputs\.F\]: input 'F' must be a finite number, got inf"),
+    (1e308, r"\[inputs\.F\]: input 'F' is 1e\+308, too large: at most 1e\+150 in magnitude"),
+    (np.float64(-1e200), r"\[inputs\.F\]: input 'F' is -1e\+200, too large: at most 1e\+150 in magnitude"),
+])
+def test_a_constant_input_that_is_not_a_finite_number_is_one_error(value, text):
+    """Before: 1e308 raised ZeroDivisionError from the compiled integrator, NaN a SimulationError after the run
+    started that blamed the model's expressions."""
+    with pytest.raises(ModelError, match=text):
+        lg.simulate(oscillator(force=True), 0.1, {"x": 1.0}, inputs={"F": value})
+
+
+def test_a_constant_input_within_the_limit_still_runs():
+    traj = lg.simulate(oscillator(force=True), 1.0, {"x": 0.0}, inputs={"F": 4.0}, **TIGHT)
+    assert traj.x[-1, 0] == pytest.approx(1.0 - math.cos(2.0), rel=1e-7)  # x = F/k (1 - cos 2t)

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, fields, replace
 from types import MappingProxyType
 
 from .._limits import number_problem
+from .._util import shown_value
 from ..errors import ModelError, Problem
 
 __all__ = ["BY_NAME", "SimulationOptions"]
@@ -170,8 +171,19 @@ class SimulationOptions:
                 if key == "initial":
                     given = self.given if isinstance(self.given, Mapping) else {}
                     changes["given"] = _frozen({**given, **value})
+            elif key in ("inputs", "params", "events"):
+                example = {"inputs": "inputs={'F': 1.0}", "params": "params={'m': 2.0}",
+                           "events": "events={'ground': 'y'}"}[key]
+                raise ModelError([Problem(f"{key} must be a mapping of names to values, such as {example}, got "
+                                          f"{type(value).__name__} {shown_value(value)}", key=key)])
             elif key == "stop_on":
-                changes[key] = (value,) if isinstance(value, str) else tuple(value)
+                names = (value,) if isinstance(value, str) else tuple(value) if isinstance(value, (list, tuple)) \
+                    else None
+                if names is None or not all(isinstance(n, str) for n in names):
+                    raise ModelError([Problem(f"stop_on must be the name of an event or a list of names, such as "
+                                              f"stop_on='ground' or stop_on=['ground', 'wall'], got "
+                                              f"{shown_value(value)}", key="stop_on")])
+                changes[key] = names
             else:
                 changes[key] = value
                 if key == "initial":

@@ -13,8 +13,8 @@ import numpy as np
 import sympy
 
 from ..equations import Equations, derive, singularities
-from .._limits import MAX_EXPONENT, MAX_ROWS, MAX_STEPS, number_problem
-from .._util import did_you_mean, named_values, number_array, read_only
+from .._limits import MAX_EXPONENT, MAX_ROWS, MAX_STEPS, number_problem, value_problem
+from .._util import did_you_mean, named_values, number_array, read_only, shown_value
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError, Status
 from ..model import Model
 from ._cache import cached, per_equations
@@ -189,6 +189,10 @@ def _input_function(nm, inputs, pvalues, problems: list[Problem]):
         if isinstance(spec, Signal):  # a measured signal: a sympy function of t, interpolated in compiled code
             spec = spec(nm.equations.t)
         if isinstance(spec, numbers.Real) and not isinstance(spec, bool):
+            if (why := value_problem(name, spec)) is not None:
+                problems.append(Problem(f"input {why[len('the value of '):]}" if why.startswith("the value of ")
+                                        else why, key=f"inputs.{name}"))
+                continue
             constant[i] = float(spec)
             if exprs is not None:
                 exprs[i] = sympy.Float(float(spec))
@@ -439,6 +443,10 @@ def simulate(system, t_end: float | None = None, initial=None, *, inputs: Mappin
         if hit is not None and hit[0] is nm and _same_limits(hit[4]):  # the same call as one checked before: run it
             return hit[5]() if hit[5] is not None else _run_compiled(hit[1], hit[2], hit[3], hit[2].x0)
     if options is not None:
+        if not isinstance(options, SimulationOptions):
+            raise ModelError([Problem(f"options must be a SimulationOptions (lagrangian.numeric.SimulationOptions"
+                                      f"(...)), got {type(options).__name__} {shown_value(options)}; or pass each "
+                                      "option as its own argument (t_end=..., dt=...)", key="options")])
         base = options
     elif table is not None:  # the model file's options, built again only when its [simulation] table changed
         base = _last(eq, "simulate.options", table, lambda: SimulationOptions.from_model(eq.model))
