@@ -142,3 +142,32 @@ def test_continuation_parameter_that_is_not_a_name_is_one_error(pendulum, parame
 def test_continuation_params_not_a_mapping_is_one_error(pendulum):
     with pytest.raises(ModelError, match=r"\[params\]: params must be a mapping of names to numbers"):
         lg.continuation(pendulum, "g", [1.0, 2.0], params=2.0)
+
+
+@pytest.mark.parametrize("q, text", [
+    ([1.0, [2.0]], r"q: expected numbers, got \[1\.0, \[2\.0\]\]"),
+    ({"theta1": [1.0, [2.0]], "theta2": 0.0}, r"q\.theta1: expected numbers, got \[1\.0, \[2\.0\]\]"),
+    ({"theta1": np.ones((2, 2)), "theta2": 0.0}, r"q\.theta1: expected one number or a sequence of numbers \(one per "
+                                                 r"state\), got an array of shape \(2, 2\)"),
+    ("ab", r"q: expected numbers, got 'ab'"),
+    ([0.1, "x"], r"q: expected numbers, got \[0\.1, 'x'\]"),
+])
+def test_inverse_dynamics_states_that_are_not_numbers_are_one_error(pendulum, q, text):
+    """Before: NumPy's ValueError (inhomogeneous shape, operand has more dimensions) with a traceback."""
+    with pytest.raises(ModelError, match=text):
+        lg.inverse_dynamics(pendulum, q)
+
+
+@pytest.mark.parametrize("inputs", ["F", 1.5, [1.0], np.ones((2, 2)), True])
+def test_inverse_dynamics_inputs_not_a_mapping_are_one_error(inputs):
+    """Before: AttributeError ('str' object has no attribute 'items') or NumPy's ambiguous truth value."""
+    eq = lg.derive(lg.load("cart-pendulum"))
+    with pytest.raises(ModelError, match=r"\[inputs\]: inputs must be a mapping of names to numbers or arrays \(one "
+                                         r"value per state\), such as \{'F': 1\.0\}, got "):
+        lg.inverse_dynamics(eq, [0.0, 0.0], inputs=inputs)
+
+
+def test_inverse_dynamics_of_a_pose_still_works(pendulum):
+    out = lg.inverse_dynamics(pendulum, {"theta1": [0.5, 0.0], "theta2": 0.0})
+    assert out.torques[0, 0] == pytest.approx(2 * 9.81 * np.sin(0.5))  # g l1 (m1 + m2) sin(theta1)
+    assert out.torques[1, 0] == pytest.approx(0.0)

@@ -27,7 +27,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import symengine as se
 
-from .._util import did_you_mean, read_only
+from .._util import did_you_mean, number_array, read_only, shown_value
 from ..equations import Equations
 from ..errors import LagrangianError, ModelError, Problem
 from ._setting import resolve_setting
@@ -152,6 +152,10 @@ def _array(values, names: Sequence[str], what: str) -> np.ndarray:
                                       f"{', '.join(names)}", key=f"{what}.{k}") for k in unknown])
         given = {str(getattr(k, "name", k)): v for k, v in values.items()}
         columns = [np.atleast_1d(np.asarray(_floats(given.get(name, 0.0), f"{what}.{name}"))) for name in names]
+        flat = [name for name, c in zip(names, columns) if c.ndim != 1]
+        if flat:
+            raise ModelError(f"{what}.{flat[0]}: expected one number or a sequence of numbers (one per state), got "
+                             f"an array of shape {np.shape(given[flat[0]])}")
         rows = max(len(c) for c in columns)
         if any(len(c) not in (1, rows) for c in columns):
             raise ModelError(f"{what}: the values by name have different lengths "
@@ -165,11 +169,19 @@ def _array(values, names: Sequence[str], what: str) -> np.ndarray:
     return np.atleast_2d(a)
 
 
-def _floats(values, where: str) -> np.ndarray:
+def _ndim(value) -> int:
+    """np.ndim(value), or -1 for a ragged list (whose np.ndim is NumPy's ValueError); _floats then says what is
+    wrong with it."""
     try:
-        a = np.asarray(values, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: expected numbers, got {values!r}") from None
+        return np.ndim(value)
+    except ValueError:
+        return -1
+
+
+def _floats(values, where: str) -> np.ndarray:
+    a = number_array(values)
+    if a is None:
+        raise ModelError(f"{where}: expected numbers, got {shown_value(values)}")
     if not np.all(np.isfinite(a)):
         raise ModelError(f"{where}: every value must be a finite number (no NaN or infinity)")
     return a
@@ -214,7 +226,7 @@ def inverse_dynamics(equations: Equations, q, q_dot=None, q_ddot=None, *, params
                         f"{type(equations).__name__}")
     eq = equations
     names = [c.name for c in eq.coordinates]
-    single = (all(np.ndim(v) == 0 for v in q.values()) if isinstance(q, Mapping) else np.ndim(q) == 1)
+    single = (all(_ndim(v) == 0 for v in q.values()) if isinstance(q, Mapping) else _ndim(q) == 1)
     Q = _array(q, names, "q")
     rows = Q.shape[0]
     parts = {}
@@ -227,8 +239,12 @@ def inverse_dynamics(equations: Equations, q, q_dot=None, q_ddot=None, *, params
             raise ModelError(f"{key}: {a.shape[0]} rows, q has {rows}: give one row per state")
         parts[key] = np.array(a, dtype=float)
     unames = [u.name for u in eq.inputs]
-    constant = {k: v for k, v in (inputs or {}).items() if np.ndim(v) == 0}
-    varying = {str(getattr(k, "name", k)): v for k, v in (inputs or {}).items() if np.ndim(v) != 0}
+    if inputs is not None and not isinstance(inputs, Mapping):
+        raise ModelError([Problem(f"inputs must be a mapping of names to numbers or arrays (one value per state), "
+                                  f"such as {{'{unames[0] if unames else 'F'}': 1.0}}, got {type(inputs).__name__} "
+                                  f"{shown_value(inputs)}", key="inputs")])
+    constant = {k: v for k, v in (inputs or {}).items() if _ndim(v) == 0}
+    varying = {str(getattr(k, "name", k)): v for k, v in (inputs or {}).items() if _ndim(v) != 0}
     setting = resolve_setting(eq, params, constant, 0.0)
     tt = _floats(t, "t")
     if tt.ndim == 0:
