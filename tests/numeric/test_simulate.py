@@ -516,3 +516,20 @@ def test_a_constant_input_that_is_not_a_finite_number_is_one_error(value, text):
 def test_a_constant_input_within_the_limit_still_runs():
     traj = lg.simulate(oscillator(force=True), 1.0, {"x": 0.0}, inputs={"F": 4.0}, **TIGHT)
     assert traj.x[-1, 0] == pytest.approx(1.0 - math.cos(2.0), rel=1e-7)  # x = F/k (1 - cos 2t)
+
+
+@pytest.mark.parametrize("spec, text", [
+    ("1e308", r"\[inputs\.F\]: the input is 1e\+308, too large: at most 1e\+150 in magnitude"),
+    ("-2e200", r"\[inputs\.F\]: the input is -2e\+200, too large: at most 1e\+150 in magnitude"),
+    (lg.pi * 1e300, r"\[inputs\.F\]: the input is 3\.14159e\+300, too large: at most 1e\+150 in magnitude"),
+])
+def test_a_constant_input_expression_past_the_limit_is_one_error(spec, text):
+    """The command line's --input F=1e308 is the expression '1e308': checked as the number is (before:
+    ZeroDivisionError inside the compiled integrator)."""
+    with pytest.raises(ModelError, match=text):
+        lg.simulate(oscillator(force=True), 0.1, {"x": 1.0}, inputs={"F": spec})
+
+
+def test_a_constant_input_expression_within_the_limit_still_runs():
+    traj = lg.simulate(oscillator(force=True), 1.0, {"x": 0.0}, inputs={"F": "2*2"}, **TIGHT)
+    assert traj.x[-1, 0] == pytest.approx(1.0 - math.cos(2.0), rel=1e-7)

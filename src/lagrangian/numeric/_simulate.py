@@ -14,7 +14,7 @@ import sympy
 
 from ..equations import Equations, derive, singularities
 from .._limits import MAX_EXPONENT, MAX_ROWS, MAX_STEPS, number_problem, value_problem
-from .._util import did_you_mean, named_values, number_array, read_only, shown_value
+from .._util import did_you_mean, named_values, number_array, read_only, real_number, shown_value
 from ..errors import ModelError, Problem, SimulationError, SingularMassMatrixError, Status
 from ..model import Model
 from ._cache import cached, per_equations
@@ -279,6 +279,12 @@ def _input_expression(nm, spec, pvalues) -> tuple[Callable[[float, np.ndarray], 
     if extra:
         raise ModelError(f"an input may depend on t, the coordinates, velocities and parameters, not on "
                          f"{', '.join(sorted(s.name for s in extra))}")
+    if expr.is_number:  # a constant: its value is checked as a number given directly is
+        value = real_number(expr)
+        if value is None:
+            raise ModelError(f"the input {str(spec)[:40]} is not a finite real number")
+        if (why := value_problem("the input", value)) is not None:
+            raise ModelError(why.replace("the value of 'the input'", "the input").replace("'the input'", "the input"))
     f = sympy.lambdify([eq.t, list((*eq.coordinates, *eq.velocities)), list(eq.parameters)], expr, "math")
     pv = [float(v) for v in pvalues]
     return (lambda time, x: f(time, x, pv)), expr
