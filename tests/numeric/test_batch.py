@@ -151,3 +151,34 @@ def test_batch_per_run_values_that_are_not_numbers_are_one_error(value):
         with pytest.raises(ModelError, match=rf"\[{what}\]: {what} must be a number or a 1-d array of numbers \(one "
                                              r"value per run\), got "):
             lg.simulate_batch(forced(), 1.0, **kwargs)
+
+
+# ------------------------------------------------------------------ grid: hostile axes (FUZZ)
+@pytest.mark.parametrize("axes", [3, "abc", [1, 2], None, b"k"])
+def test_grid_of_something_that_is_not_a_mapping_is_one_error(axes):
+    """Before: TypeError ('int' object is not iterable, string indices must be integers) or IndexError."""
+    with pytest.raises(ModelError, match=r"\[axes\]: grid\(\) takes a mapping of names to the values of each axis, "
+                                         r"such as grid\(\{'k': \[1, 2, 3\], 'c': \[0\.1, 0\.2\]\}\), got "):
+        lg.grid(axes)
+
+
+@pytest.mark.parametrize("values", ["abc", [1, [2]], [], [1.0, float("nan")], [1.0, float("inf")], {"a": 1},
+                                    np.ones((2, 2)), object(), 1j])
+def test_grid_axis_values_that_are_not_numbers_are_one_error(values):
+    """Before: NumPy's ValueError (could not convert string to float, inhomogeneous shape) or TypeError."""
+    with pytest.raises(ModelError, match=r"\[axes\.k\]: the values of axis 'k' must be one finite number or a "
+                                         r"non-empty list of finite numbers, such as grid\("):
+        lg.grid({"k": values, "c": [0.1]})
+
+
+def test_a_grid_past_the_row_limit_is_one_error():
+    """10^7 combinations: refused before itertools.product builds them (before: minutes and gigabytes)."""
+    with pytest.raises(ModelError, match=r"\[axes\]: the grid has 1e\+07 combinations \(1000 x 1000 x 10\), more "
+                                         r"than the limit of 1000000: use fewer values on an axis; "
+                                         r".*LAGRANGIAN_MAX_ROWS"):
+        lg.grid({"a": range(1000), "b": range(1000), "c": range(10)})
+
+
+def test_grid_still_combines_numbers_and_ranges():
+    out = lg.grid({"k": range(1, 3), "c": 0.5})
+    assert out["k"].tolist() == [1.0, 2.0] and out["c"].tolist() == [0.5, 0.5]

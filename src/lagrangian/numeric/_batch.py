@@ -12,7 +12,8 @@ from typing import Mapping
 
 import numpy as np
 
-from .._util import did_you_mean, number_array, read_only
+from .._limits import MAX_ROWS
+from .._util import did_you_mean, number_array, read_only, shown_value
 from ..errors import ModelError, Problem, Status
 from ._kernels import STATUS
 from ._trajectory import Trajectory
@@ -124,8 +125,27 @@ def grid(axes: Mapping[str, object]) -> dict[str, np.ndarray]:
 
     ``grid({"k": [1, 2, 3], "c": [0.1, 0.2]})`` gives k = [1, 1, 2, 2, 3, 3], c = [0.1, 0.2, ...].
     """
+    example = "grid({'k': [1, 2, 3], 'c': [0.1, 0.2]})"
+    if not isinstance(axes, Mapping):
+        raise ModelError([Problem(f"grid() takes a mapping of names to the values of each axis, such as {example}, "
+                                  f"got {type(axes).__name__} {shown_value(axes)}", key="axes")])
     names = list(axes)
-    values = [np.atleast_1d(np.asarray(axes[k], dtype=float)) for k in names]
+    values, problems = [], []
+    for k in names:
+        arr = number_array(axes[k])
+        if arr is None or arr.ndim > 1 or arr.size == 0 or not np.all(np.isfinite(arr)):
+            problems.append(Problem(f"the values of axis '{k}' must be one finite number or a non-empty list of "
+                                    f"finite numbers, such as {example}, got {shown_value(axes[k])}",
+                                    key=f"axes.{k}"))
+            continue
+        values.append(np.atleast_1d(arr))
+    if problems:
+        raise ModelError(problems)
+    size = math.prod(len(v) for v in values)
+    if size > MAX_ROWS.value:
+        raise ModelError([Problem(f"the grid has {size:.3g} combinations ({' x '.join(str(len(v)) for v in values)}), "
+                                  f"more than the limit of {MAX_ROWS.value}: use fewer values on an axis; "
+                                  f"{MAX_ROWS.how_to_raise()}", key="axes")])
     combos = list(itertools.product(*values))
     return {k: np.array([c[i] for c in combos]) for i, k in enumerate(names)}
 
