@@ -6,7 +6,7 @@ import os
 import re
 from pathlib import Path
 
-from .._util import did_you_mean
+from .._util import did_you_mean, shown_value
 from ..errors import ModelFileError, Problem
 from ..model._expr import parse_expression
 from ._write import write_model
@@ -56,6 +56,11 @@ def load_urdf(path: str | os.PathLike, *, floating_base: bool = False, gravity: 
     return _load(path, floating_base=floating_base, gravity=gravity)
 
 
+def _cut(text: str, limit: int = 80) -> str:
+    """`text` cut to `limit` characters for a message (a name of 5000 characters is not repeated whole)."""
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def load(source: str | os.PathLike):
     """A Model from a built-in example name (``"cart-pendulum"``, ``"pendulum-chain-5"``), the
     path of a TOML model file, or the path of a URDF robot description (``.urdf``: see
@@ -69,6 +74,10 @@ def load(source: str | os.PathLike):
     from ..examples import example_names, example_source
 
     text = None
+    if not isinstance(source, (str, os.PathLike)):
+        raise ModelFileError([Problem(f"load() takes the path of a model file or the name of a built-in example "
+                                      f"(text or a pathlib.Path), got {type(source).__name__} {shown_value(source)}; "
+                                      "for example lagrangian.load('double-pendulum')")])
     if str(source).lower().endswith(".urdf"):  # a robot description: io._urdf
         from ._urdf import load_urdf
 
@@ -82,7 +91,11 @@ def load(source: str | os.PathLike):
         if text is not None:
             return loads_model(text, source=f"<example {source}>")
     path = Path(source)
-    if path.exists() or str(source).endswith(".toml") or os.sep in str(source):
+    try:
+        exists = path.exists()
+    except OSError:  # a name too long for a path (ENAMETOOLONG): no such file
+        exists = False
+    if exists or str(source).endswith(".toml") or os.sep in str(source):
         return load_model_file(path)
     family = re.match(r"(pendulum-chain|spring-mass-damper-chain)-(-?[0-9]+)\Z", str(source))
     if family:
@@ -91,5 +104,5 @@ def load(source: str | os.PathLike):
             f"e.g. {family.group(1)}-5")])
     extra = did_you_mean(source, example_names(), 0.5, sentence=True)
     raise ModelFileError([Problem(
-        f"'{source}' is neither a model file nor a built-in example.{extra} "
+        f"'{_cut(str(source))}' is neither a model file nor a built-in example.{extra} "
         "Run `lagrangian examples` to list the examples, or give the path of a .toml model file.")])

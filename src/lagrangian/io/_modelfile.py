@@ -239,9 +239,18 @@ def load_model_file(path: str | os.PathLike[str]) -> Model:
     """
     file = Path(path)
     source = str(file)
-    if not file.is_file():
+    try:
+        regular = file.is_file()
+    except OSError as exc:  # a name too long for a path (ENAMETOOLONG)
+        short = source if len(source) <= 80 else source[:77] + "..."
+        raise ModelFileError([Problem(f"no such model file '{short}': {exc.strerror or exc}; check the path")],
+                             file=short) from None
+    if not regular:
         if file.is_dir():
             why = f"no such model file '{source}': it is a directory; give the path of a .toml file"
+        elif file.exists():
+            why = (f"'{source}' is not a regular file (a device, a pipe or a socket); give the path of a .toml "
+                   "model file")
         else:
             why = f"no such model file '{source}': check the path" + _similar_files(file)
         raise ModelFileError([Problem(why)], file=source)
