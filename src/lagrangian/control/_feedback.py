@@ -26,7 +26,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .._util import did_you_mean, read_only
+from .._limits import MAX_MAGNITUDE
+from .._util import did_you_mean, read_only, shown_value
 from ..equations._exact import exact_number
 from ..errors import DesignError, ModelError, Problem
 
@@ -268,9 +269,10 @@ def _weights(value, names: tuple[str, ...], what: str, default_missing: float | 
             if name not in names:
                 problems.append(Problem(f"'{name}' is not one of {', '.join(names)}" + did_you_mean(name, names, 0.5),
                                         key=f"{what}.{name}"))
-            elif not isinstance(w, numbers.Real) or isinstance(w, bool) or not math.isfinite(w):
-                problems.append(Problem(f"the weight of '{name}' must be a finite number, got {w!r}",
-                                        key=f"{what}.{name}"))
+            elif (not isinstance(w, numbers.Real) or isinstance(w, bool) or not math.isfinite(w)
+                  or abs(w) > MAX_MAGNITUDE):
+                problems.append(Problem(f"the weight of '{name}' must be a finite number of magnitude at most "
+                                        f"{MAX_MAGNITUDE:g}, got {shown_value(w)}", key=f"{what}.{name}"))
             else:
                 diag[names.index(name)] = float(w)
         missing = [n for n, d in zip(names, diag) if np.isnan(d)]
@@ -283,7 +285,7 @@ def _weights(value, names: tuple[str, ...], what: str, default_missing: float | 
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         problems.append(Problem(f"{what} must be a number, a vector of {k} weights, a {k} x {k} matrix or a "
-                                f"mapping of names to weights, got {value!r}", key=what))
+                                f"mapping of names to weights, got {shown_value(value)}", key=what))
         return None
     if arr.ndim == 0:
         arr = float(arr) * np.eye(k)
@@ -298,6 +300,11 @@ def _weights(value, names: tuple[str, ...], what: str, default_missing: float | 
         return None
     if not np.all(np.isfinite(arr)):
         problems.append(Problem(f"{what} must be finite", key=what))
+        return None
+    if arr.size and np.max(np.abs(arr)) > MAX_MAGNITUDE:
+        problems.append(Problem(f"{what} has a weight of {np.max(np.abs(arr)):g}, too large: at most "
+                                f"{MAX_MAGNITUDE:g} in magnitude; scale the weights down (only their ratios matter)",
+                                key=what))
         return None
     return arr
 
@@ -373,7 +380,12 @@ def _plant(lin, sample_time) -> tuple[np.ndarray, np.ndarray]:
     when an unstable mode cannot be moved by the inputs."""
     A, B = np.asarray(lin.A, float), np.asarray(lin.B, float)
     if sample_time is not None:
-        A, B = discretize(A, B, float(sample_time))
+        with np.errstate(over="ignore", invalid="ignore"):
+            A, B = discretize(A, B, float(sample_time))
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            raise ModelError(f"sample_time {float(sample_time):g} s is too long for {lin.equations.model.name}: "
+                             "e^(A Ts) of its unstable modes overflows double precision; choose a sample time "
+                             "shorter than the time scales of the motion (for example 0.01 s)")
     bad = _uncontrollable(A, B, sample_time is not None)
     if bad:
         raise _uncontrollable_error(lin, bad)
