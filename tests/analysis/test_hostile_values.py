@@ -171,3 +171,22 @@ def test_inverse_dynamics_of_a_pose_still_works(pendulum):
     out = lg.inverse_dynamics(pendulum, {"theta1": [0.5, 0.0], "theta2": 0.0})
     assert out.torques[0, 0] == pytest.approx(2 * 9.81 * np.sin(0.5))  # g l1 (m1 + m2) sin(theta1)
     assert out.torques[1, 0] == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize("actuated, text", [
+    ("theta1", r"actuated: model 'double-pendulum' has no constraints, so every coordinate is actuated and tau has "
+               r"one force per coordinate \(theta1, theta2\); leave actuated out"),
+    (["zz"], r"\[actuated\.zz\]: 'zz' is not a coordinate; the coordinates are theta1, theta2"),
+    (3, r"actuated must be a list of coordinate names, e.g\. actuated=\['theta1'\], got 3; the coordinates are "
+        r"theta1, theta2"),
+    ([1], r"actuated must be a list of coordinate names, e.g\. actuated=\['theta1'\], got \[1\]"),
+])
+def test_inverse_dynamics_actuated_of_a_model_without_constraints(pendulum, actuated, text):
+    """Before: ignored without a word (a wrong name, or a subset that the model cannot be driven by)."""
+    with pytest.raises(ModelError, match=text):
+        lg.inverse_dynamics(pendulum, [0.5, 0.0], actuated=actuated)
+
+
+def test_inverse_dynamics_every_coordinate_actuated_is_the_default(pendulum):
+    both = lg.inverse_dynamics(pendulum, [0.5, 0.0], actuated=["theta2", "theta1"])
+    assert both.torques.tolist() == lg.inverse_dynamics(pendulum, [0.5, 0.0]).torques.tolist()

@@ -272,6 +272,10 @@ def inverse_dynamics(equations: Equations, q, q_dot=None, q_ddot=None, *, params
         raise LagrangianError(f"M q_ddot - f is not finite at state {bad} (t = {tt[bad]:g}, q = {Q[bad].tolist()}): "
                               "the model's expressions are singular there (a division by zero)")
     if not m:
+        if actuated is not None and set(_actuated(eq, actuated)) != set(names):
+            raise ModelError(f"actuated: model '{eq.model.name}' has no constraints, so every coordinate is actuated "
+                             f"and tau has one force per coordinate ({', '.join(names)}); leave actuated out (it "
+                             "names the actuated coordinates of a mechanism with constraints)")
         tau, lam, act = total, np.zeros((rows, 0)), tuple(names)
     else:
         G = out[:, n * n + n:n * n + n + m * n].reshape(rows, m, n)
@@ -311,6 +315,9 @@ def _actuated(eq: Equations, actuated) -> tuple[str, ...]:
         actuated = independent
     if isinstance(actuated, str):
         actuated = [actuated]
+    if not isinstance(actuated, (list, tuple)) or not all(isinstance(a, str) for a in actuated):
+        raise ModelError(f"actuated must be a list of coordinate names, e.g. actuated=['{names[0]}'], got "
+                         f"{shown_value(actuated)}; the coordinates are {', '.join(names)}")
     problems = [Problem(f"'{a}' is not a coordinate{did_you_mean(a, names)}; the coordinates are "
                         f"{', '.join(names)}", key=f"actuated.{a}") for a in actuated if a not in names]
     if problems:
