@@ -239,6 +239,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             raise ModelError(f"--plot {args.plot}: expected a file ending in .png, .pdf or .svg")
         check_writable(args.plot, "diagram.png", option="--plot")
     eqs = _load(args)
+    names = [c.name for c in eqs.coordinates]
+    if args.coordinate is not None and args.coordinate not in names:
+        from .._util import did_you_mean
+
+        raise ModelError(f"--coordinate {args.coordinate}: not a coordinate of {eqs.model.name}"
+                         f"{did_you_mean(args.coordinate, names)}; the coordinates are {', '.join(names)}")
     params = _numbers(fixed, "param")
     result = continuation(eqs, swept[0], np.linspace(args.start, args.stop, args.steps + 1), params=params,
                           inputs=_numbers(args.input, "input", parameter_values(eqs, params, leave_out=swept)))
