@@ -252,3 +252,27 @@ def test_a_signal_from_its_polynomials_is_run_exactly_by_the_compiled_loop():
 def test_bad_polynomials_are_refused(times, coefficients, message):
     with pytest.raises(lg.ModelError, match=re.escape(message)):
         lg.Signal.from_polynomials(times, coefficients, name="u")
+
+
+# ------------------------------------------------------------------ hostile arguments (FUZZ)
+@pytest.mark.parametrize("at", ["abc", {"t": 1}, [0.1, [0.2]], object()])
+def test_a_signal_evaluated_at_something_that_is_not_a_time_is_one_error(at):
+    """Before: NumPy's ValueError (could not convert string to float) or TypeError."""
+    sig = lg.Signal([0.0, 1.0], [1.0, 3.0], name="acc")
+    with pytest.raises(ModelError, match=r"signal 'acc': a signal is evaluated at a time \(a number\), an array of "
+                                         r"times or a sympy expression of t, got "):
+        sig(at)
+    assert sig(0.5) == pytest.approx(2.0) and sig([0.0, 0.25]).tolist() == pytest.approx([1.0, 1.5])
+
+
+@pytest.mark.parametrize("kwargs, text", [
+    (dict(name=np.ones(2)), r"a signal's name must be text, such as name='acc', got ndarray"),
+    (dict(name=3), r"a signal's name must be text, such as name='acc', got int"),
+    (dict(interpolation=np.ones(2)), r"interpolation and extrapolation are names \(text\): interpolation 'linear' or "
+                                     r"'cubic', extrapolation 'error' or 'hold'"),
+    (dict(extrapolation=3), r"interpolation and extrapolation are names \(text\)"),
+])
+def test_signal_options_that_are_not_text_are_one_error(kwargs, text):
+    """Before: NumPy's ambiguous truth value (an array as the name or the interpolation)."""
+    with pytest.raises(ModelError, match=text):
+        lg.Signal([0.0, 1.0], [1.0, 3.0], **kwargs)

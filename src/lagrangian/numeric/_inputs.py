@@ -26,6 +26,7 @@ import numpy as np
 import sympy
 from sympy.logic.boolalg import BooleanFalse, BooleanTrue
 
+from .._util import number_array
 from ..errors import ModelError, Problem
 from ._kernels import OPCODES
 
@@ -51,8 +52,13 @@ class Signal:
 
     def __init__(self, times, values, interpolation: str = "linear", extrapolation: str = "error",
                  name: str | None = None):
+        if name is not None and not isinstance(name, str):
+            raise ModelError(f"a signal's name must be text, such as name='acc', got {type(name).__name__}")
         self.name = name or "signal"
         what = f"signal '{self.name}'"
+        if not isinstance(interpolation, str) or not isinstance(extrapolation, str):
+            raise ModelError(f"{what}: interpolation and extrapolation are names (text): interpolation 'linear' or "
+                             "'cubic', extrapolation 'error' or 'hold'")
         if interpolation not in INTERPOLATIONS:
             raise ModelError(f"{what}: unknown interpolation '{interpolation}'; choose 'linear' or 'cubic' "
                              "(the not-a-knot cubic spline)")
@@ -157,7 +163,11 @@ class Signal:
         return ((c0 * d + c1) * d + c2) * d + c3
 
     def _values(self, s):
-        s = np.clip(np.asarray(s, dtype=np.float64), self.times[0], self.times[-1])
+        arr = number_array(s)
+        if arr is None:
+            raise ModelError(f"signal '{self.name}': a signal is evaluated at a time (a number), an array of times or "
+                             f"a sympy expression of t, got {type(s).__name__}")
+        s = np.clip(arr, self.times[0], self.times[-1])
         i = np.clip(np.searchsorted(self.times, s, side="right") - 1, 0, self.times.size - 2)
         d = s - self.times[i]
         c = self.coefficients[i]
