@@ -182,3 +182,20 @@ def test_a_grid_past_the_row_limit_is_one_error():
 def test_grid_still_combines_numbers_and_ranges():
     out = lg.grid({"k": range(1, 3), "c": 0.5})
     assert out["k"].tolist() == [1.0, 2.0] and out["c"].tolist() == [0.5, 0.5]
+
+
+@pytest.mark.parametrize("chunk_size", ["abc", 0, -4, 2.5, float("nan"), True, b"x"])
+def test_a_chunk_size_that_is_not_a_positive_integer_is_one_error(chunk_size):
+    """Before: TypeError ('str' object cannot be interpreted as an integer) or range()'s ValueError (0)."""
+    model = lg.load("double-pendulum")
+    with pytest.raises(ModelError, match=r"\[chunk_size\]: chunk_size must be a positive integer \(runs per chunk\), "
+                                         r"such as chunk_size=64, got "):
+        lg.simulate_batch(model, 0.1, {"theta1": [0.1, 0.2]}, chunk_size=chunk_size)
+
+
+@pytest.mark.parametrize("backend", [np.ones((2, 2)), 3, None])
+def test_a_backend_that_is_not_a_name_is_one_error(backend):
+    model = lg.load("double-pendulum")
+    with pytest.raises(ModelError, match=r"\[backend\]: simulate_batch runs in compiled code: backend must be one of "
+                                         r"auto, numba, c, got "):
+        lg.simulate_batch(model, 0.1, {"theta1": [0.1, 0.2]}, backend=backend)

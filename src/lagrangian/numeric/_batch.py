@@ -236,7 +236,11 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
     problems += _work_problems(t_end, dt, t_eval, None, "DOP853")  # the output rows of each run (LAGRANGIAN_MAX_ROWS)
     if lanes is not None and (isinstance(lanes, bool) or not isinstance(lanes, numbers.Integral) or lanes < 1):
         problems.append(Problem(f"lanes must be a positive integer, got {lanes!r}", key="lanes"))
-    if backend not in BACKENDS or backend == "scipy":
+    if chunk_size is not None and (isinstance(chunk_size, bool) or not isinstance(chunk_size, numbers.Integral)
+                                   or chunk_size < 1):
+        problems.append(Problem(f"chunk_size must be a positive integer (runs per chunk), such as chunk_size=64, got "
+                                f"{shown_value(chunk_size)}", key="chunk_size"))
+    if not isinstance(backend, str) or backend not in BACKENDS or backend == "scipy":
         problems.append(Problem(f"simulate_batch runs in compiled code: backend must be one of auto, numba, c, "
                                 f"got '{backend}'{did_you_mean(backend, BACKENDS, 0.5)}", key="backend"))
     given_initial = initial
