@@ -1070,3 +1070,28 @@ def test_non_quadratic_kinetic_coenergy_has_no_matrix_form_parts():
     assert sp.simplify(eqs.equations[0] - 3 * S("m") * S("x_dot") ** 2 * S("x_ddot")) == 0
     with pytest.raises(lg.LagrangianError, match="T\\* is not quadratic in the velocities"):
         eqs.coriolis_matrix
+
+
+# ------------------------------------------------------------------ hostile constructor arguments (FUZZ)
+@pytest.mark.parametrize("kwargs, text", [
+    (dict(coordinates="xy"), r"coordinates must be a list of names, such as coordinates=\['x', 'theta'\], got str "
+                             r"'xy'"),
+    (dict(coordinates=None), r"coordinates must be a list of names, such as coordinates=\['x', 'theta'\], got "
+                             r"NoneType None"),
+    (dict(coordinates=3.0), r"coordinates must be a list of names, such as .*, got float 3\.0"),
+    (dict(inputs="F"), r"inputs must be a list of names, such as inputs=\['F'\], got str 'F'"),
+    (dict(inputs=1), r"inputs must be a list of names, such as inputs=\['F'\], got int 1"),
+    (dict(parameters="m"), r"parameters must be a mapping of names to values, such as parameters=\{'m': 1\.0, "
+                           r"'g': 9\.81\}, got str 'm'"),
+    (dict(parameters=[("m", 1.0)]), r"parameters must be a mapping of names to values, .*got list \[\('m', 1\.0\)\]"),
+])
+def test_constructor_arguments_of_the_wrong_kind_are_one_error(kwargs, text):
+    """Before: TypeError ('float' object is not iterable), ValueError (dictionary update sequence), or, for
+    coordinates="xy", the coordinates x and y without a word."""
+    with pytest.raises(lg.ModelError, match=text):
+        lg.Model("m", **kwargs)
+
+
+def test_constructor_takes_any_iterable_of_names():
+    m = lg.Model("m", coordinates=(c for c in ("x", "y")), inputs={"F": None}.keys(), parameters={"k": 2.0})
+    assert [c.name for c in m.coordinates] == ["x", "y"] and [u.name for u in m.inputs] == ["F"]

@@ -14,7 +14,7 @@ from typing import Mapping, Sequence
 
 import sympy
 
-from .._util import did_you_mean
+from .._util import did_you_mean, shown_value
 from ..errors import ExpressionError, ModelError, Problem
 from ._constraints import HOLONOMIC, VELOCITY, Constraint
 from ._elements import (SPRING_ACTS, Damper, Element, Force, Gravity, Particle, Point, RigidBody, RigidBody3D,
@@ -94,6 +94,14 @@ class Model:
         #: The validated [optimal_control] table (io._optimal), the problem lagrangian.optimal_motion solves.
         self.optimal_control: dict = {}
         self._naming_problems: list[Problem] = []
+        for what, given, example in (("coordinates", coordinates, "coordinates=['x', 'theta']"),
+                                     ("inputs", inputs, "inputs=['F']")):
+            if isinstance(given, (str, bytes)) or not hasattr(given, "__iter__"):
+                raise ModelError(f"{what} must be a list of names, such as {example}, got {type(given).__name__} "
+                                 f"{shown_value(given)}")
+        if parameters is not None and not isinstance(parameters, Mapping):
+            raise ModelError(f"parameters must be a mapping of names to values, such as parameters={{'m': 1.0, "
+                             f"'g': 9.81}}, got {type(parameters).__name__} {shown_value(parameters)}")
         for c in coordinates:
             self.coordinate(c)
         parameters = dict(parameters or {})
