@@ -199,3 +199,16 @@ def test_a_backend_that_is_not_a_name_is_one_error(backend):
     with pytest.raises(ModelError, match=r"\[backend\]: simulate_batch runs in compiled code: backend must be one of "
                                          r"auto, numba, c, got "):
         lg.simulate_batch(model, 0.1, {"theta1": [0.1, 0.2]}, backend=backend)
+
+
+@pytest.mark.parametrize("equations", ["double-pendulum", None, 3])
+def test_compile_of_something_that_is_not_equations_says_what_it_expects(equations):
+    """Before: TypeError 'cannot create weak reference to str object' from the cache."""
+    with pytest.raises(TypeError, match=r"compile\(\) expects Equations \(lagrangian\.derive\(model\)\), got "):
+        lg.compile(equations)
+
+
+@pytest.mark.parametrize("backend", [np.ones(2), 3])
+def test_compile_with_a_backend_that_is_not_text_is_one_error(dp, backend):
+    with pytest.raises(ModelError, match=r"backend must be one of auto, numba, c, scipy \(text\), got "):
+        lg.compile(dp, backend)

@@ -477,6 +477,10 @@ def compile(equations: Equations, backend: str = "auto"):
         ``accelerations``, ``energy``, the constraint parts and the Jacobians, all in the argument
         order (t, x, u, p). :func:`simulate` runs a CompiledModel's integration compiled.
     """
+    if not isinstance(equations, Equations):
+        raise TypeError(f"compile() expects Equations (lagrangian.derive(model)), got {type(equations).__name__}")
+    if not isinstance(backend, str):
+        raise ModelError(f"backend must be one of auto, numba, c, scipy (text), got {type(backend).__name__}")
     if backend == "auto":
         from ._codegen import Unsupported
 
