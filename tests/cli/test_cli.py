@@ -28,19 +28,9 @@ from pathlib import Path
 import pytest
 import sympy
 
-from lagrangian.cli import main
+from cli_support import run_cli
 
 # --------------------------------------------------------------------------- helpers
-
-
-def run_cli(capsys, *args):
-    """Run the CLI in-process: (exit status, stdout, stderr). argparse exits are caught."""
-    try:
-        rc = main([str(a) for a in args])
-    except SystemExit as exc:  # argparse: --help, usage errors
-        rc = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return rc, out, err
 
 
 def assert_bad_input(rc, out, err, *needles):

@@ -7,16 +7,7 @@ import os
 
 import pytest
 
-from lagrangian.cli import main
-
-
-def run_cli(capsys, *args):
-    try:
-        rc = main([str(a) for a in args])
-    except SystemExit as exc:
-        rc = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return rc, out, err
+from cli_support import run_cli
 
 
 @pytest.mark.parametrize("args, text", [

@@ -9,16 +9,7 @@ import numpy as np
 import pytest
 
 import lagrangian as lg
-from lagrangian.cli import main
-
-
-def run_cli(capsys, *args):
-    try:
-        rc = main([str(a) for a in args])
-    except SystemExit as exc:
-        rc = exc.code
-    out = capsys.readouterr()
-    return rc, out.out, out.err
+from cli_support import run_cli
 
 
 # ----------------------------------------------------------------------------------- kinematics

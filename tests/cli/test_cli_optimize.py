@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from lagrangian.cli import main
+from cli_support import run_cli
 
 pytest.importorskip("casadi", reason="optimal motions need CasADi (the 'optimal' extra)")
 
@@ -31,15 +31,6 @@ final = { x = 1.0, x_dot = 0.0 }
 inputs = { u = [-10.0, 10.0] }
 intervals = 8
 '''
-
-
-def run_cli(capsys, *args):
-    try:
-        rc = main([str(a) for a in args])
-    except SystemExit as exc:
-        rc = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    out, err = capsys.readouterr()
-    return rc, out, err
 
 
 @pytest.fixture

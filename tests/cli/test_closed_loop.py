@@ -14,18 +14,10 @@ import sympy
 
 import lagrangian as lg
 from lagrangian.cli import main
+from cli_support import run_cli
 
 QR = "Q=q1=1,q2=10,q1_dot=1,q2_dot=1;R=F=1"
 START = "q2=pi/2+0.2"  # 0.2 rad from upright
-
-
-def run_cli(capsys, *args):
-    try:
-        rc = main([str(a) for a in args])
-    except SystemExit as exc:
-        rc = exc.code
-    out, err = capsys.readouterr()
-    return rc, out, err
 
 
 def rows(text: str) -> tuple[list[str], np.ndarray]:
