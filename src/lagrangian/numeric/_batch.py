@@ -254,7 +254,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
         if arr is None:
             problems.append(Problem(f"the initial states must be numbers: an array of shape (B, {2 * names.n}) "
                                     f"({', '.join(names.state_names)}), or a mapping of these names to a number or "
-                                    f"a 1-d array (one value per run); got {repr(initial)[:80]}", key="initial"))
+                                    f"a 1-d array (one value per run); got {shown_value(initial, 80)}", key="initial"))
         elif arr.ndim == 2:
             sizes["initial"] = arr.shape[0]
         if arr is not None and (arr.shape[-1:] != (2 * names.n,) or arr.ndim > 2):
@@ -265,7 +265,7 @@ def simulate_batch(system, t_end: float | None = None, initial=None, *, params: 
             s = _size(v)
             if s == -1:
                 problems.append(Problem(f"{what}.{getattr(k, 'name', k)} must be a number or a 1-d array of numbers "
-                                        f"(one value per run), got {repr(v)[:80]}",
+                                        f"(one value per run), got {shown_value(v, 80)}",
                                         key=f"{what}.{getattr(k, 'name', k)}"))
             elif s is not None:
                 sizes[f"{what}.{getattr(k, 'name', k)}"] = s

@@ -84,7 +84,7 @@ def requested_times(t_end: float, dt: float, t_eval=None) -> np.ndarray:
     times = number_array(t_eval)
     if times is None:
         raise ModelError(f"t_eval must be a non-empty increasing sequence of times (numbers) in [0, t_end = "
-                         f"{t_end:g}], got {repr(t_eval)[:80]}")
+                         f"{t_end:g}], got {shown_value(t_eval, 80)}")
     times = times.ravel()
     if times.size == 0 or times[0] < 0 or np.any(np.diff(times) <= 0) or times[-1] > t_end * (1 + 1e-12):
         raise ModelError(f"t_eval must be a non-empty increasing sequence of times in [0, t_end = {t_end:g}], "
@@ -160,7 +160,8 @@ def _initial_state(nm: NumericModel, initial, problems: list[Problem]) -> np.nda
         arr = number_array(initial)
         if arr is None:
             problems.append(Problem(f"the initial state must be {2 * nm.n} numbers ({', '.join(nm.state_names)}) or "
-                                    f"a mapping of these names to numbers, got {repr(initial)[:80]}", key="initial"))
+                                    f"a mapping of these names to numbers, got {shown_value(initial, 80)}",
+                                    key="initial"))
             return x0
         if arr.shape != (2 * nm.n,):
             problems.append(Problem(f"the initial state must have {2 * nm.n} values "
